@@ -1,0 +1,186 @@
+//! The gain-scheduled PD force law of memo eq. A1.
+//!
+//! ```text
+//! e(k+1)   = f_c(k+1) − f_s(k)
+//! f_a(k+1) = f_c(k+1) + (K_e f_c(k+1) / 100) (K_p e(k+1) + K_d (e(k+1) − e(k)) / Δt)
+//! ```
+//!
+//! The feedback gains scale with the command (zero at 0 g, nominal at 100 g): a fixed-gain PD
+//! loop lost contact with the finger and went unstable for commands below about 10 g, and the
+//! schedule is how the memo fixed it. [`GainSchedule::Fixed`] keeps the failing law available for
+//! the simulator's `low-force` experiment.
+
+/// How the feedback gain follows the command.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GainSchedule {
+    /// Memo eq. A1: gains multiplied by `K_e f_c / reference_g` (reference 100 g).
+    Proportional { reference_g: f32 },
+    /// The gains frozen at their value for `command_g` (the fixed-gain PD loop that failed).
+    Fixed { command_g: f32 },
+}
+
+/// Gains, sample period and actuator range of the law (memo values by default).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForceLawConfig {
+    pub kp: f32,
+    /// Derivative gain in seconds (error difference divided by Δt).
+    pub kd_s: f32,
+    pub ke: f32,
+    pub dt_s: f32,
+    pub schedule: GainSchedule,
+    /// Actuator range for the adjusted command f_a, in grams at the probe. The memo's
+    /// amplifier gives 19.2 g per volt, so a ±10 V drive is ±192 g.
+    pub adjusted_min_g: f32,
+    pub adjusted_max_g: f32,
+}
+
+impl Default for ForceLawConfig {
+    fn default() -> Self {
+        Self::MEMO
+    }
+}
+
+impl ForceLawConfig {
+    pub const MEMO: ForceLawConfig = ForceLawConfig {
+        kp: 2.0,
+        kd_s: 0.03,
+        ke: 1.0,
+        dt_s: 0.001,
+        schedule: GainSchedule::Proportional { reference_g: 100.0 },
+        adjusted_min_g: -192.0,
+        adjusted_max_g: 192.0,
+    };
+
+    /// The feedback multiplier `K_e f_c / 100` (or its frozen value).
+    #[inline]
+    pub fn gain_scale(&self, command_g: f32) -> f32 {
+        match self.schedule {
+            GainSchedule::Proportional { reference_g } => self.ke * command_g / reference_g,
+            GainSchedule::Fixed { command_g: frozen } => self.ke * frozen / 100.0,
+        }
+    }
+}
+
+/// Output of one tick of the law.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adjusted {
+    /// f_a, saturated to the actuator's range.
+    pub force_g: f32,
+    /// The unsaturated value was outside the actuator's range.
+    pub saturated: bool,
+    /// An input was NaN or infinite; the output is the safe value 0 g.
+    pub invalid_input: bool,
+}
+
+/// State of the law: the previous error e(k).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ForceLaw {
+    pub config: ForceLawConfig,
+    previous_error_g: f32,
+}
+
+impl ForceLaw {
+    pub fn new(config: ForceLawConfig) -> Self {
+        Self { config, previous_error_g: 0.0 }
+    }
+
+    /// The error e(k) kept from the previous tick (0 after a reset, as in the memo's recursion).
+    pub fn previous_error_g(&self) -> f32 {
+        self.previous_error_g
+    }
+
+    pub fn reset(&mut self) {
+        self.previous_error_g = 0.0;
+    }
+
+    /// One tick: `command_g` is f_c(k+1), `sensed_g` the gauge force f_s(k) of the last tick.
+    #[inline]
+    pub fn update(&mut self, command_g: f32, sensed_g: f32) -> Adjusted {
+        if !command_g.is_finite() || !sensed_g.is_finite() {
+            return Adjusted { force_g: 0.0, saturated: false, invalid_input: true };
+        }
+        let c = &self.config;
+        let error_g = command_g - sensed_g;
+        let derivative = c.kd_s * (error_g - self.previous_error_g) / c.dt_s;
+        self.previous_error_g = error_g;
+        let raw = command_g + c.gain_scale(command_g) * (c.kp * error_g + derivative);
+        let force_g = raw.clamp(c.adjusted_min_g, c.adjusted_max_g);
+        Adjusted { force_g, saturated: force_g != raw, invalid_input: false }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn matches_a_hand_computed_sequence() {
+        let mut law = ForceLaw::new(ForceLawConfig::MEMO);
+        // Tick 1: f_c = 50, f_s = 40 → e = 10, e_prev = 0.
+        // f_a = 50 + 0.5 (2·10 + 0.03·(10 − 0)/0.001) = 50 + 0.5 (20 + 300) = 210 → saturated at 192.
+        let a = law.update(50.0, 40.0);
+        assert_eq!(a.force_g, 192.0);
+        assert!(a.saturated);
+        // Tick 2: f_c = 50, f_s = 48 → e = 2, e_prev = 10.
+        // f_a = 50 + 0.5 (4 + 30·(2 − 10)) = 50 + 0.5 (4 − 240) = −68.
+        let a = law.update(50.0, 48.0);
+        assert!((a.force_g - (-68.0)).abs() < 1e-4, "{}", a.force_g);
+        assert!(!a.saturated);
+        // Tick 3: f_c = 20, f_s = 19.5 → e = 0.5, e_prev = 2.
+        // f_a = 20 + 0.2 (1 + 30·(0.5 − 2)) = 20 + 0.2 (1 − 45) = 11.2.
+        let a = law.update(20.0, 19.5);
+        assert!((a.force_g - 11.2).abs() < 1e-4, "{}", a.force_g);
+        assert_eq!(law.previous_error_g(), 0.5);
+    }
+
+    #[test]
+    fn zero_command_has_exactly_zero_feedback() {
+        let mut law = ForceLaw::new(ForceLawConfig::MEMO);
+        for sensed in [-1e6f32, -3.0, 0.0, 0.25, 17.0, 1e6] {
+            let a = law.update(0.0, sensed);
+            assert_eq!(a.force_g, 0.0, "sensed {sensed}");
+        }
+    }
+
+    #[test]
+    fn fixed_schedule_keeps_full_gain_at_small_commands() {
+        let mut fixed = ForceLaw::new(ForceLawConfig {
+            schedule: GainSchedule::Fixed { command_g: 100.0 },
+            ..ForceLawConfig::MEMO
+        });
+        // First tick from reset: f_a = 5 + 1·(2·1 + 30·1) = 37.
+        let a = fixed.update(5.0, 4.0);
+        assert!((a.force_g - 37.0).abs() < 1e-4);
+        let mut scheduled = ForceLaw::new(ForceLawConfig::MEMO);
+        // Same inputs with A1: f_a = 5 + 0.05·32 = 6.6.
+        let a = scheduled.update(5.0, 4.0);
+        assert!((a.force_g - 6.6).abs() < 1e-4);
+    }
+
+    #[test]
+    fn non_finite_input_gives_the_safe_output_and_a_flag() {
+        let mut law = ForceLaw::new(ForceLawConfig::MEMO);
+        for (c, s) in [(f32::NAN, 1.0), (10.0, f32::INFINITY), (f32::NEG_INFINITY, 0.0)] {
+            let a = law.update(c, s);
+            assert_eq!(a.force_g, 0.0);
+            assert!(a.invalid_input);
+        }
+        // The bad tick left the derivative memory untouched.
+        assert_eq!(law.previous_error_g(), 0.0);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn output_is_finite_and_within_the_actuator_range(
+            commands in proptest::collection::vec(-1e4f32..1e4, 1..50),
+            sensed in proptest::collection::vec(-1e4f32..1e4, 50),
+        ) {
+            let mut law = ForceLaw::new(ForceLawConfig::MEMO);
+            for (c, s) in commands.iter().zip(sensed.iter()) {
+                let a = law.update(*c, *s);
+                proptest::prop_assert!(a.force_g.is_finite());
+                proptest::prop_assert!((-192.0..=192.0).contains(&a.force_g));
+            }
+        }
+    }
+}

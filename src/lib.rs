@@ -1,0 +1,24 @@
+//! Hardware-independent core of the tactile force applicator (after UCB/ERL M89/138).
+//!
+//! Everything here is `no_std`, allocation-free and `f32` on the hot path, so the firmware,
+//! the simulator (`sim-host`) and the host tools all run the same code:
+//!
+//! - [`filter`]: the memo's analog lowpass-notch filter discretized for the 1 kHz loop.
+//! - [`control`]: the gain-scheduled PD force law of memo eq. A1.
+//! - [`gauge`]: the strain-gauge path (8× averaged ADC samples to grams, with a range check).
+//! - [`tactile`]: the 8×8 scan sequencer, the capacitive element and its read-out amplifier.
+//! - [`viscoelastic`]: elastic, Maxwell–Kelvin, modified Maxwell–Kelvin and second-order
+//!   models, forward (strain from stress) and inverse (stress from strain).
+//! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
+//!
+//! Units: force in grams-force (`_g`), strain in percent deflection (`_pct`), time in seconds
+//! (`_s`), voltages in volts (`_v`), raw converter codes as [`gauge::AdcCode`].
+#![cfg_attr(not(test), no_std)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
+
+pub mod control;
+pub mod filter;
+pub mod gauge;
+pub mod tactile;
+pub mod telemetry;
+pub mod viscoelastic;

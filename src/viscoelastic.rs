@@ -1,0 +1,651 @@
+//! Viscoelastic models of a tactile element (memo sections 3–4).
+//!
+//! Stress σ is in grams at the probe, strain ε in percent deflection, springs in g/%, dashpots
+//! in g·s/%.
+//!
+//! - [`Elastic`]: ε = σ/G.
+//! - [`MaxwellKelvin`]: eq. 11, and with the small spring α parallel to N₁, eq. 14.
+//! - [`SecondOrder`]: eq. 17, ε/σ = (s² + a₁s + a₂)/(b₀s² + b₁s + b₂).
+//! - [`NonlinearMk`]: eq. 14 with load-dependent springs and exact per-step integration; the
+//!   finger of the simulator.
+//!
+//! Linear models run sample by sample through [`Discrete2`]: the bilinear (Tustin)
+//! discretization of a biproper second-order transfer function, kept in "delta" form
+//! (x ← x + (A_d − I)x + B_d u) with compensated summation. The poles sit a few 10⁻⁴ inside the
+//! unit circle at 1 kHz, where a direct-form biquad in f32 loses its DC gain to cancellation;
+//! the delta form keeps it. Tustin makes the digital inverse the exact reciprocal of the digital
+//! forward model, so inverse(forward(σ)) = σ up to rounding.
+
+use core::ops::{Add, Div, Mul, Neg, Sub};
+
+/// The arithmetic the discrete models run in: f32 on the chip, f64 in the host's fits.
+pub trait Real:
+    Copy
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    const ZERO: Self;
+    fn from_f64(x: f64) -> Self;
+    fn to_f64(self) -> f64;
+}
+
+impl Real for f32 {
+    const ZERO: Self = 0.0;
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        x as f32
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+}
+
+impl Real for f64 {
+    const ZERO: Self = 0.0;
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        x
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+/// Why a model could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelError {
+    /// A parameter is NaN, infinite, or negative where the physics needs it positive.
+    InvalidParameter,
+    /// The leading coefficient is zero: the transfer function is not biproper.
+    NotBiproper,
+    /// The poles of the requested direction are not in the left half-plane.
+    Unstable,
+    /// The inverse would have a zero at the origin (b₂ = 0, pure Maxwell–Kelvin): it cannot
+    /// report a static force, which is why the memo adds α.
+    NoStaticGain,
+}
+
+/// A biproper rational function (n₂s² + n₁s + n₀)/(d₂s² + d₁s + d₀), coefficients in order
+/// `[s², s¹, s⁰]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rational2 {
+    pub num: [f64; 3],
+    pub den: [f64; 3],
+}
+
+impl Rational2 {
+    /// H(s) at a complex s = (re, im).
+    pub fn eval(&self, (re, im): (f64, f64)) -> (f64, f64) {
+        let poly = |c: &[f64; 3]| {
+            let s2 = (re * re - im * im, 2.0 * re * im);
+            (c[0] * s2.0 + c[1] * re + c[2], c[0] * s2.1 + c[1] * im)
+        };
+        let (a, b) = poly(&self.num);
+        let (c, d) = poly(&self.den);
+        let m = c * c + d * d;
+        ((a * c + b * d) / m, (b * c - a * d) / m)
+    }
+
+    /// DC gain n₀/d₀ (infinite for a pole at the origin).
+    pub fn dc_gain(&self) -> f64 {
+        self.num[2] / self.den[2]
+    }
+
+    /// High-frequency gain n₂/d₂.
+    pub fn hf_gain(&self) -> f64 {
+        self.num[0] / self.den[0]
+    }
+
+    pub fn reciprocal(&self) -> Rational2 {
+        Rational2 { num: self.den, den: self.num }
+    }
+
+    /// Tustin discretization for sample period `dt_s`. Poles must be in the closed left
+    /// half-plane (a pole at the origin, the Maxwell drift, is allowed).
+    pub fn discretize<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
+        let all = self.num.iter().chain(self.den.iter());
+        if !dt_s.is_finite() || dt_s <= 0.0 || all.clone().any(|c| !c.is_finite()) {
+            return Err(ModelError::InvalidParameter);
+        }
+        let [d2, d1, d0] = self.den;
+        if d2 == 0.0 {
+            return Err(ModelError::NotBiproper);
+        }
+        let (e1, e0) = (d1 / d2, d0 / d2);
+        // Roots of s² + e1 s + e0 in the closed left half-plane ⇔ e1 ≥ 0 and e0 ≥ 0, not both 0.
+        if e1 < 0.0 || e0 < 0.0 || (e1 == 0.0 && e0 == 0.0) {
+            return Err(ModelError::Unstable);
+        }
+        let d = self.num[0] / d2;
+        let (r1, r0) = (self.num[1] / d2 - d * e1, self.num[2] / d2 - d * e0);
+        // Controllable canonical form: A = [[0, 1], [−e0, −e1]], B = [0, 1], C = [r0, r1].
+        let h = dt_s / 2.0;
+        // M = (I − A h)⁻¹ with I − A h = [[1, −h], [e0 h, 1 + e1 h]].
+        let det = (1.0 + e1 * h) + e0 * h * h;
+        let m = [[(1.0 + e1 * h) / det, h / det], [-e0 * h / det, 1.0 / det]];
+        let a = [[0.0, 1.0], [-e0, -e1]];
+        // A_d − I = M A T, B_d = M B T, C_d = C M, D_d = D + C M B h.
+        let mut ad_minus_i = [[0.0; 2]; 2];
+        for (i, row) in ad_minus_i.iter_mut().enumerate() {
+            for (j, cell) in row.iter_mut().enumerate() {
+                *cell = (m[i][0] * a[0][j] + m[i][1] * a[1][j]) * dt_s;
+            }
+        }
+        let bd = [m[0][1] * dt_s, m[1][1] * dt_s];
+        let cd = [r0 * m[0][0] + r1 * m[1][0], r0 * m[0][1] + r1 * m[1][1]];
+        let dd = d + cd[1] * h; // C M B = cd[1], since B = [0, 1]
+        let cv = |x: f64| T::from_f64(x);
+        Ok(Discrete2 {
+            ad_minus_i: ad_minus_i.map(|r| r.map(cv)),
+            bd: bd.map(cv),
+            cd: cd.map(cv),
+            dd: cv(dd),
+        })
+    }
+}
+
+/// A discretized biproper second-order model (configuration; state in [`Discrete2State`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Discrete2<T> {
+    ad_minus_i: [[T; 2]; 2],
+    bd: [T; 2],
+    cd: [T; 2],
+    dd: T,
+}
+
+/// State of a [`Discrete2`], with the compensation terms of the summation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Discrete2State<T> {
+    x: [T; 2],
+    carry: [T; 2],
+}
+
+impl<T: Real> Default for Discrete2State<T> {
+    fn default() -> Self {
+        Self { x: [T::ZERO; 2], carry: [T::ZERO; 2] }
+    }
+}
+
+impl<T: Real> Discrete2<T> {
+    /// One sample: returns the output for input `u` and advances the state.
+    #[inline]
+    pub fn update(&self, state: &mut Discrete2State<T>, u: T) -> T {
+        let [x0, x1] = state.x;
+        let y = self.cd[0] * x0 + self.cd[1] * x1 + self.dd * u;
+        let [[p, q], [r, s]] = self.ad_minus_i;
+        let dx = [p * x0 + q * x1 + self.bd[0] * u, r * x0 + s * x1 + self.bd[1] * u];
+        for ((x, carry), d) in state.x.iter_mut().zip(state.carry.iter_mut()).zip(dx) {
+            // Kahan summation: the increments are ~10⁻⁴ of the state at 1 kHz.
+            let y = d - *carry;
+            let t = *x + y;
+            *carry = (t - *x) - y;
+            *x = t;
+        }
+        y
+    }
+}
+
+/// Elastic model ε = σ / G.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Elastic {
+    pub g: f32,
+}
+
+impl Elastic {
+    pub fn strain_pct(&self, stress_g: f32) -> f32 {
+        stress_g / self.g
+    }
+    /// Force estimate from strain, clamped at zero (a normal force only pushes).
+    pub fn force_g(&self, strain_pct: f32) -> f32 {
+        (self.g * strain_pct).max(0.0)
+    }
+}
+
+/// Maxwell–Kelvin parameters (eq. 11 with `alpha = 0`, eq. 14 otherwise).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaxwellKelvin {
+    pub g1: f64,
+    pub n1: f64,
+    pub alpha: f64,
+    pub n2: f64,
+    pub g2: f64,
+}
+
+impl MaxwellKelvin {
+    /// Table I, element 4,2, fitted at the given step load.
+    pub const TABLE_I_10G: MaxwellKelvin = MaxwellKelvin { g1: 2.4, n1: 5000.0, alpha: 0.0, n2: 500.0, g2: 26.0 };
+    pub const TABLE_I_30G: MaxwellKelvin = MaxwellKelvin { g1: 3.6, n1: 5770.0, alpha: 0.0, n2: 500.0, g2: 47.0 };
+    pub const TABLE_I_50G: MaxwellKelvin = MaxwellKelvin { g1: 4.4, n1: 6670.0, alpha: 0.0, n2: 500.0, g2: 66.0 };
+    pub const TABLE_I_80G: MaxwellKelvin = MaxwellKelvin { g1: 5.3, n1: 8250.0, alpha: 0.0, n2: 300.0, g2: 90.0 };
+
+    pub fn is_valid(&self) -> bool {
+        let p = [self.g1, self.n1, self.alpha, self.n2, self.g2];
+        p.iter().all(|v| v.is_finite() && *v >= 0.0) && self.g1 > 0.0 && self.n1 > 0.0 && self.n2 > 0.0
+    }
+
+    /// ε(s)/σ(s) = 1/G₁ + 1/(sN₁ + α) + 1/(sN₂ + G₂), evaluated directly from eq. 14.
+    pub fn compliance(&self, s: (f64, f64)) -> (f64, f64) {
+        let inv = |(a, b): (f64, f64)| {
+            let m = a * a + b * b;
+            (a / m, -b / m)
+        };
+        let t1 = (1.0 / self.g1, 0.0);
+        let t2 = inv((s.0 * self.n1 + self.alpha, s.1 * self.n1));
+        let t3 = inv((s.0 * self.n2 + self.g2, s.1 * self.n2));
+        (t1.0 + t2.0 + t3.0, t1.1 + t2.1 + t3.1)
+    }
+
+    /// The mapping of eq. 16 to the coefficients of eq. 17 (FACTS.md).
+    pub fn second_order(&self) -> SecondOrder {
+        let MaxwellKelvin { g1, n1, alpha, n2, g2 } = *self;
+        SecondOrder {
+            a1: g2 / n2 + alpha / n1 + g1 / n1 + g1 / n2,
+            a2: (alpha * g2 + g1 * g2 + g1 * alpha) / (n1 * n2),
+            b0: g1,
+            b1: g1 * (g2 / n2 + alpha / n1),
+            b2: g1 * alpha * g2 / (n1 * n2),
+        }
+    }
+
+    /// Forward model strain(stress) at sample period `dt_s`.
+    pub fn forward<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
+        if !self.is_valid() {
+            return Err(ModelError::InvalidParameter);
+        }
+        self.second_order().forward(dt_s)
+    }
+
+    /// Inverse model stress(strain); needs α > 0 (pure Maxwell–Kelvin has a zero at the origin).
+    pub fn inverse<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
+        if !self.is_valid() {
+            return Err(ModelError::InvalidParameter);
+        }
+        self.second_order().inverse(dt_s)
+    }
+}
+
+/// General second-order model, eq. 17: ε/σ = (s² + a₁s + a₂)/(b₀s² + b₁s + b₂).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SecondOrder {
+    pub a1: f64,
+    pub a2: f64,
+    pub b0: f64,
+    pub b1: f64,
+    pub b2: f64,
+}
+
+impl SecondOrder {
+    /// The memo's fit to the sum-of-sinusoids excitation (section 4).
+    pub const MEMO_FIT: SecondOrder = SecondOrder { a1: 3.01, a2: 0.784, b0: 5.81, b1: 13.26, b2: 2.53 };
+
+    /// Strain over stress.
+    pub fn compliance(&self) -> Rational2 {
+        Rational2 { num: [1.0, self.a1, self.a2], den: [self.b0, self.b1, self.b2] }
+    }
+
+    pub fn forward<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
+        self.compliance().discretize(dt_s)
+    }
+
+    /// Stress over strain, (b₀s² + b₁s + b₂)/(s² + a₁s + a₂); needs a₁, a₂ > 0 and b₂ > 0.
+    pub fn inverse<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
+        if self.a1 <= 0.0 || self.a2 <= 0.0 {
+            return Err(ModelError::Unstable);
+        }
+        if self.b2 <= 0.0 {
+            return Err(ModelError::NoStaticGain);
+        }
+        self.compliance().reciprocal().discretize(dt_s)
+    }
+}
+
+/// A force estimator from one element's strain: a discretized inverse, clamped at ≥ 0.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InverseEstimator {
+    pub model: Discrete2<f32>,
+    pub state: Discrete2State<f32>,
+}
+
+impl InverseEstimator {
+    pub fn new(model: Discrete2<f32>) -> Self {
+        Self { model, state: Discrete2State::default() }
+    }
+    /// Force from the latest strain sample. The linear state runs unclamped; only the reported
+    /// force is clamped at zero (a normal force only pushes).
+    #[inline]
+    pub fn force_g(&mut self, strain_pct: f32) -> f32 {
+        if !strain_pct.is_finite() {
+            return 0.0;
+        }
+        let f = self.model.update(&mut self.state, strain_pct);
+        if f.is_finite() {
+            f.max(0.0)
+        } else {
+            self.state = Discrete2State::default();
+            0.0
+        }
+    }
+}
+
+/// A spring whose stiffness depends on the load it carries: G(σ) = base + sqrt_coeff·√σ +
+/// linear_coeff·σ (secant stiffness, g/%), σ ≥ 0.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringLaw {
+    pub base: f64,
+    pub sqrt_coeff: f64,
+    pub linear_coeff: f64,
+}
+
+impl SpringLaw {
+    pub const fn constant(g: f64) -> Self {
+        Self { base: g, sqrt_coeff: 0.0, linear_coeff: 0.0 }
+    }
+
+    /// Stiffness carrying `stress_g` (σ < 0 is treated as 0).
+    #[inline]
+    pub fn stiffness(&self, stress_g: f64) -> f64 {
+        let s = stress_g.max(0.0);
+        self.base + self.sqrt_coeff * libm::sqrt(s) + self.linear_coeff * s
+    }
+
+    /// Strain of the spring under `stress_g`.
+    #[inline]
+    pub fn strain_pct(&self, stress_g: f64) -> f64 {
+        stress_g / self.stiffness(stress_g)
+    }
+
+    /// The stress that stretches the spring by `strain_pct` (≥ 0; the inverse of
+    /// [`Self::strain_pct`], which is monotone for non-negative coefficients).
+    pub fn stress_g(&self, strain_pct: f64) -> f64 {
+        if strain_pct <= 0.0 {
+            return 0.0;
+        }
+        let e = strain_pct;
+        if self.linear_coeff == 0.0 {
+            // σ = (a + b√σ) ε → u² − bε u − aε = 0 with u = √σ.
+            let b = self.sqrt_coeff * e;
+            let u = 0.5 * (b + libm::sqrt(b * b + 4.0 * self.base * e));
+            return u * u;
+        }
+        // σ (1 − cε) − b√σ ε − aε = 0 has a positive root only while cε < 1; beyond that the
+        // spring is rigid at this strain: saturate at a large stress.
+        let a = 1.0 - self.linear_coeff * e;
+        if a <= 1e-9 {
+            return 1e9;
+        }
+        let b = self.sqrt_coeff * e;
+        let u = (b + libm::sqrt(b * b + 4.0 * a * self.base * e)) / (2.0 * a);
+        u * u
+    }
+}
+
+/// Eq. 14 with load-dependent springs: the finger element of the simulator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NonlinearMk {
+    pub g1: SpringLaw,
+    pub n1: f64,
+    pub alpha: f64,
+    pub n2: f64,
+    pub g2: SpringLaw,
+}
+
+/// Internal strains of a [`NonlinearMk`] (percent).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NonlinearMkState {
+    /// Strain of the Maxwell dashpot N₁ (∥ α): the permanent deformation.
+    pub maxwell_pct: f64,
+    /// Strain of the Kelvin element G₂ ∥ N₂.
+    pub kelvin_pct: f64,
+}
+
+impl NonlinearMk {
+    /// Element 4,2 as the simulator's nominal finger: the FACTS.md guide laws G₁(σ) = 0.5 +
+    /// 0.54√σ and G₂(σ) = 17 + 0.91σ (Table I within 10 %), N₁ = 5000 (the memo's permanent
+    /// deformation, 0.2 % after 1000 g·s), N₂ = 500, and α = 5 g/% (a 1000 s recovery).
+    pub const ELEMENT_4_2: NonlinearMk = NonlinearMk {
+        g1: SpringLaw { base: 0.5, sqrt_coeff: 0.54, linear_coeff: 0.0 },
+        n1: 5000.0,
+        alpha: 5.0,
+        n2: 500.0,
+        g2: SpringLaw { base: 17.0, sqrt_coeff: 0.0, linear_coeff: 0.91 },
+    };
+
+    /// The linear model this element behaves like for small changes about `stress_g` (secant
+    /// springs at that load).
+    pub fn linearized(&self, stress_g: f64) -> MaxwellKelvin {
+        MaxwellKelvin {
+            g1: self.g1.stiffness(stress_g),
+            n1: self.n1,
+            alpha: self.alpha,
+            n2: self.n2,
+            g2: self.g2.stiffness(stress_g),
+        }
+    }
+
+    /// Total strain under `stress_g` with internal state `state`.
+    #[inline]
+    pub fn strain_pct(&self, state: &NonlinearMkState, stress_g: f64) -> f64 {
+        self.g1.strain_pct(stress_g) + state.maxwell_pct + state.kelvin_pct
+    }
+
+    /// Strain of the surface when unloaded (what a lifted probe leaves behind).
+    #[inline]
+    pub fn rest_strain_pct(&self, state: &NonlinearMkState) -> f64 {
+        state.maxwell_pct + state.kelvin_pct
+    }
+
+    /// Advances the internal strains by `dt_s` with `stress_g` held constant: exact for
+    /// piecewise-constant stress (first-order lags solved in closed form).
+    #[inline]
+    pub fn step(&self, state: &mut NonlinearMkState, stress_g: f64, dt_s: f64) {
+        let s = stress_g.max(0.0);
+        let g2 = self.g2.stiffness(s);
+        let phi_k = libm::exp(-g2 * dt_s / self.n2);
+        state.kelvin_pct = state.kelvin_pct * phi_k + (1.0 - phi_k) * s / g2;
+        if self.alpha > 0.0 {
+            let phi_m = libm::exp(-self.alpha * dt_s / self.n1);
+            state.maxwell_pct = state.maxwell_pct * phi_m + (1.0 - phi_m) * s / self.alpha;
+        } else {
+            state.maxwell_pct += s * dt_s / self.n1;
+        }
+    }
+}
+
+/// The memo's normalized RMS error, eq. 12b: `G₁ · sqrt(mean((ε̂ − ε)²))`, in grams.
+/// `None` for empty or mismatched input.
+pub fn rms_n_g<T: Real>(g1: f64, predicted: &[T], measured: &[T]) -> Option<f64> {
+    if predicted.is_empty() || predicted.len() != measured.len() {
+        return None;
+    }
+    let sum: f64 = predicted
+        .iter()
+        .zip(measured)
+        .map(|(p, m)| {
+            let d = p.to_f64() - m.to_f64();
+            d * d
+        })
+        .sum();
+    Some(g1 * libm::sqrt(sum / predicted.len() as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Eqs. 8 + 9 for a step σ₀ applied at 0 and removed at `t_off`, α = 0.
+    fn analytic_step(mk: &MaxwellKelvin, sigma: f64, t_off: f64, t: f64) -> f64 {
+        let kelvin = |tau: f64| sigma / mk.g2 * (1.0 - (-tau * mk.g2 / mk.n2).exp());
+        if t < t_off {
+            sigma / mk.g1 + sigma * t / mk.n1 + kelvin(t)
+        } else {
+            sigma * t_off / mk.n1 + kelvin(t_off) * (-(t - t_off) * mk.g2 / mk.n2).exp()
+        }
+    }
+
+    #[test]
+    fn discrete_maxwell_kelvin_matches_eqs_8_and_9_on_the_memo_step() {
+        let dt = 0.001;
+        for mk in [MaxwellKelvin::TABLE_I_50G, MaxwellKelvin::TABLE_I_80G] {
+            let model = mk.forward::<f32>(dt).unwrap();
+            let mut state = Discrete2State::default();
+            let mut worst: f64 = 0.0;
+            for k in 0..75_000 {
+                let t = k as f64 * dt;
+                let sigma = if t < 50.0 { 50.0 } else { 0.0 };
+                let eps = f64::from(model.update(&mut state, sigma as f32));
+                // Skip the sample at the unloading instant, where the Tustin sample is the mean of
+                // the two sides of the jump.
+                if k != 50_000 {
+                    worst = worst.max((eps - analytic_step(&mk, 50.0, 50.0, t)).abs());
+                }
+            }
+            assert!(worst < 1e-3, "worst {worst} percentage points for {mk:?}");
+        }
+    }
+
+    #[test]
+    fn mapping_reproduces_eq_16_at_several_points() {
+        let mk = MaxwellKelvin { g1: 4.4, n1: 6670.0, alpha: 3.0, n2: 500.0, g2: 66.0 };
+        let tf = mk.second_order().compliance();
+        for s in [(0.0, 0.01), (-0.05, 0.3), (0.2, 1.0), (0.0, 31.4), (1.5, -2.0), (3.0, 0.0)] {
+            let direct = mk.compliance(s);
+            let mapped = tf.eval(s);
+            let err = ((direct.0 - mapped.0).powi(2) + (direct.1 - mapped.1).powi(2)).sqrt();
+            let size = (direct.0.powi(2) + direct.1.powi(2)).sqrt();
+            assert!(err < 1e-9 * size, "at {s:?}: {direct:?} vs {mapped:?}");
+        }
+        // And the eq. 16 coefficients written out by hand for these values.
+        let so = mk.second_order();
+        let n1n2 = 6670.0 * 500.0;
+        assert!((so.a2 - (3.0 * 66.0 + 4.4 * 66.0 + 4.4 * 3.0) / n1n2).abs() < 1e-15);
+        assert!((so.b1 - 4.4 * (66.0 / 500.0 + 3.0 / 6670.0)).abs() < 1e-12);
+    }
+
+    /// A deterministic pseudo-random step sequence in 20–40 g (xorshift).
+    fn pseudo_random_stress(n: usize, dt: f64) -> Vec<f32> {
+        let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut level = 30.0;
+        let mut until = 0.0;
+        (0..n)
+            .map(|k| {
+                let t = k as f64 * dt;
+                if t >= until {
+                    level = (level + 40.0 * next() - 20.0).clamp(20.0, 40.0);
+                    until = t + 0.5 + 4.0 * next();
+                }
+                level as f32
+            })
+            .collect()
+    }
+
+    #[test]
+    fn inverse_of_forward_recovers_a_pseudo_random_stress() {
+        for dt in [0.001, 0.01, 0.1] {
+            for so in [SecondOrder::MEMO_FIT, MaxwellKelvin { alpha: 5.0, ..MaxwellKelvin::TABLE_I_30G }.second_order()] {
+                let fwd = so.forward::<f32>(dt).unwrap();
+                let inv = so.inverse::<f32>(dt).unwrap();
+                let (mut sf, mut si) = (Discrete2State::default(), Discrete2State::default());
+                let n = (100.0 / dt) as usize;
+                let mut worst: f32 = 0.0;
+                for sigma in pseudo_random_stress(n, dt) {
+                    let eps = fwd.update(&mut sf, sigma);
+                    let back = inv.update(&mut si, eps);
+                    worst = worst.max((back - sigma).abs());
+                }
+                assert!(worst < 1e-3, "dt {dt}: worst {worst} g for {so:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn memo_inverse_has_dc_gain_b2_over_a2_and_hf_gain_b0() {
+        let so = SecondOrder::MEMO_FIT;
+        let dt = 0.001;
+        let inv = so.inverse::<f32>(dt).unwrap();
+        // DC: hold strain at 1 % for 60 s (time constants 3.4 s and 0.37 s).
+        let mut state = Discrete2State::default();
+        let mut y = 0.0;
+        for _ in 0..60_000 {
+            y = inv.update(&mut state, 1.0f32);
+        }
+        let dc = 2.53 / 0.784; // 3.227 g/%
+        assert!((f64::from(y) - dc).abs() < 1e-3 * dc, "DC {y} vs {dc}");
+        // The first sample of a step from rest is the Tustin high-frequency gain: within T/2 of
+        // b₀ = 5.81 at 1 kHz.
+        let mut state = Discrete2State::default();
+        let first = inv.update(&mut state, 1.0f32);
+        assert!((f64::from(first) - 5.81).abs() < 0.01, "HF {first}");
+        assert!((so.compliance().reciprocal().dc_gain() - dc).abs() < 1e-12);
+        assert_eq!(so.compliance().reciprocal().hf_gain(), 5.81);
+    }
+
+    #[test]
+    fn pure_maxwell_kelvin_has_no_inverse_but_alpha_gives_one() {
+        let mk = MaxwellKelvin::TABLE_I_50G;
+        assert_eq!(mk.inverse::<f32>(0.001).unwrap_err(), ModelError::NoStaticGain);
+        assert!(MaxwellKelvin { alpha: 2.0, ..mk }.inverse::<f32>(0.001).is_ok());
+        let bad = MaxwellKelvin { g1: f64::NAN, ..mk };
+        assert_eq!(bad.forward::<f32>(0.001).unwrap_err(), ModelError::InvalidParameter);
+    }
+
+    #[test]
+    fn inverse_estimator_clamps_at_zero() {
+        let mut est = InverseEstimator::new(SecondOrder::MEMO_FIT.inverse(0.01).unwrap());
+        assert!(est.force_g(3.0) > 0.0);
+        // A sudden drop of strain makes the linear inverse go negative: reported as 0.
+        assert_eq!(est.force_g(-5.0), 0.0);
+        assert_eq!(est.force_g(f32::NAN), 0.0);
+    }
+
+    #[test]
+    fn nonlinear_element_follows_the_guide_laws_and_steps_exactly() {
+        let el = NonlinearMk::ELEMENT_4_2;
+        // G₁(50) = 0.5 + 0.54·√50 = 4.318 (Table I: 4.4); G₂(50) = 17 + 45.5 = 62.5 (66).
+        assert!((el.g1.stiffness(50.0) - 4.318_38).abs() < 1e-4);
+        assert!((el.g2.stiffness(50.0) - 62.5).abs() < 1e-12);
+        for e in [0.1, 1.0, 8.0, 20.0] {
+            let s = el.g1.stress_g(e);
+            assert!((el.g1.strain_pct(s) - e).abs() < 1e-9);
+        }
+        let lin = SpringLaw { base: 17.0, sqrt_coeff: 0.3, linear_coeff: 0.91 };
+        for e in [0.1, 0.5, 1.0] {
+            let s = lin.stress_g(e);
+            assert!((lin.strain_pct(s) - e).abs() < 1e-9, "{e} {s}");
+        }
+        // Permanent deformation: 50 g for 20 s puts 1000 g·s into N₁ = 5000 → 0.2 % (less the
+        // α leak, 1 %).
+        let mut st = NonlinearMkState::default();
+        for _ in 0..2000 {
+            el.step(&mut st, 50.0, 0.01);
+        }
+        assert!((st.maxwell_pct - 0.2).abs() < 0.003, "{}", st.maxwell_pct);
+        // One 20 s step equals 2000 steps of 10 ms: the integration is exact for constant load.
+        let mut one = NonlinearMkState::default();
+        el.step(&mut one, 50.0, 20.0);
+        assert!((one.maxwell_pct - st.maxwell_pct).abs() < 1e-12);
+        assert!((one.kelvin_pct - st.kelvin_pct).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rms_n_by_hand() {
+        // Errors 0.1, −0.1, 0.2, 0 → mean square 0.015 → RMS 0.12247 %, × G₁ 4 = 0.4899 g.
+        let p = [1.1f32, 0.9, 2.2, 3.0];
+        let m = [1.0f32, 1.0, 2.0, 3.0];
+        let r = rms_n_g(4.0, &p, &m).unwrap();
+        assert!((r - 0.489_898).abs() < 1e-5, "{r}");
+        assert_eq!(rms_n_g::<f32>(1.0, &[], &[]), None);
+        assert_eq!(rms_n_g(1.0, &p[..2], &m), None);
+    }
+}
