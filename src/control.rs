@@ -109,6 +109,37 @@ impl ForceLaw {
     }
 }
 
+/// The actuator path: grams at the probe → volts into the current amplifier → DAC code.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ActuatorConfig {
+    /// Grams at the probe per volt into the amplifier (memo: 0.19 A/V × 910 g·cm/A / 9 cm = 19.2).
+    pub grams_per_volt: f32,
+    /// The converter driving the amplifier, in the amplifier's volts (level shifting included).
+    pub dac: crate::gauge::AdcScale,
+}
+
+impl Default for ActuatorConfig {
+    fn default() -> Self {
+        Self::MEMO
+    }
+}
+
+impl ActuatorConfig {
+    pub const MEMO: ActuatorConfig =
+        ActuatorConfig { grams_per_volt: 19.2, dac: crate::gauge::AdcScale::BIPOLAR_10V_12BIT };
+
+    /// DAC code for a force; clamps at the converter's range.
+    #[inline]
+    pub fn code(&self, force_g: f32) -> crate::gauge::AdcCode {
+        self.dac.code(force_g / self.grams_per_volt)
+    }
+
+    /// The code that puts zero volts into the amplifier (the safe output).
+    pub fn zero_code(&self) -> crate::gauge::AdcCode {
+        self.dac.code(0.0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,6 +198,16 @@ mod tests {
         }
         // The bad tick left the derivative memory untouched.
         assert_eq!(law.previous_error_g(), 0.0);
+    }
+
+    #[test]
+    fn actuator_codes_by_hand() {
+        let a = ActuatorConfig::MEMO;
+        // 96 g is 5 V: code (15/20)·4095 = 3071.25 → 3071.
+        assert_eq!(a.code(96.0).0, 3071);
+        assert_eq!(a.code(1e4).0, 4095);
+        // 0 V is code 2047.5 → 2048, which is +2.4 mV (0.05 g): the converter has no exact zero.
+        assert_eq!(a.zero_code().0, 2048);
     }
 
     proptest::proptest! {

@@ -9,6 +9,7 @@
 //! - [`tactile`]: the 8×8 scan sequencer, the capacitive element and its read-out amplifier.
 //! - [`viscoelastic`]: elastic, Maxwell–Kelvin, modified Maxwell–Kelvin and second-order
 //!   models, forward (strain from stress) and inverse (stress from strain).
+//! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
 //! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
 //!
 //! Units: force in grams-force (`_g`), strain in percent deflection (`_pct`), time in seconds
@@ -19,6 +20,7 @@
 pub mod control;
 pub mod filter;
 pub mod gauge;
+pub mod profile;
 pub mod tactile;
 pub mod telemetry;
 pub mod viscoelastic;

@@ -1,0 +1,233 @@
+//! The closed loop: the core's A1 law, lowpass-notch filter, gauge path, scan sequencer, strain
+//! conversion and inverse model, run at their firmware rates around the simulated applicator
+//! and finger. The plant is integrated at 10 kHz (ten RK4 steps per 1 ms control tick; the
+//! applicator tests check the step size).
+
+use tactile_core::control::{ActuatorConfig, ForceLaw, ForceLawConfig};
+use tactile_core::filter::{LowpassNotch, LowpassNotchConfig, LowpassNotchState};
+use tactile_core::gauge::{AdcCode, GaugeConfig, GaugeFault, SAMPLES_PER_TICK};
+use tactile_core::tactile::{ScanSequencer, TaxelCalibration, TaxelId, TAXELS};
+use tactile_core::telemetry::FaultFlags;
+use tactile_core::viscoelastic::{InverseEstimator, ModelError, SecondOrder};
+
+use crate::applicator::{self, ApplicatorParams, ApplicatorState, Contact};
+use crate::finger::{code_to_strain_pct, Effects, Finger, ReadoutParams, StrainGrid};
+use crate::noise::Noise;
+
+/// Plant steps per control tick.
+pub const SUBSTEPS: usize = 10;
+/// Control period (memo: Δt = 1 ms).
+pub const TICK_S: f64 = 1e-3;
+
+/// Everything a run is made of; `Default` is the memo's rig.
+#[derive(Clone, Debug)]
+pub struct RigConfig {
+    pub seed: u64,
+    pub law: ForceLawConfig,
+    pub filter: LowpassNotchConfig,
+    pub gauge: GaugeConfig,
+    pub actuator: ActuatorConfig,
+    pub applicator: ApplicatorParams,
+    /// Gauge noise per converter sample, grams RMS: 0.14 g after 8× averaging (misprint 2)
+    /// is 0.14·√8 = 0.40 g per sample.
+    pub gauge_noise_g: f64,
+    pub effects: Effects,
+    pub readout: ReadoutParams,
+    pub probe: TaxelId,
+    /// Model inverted on the chip to estimate force from the probed element's strain.
+    pub estimator: SecondOrder,
+    /// Run the 8×8 scan (off for speed when only the probed element matters).
+    pub scan_array: bool,
+}
+
+impl Default for RigConfig {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            law: ForceLawConfig::MEMO,
+            filter: LowpassNotchConfig::MEMO,
+            gauge: GaugeConfig::MEMO,
+            actuator: ActuatorConfig::MEMO,
+            applicator: ApplicatorParams::MEMO,
+            gauge_noise_g: 0.14 * libm::sqrt(8.0),
+            effects: Effects::MEMO,
+            readout: ReadoutParams::default(),
+            probe: TaxelId::from_index(3 * 8 + 2),
+            estimator: SecondOrder::MEMO_FIT,
+            scan_array: true,
+        }
+    }
+}
+
+/// What one control tick produced.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TickRecord {
+    pub t_s: f64,
+    pub command_g: f32,
+    /// Force from the gauge path (the value the law used next tick); NaN on a gauge fault.
+    pub sensed_g: f32,
+    pub adjusted_g: f32,
+    pub strain_pct: f32,
+    pub estimate_g: f32,
+    /// Simulator truth: the contact force at the end of the tick.
+    pub true_force_g: f32,
+    pub in_contact: bool,
+    pub faults: FaultFlags,
+}
+
+/// Why a rig could not be built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RigError {
+    Filter(tactile_core::filter::FilterError),
+    Estimator(ModelError),
+}
+
+impl core::fmt::Display for RigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            RigError::Filter(e) => write!(f, "lowpass-notch filter configuration refused: {e:?}"),
+            RigError::Estimator(e) => write!(f, "estimator model refused: {e:?}"),
+        }
+    }
+}
+
+/// The closed-loop rig.
+pub struct Rig {
+    pub config: RigConfig,
+    law: ForceLaw,
+    filter: LowpassNotch,
+    filter_state: LowpassNotchState,
+    pub plant: ApplicatorState,
+    pub finger: Finger,
+    calibration: [TaxelCalibration; TAXELS],
+    estimator: InverseEstimator,
+    scan: ScanSequencer,
+    frame: StrainGrid,
+    gauge_noise: Noise,
+    last_gauge: Result<f32, GaugeFault>,
+    tick: u64,
+    /// Scan steps per control tick (dwell 250 µs → 4).
+    scan_steps_per_tick: usize,
+}
+
+impl Rig {
+    pub fn new(config: RigConfig) -> Result<Self, RigError> {
+        let filter = config.filter.discretize().map_err(RigError::Filter)?;
+        let estimator = InverseEstimator::new(config.estimator.inverse(TICK_S).map_err(RigError::Estimator)?);
+        let mut finger = Finger::new(config.seed, config.probe, config.effects, config.readout);
+        let calibration = finger.rest_calibration(16);
+        let scan_steps_per_tick = libm::round(TICK_S / f64::from(config.readout.scan.dwell_s)).max(1.0) as usize;
+        Ok(Self {
+            law: ForceLaw::new(config.law),
+            filter,
+            filter_state: LowpassNotchState::default(),
+            plant: ApplicatorState { stuck: true, ..Default::default() },
+            finger,
+            calibration,
+            estimator,
+            scan: ScanSequencer::new(),
+            frame: [[0.0; 8]; 8],
+            gauge_noise: Noise::new(config.seed ^ 0x6761_7567),
+            last_gauge: Ok(0.0),
+            tick: 0,
+            scan_steps_per_tick,
+            config,
+        })
+    }
+
+    pub fn time_s(&self) -> f64 {
+        self.tick as f64 * TICK_S
+    }
+
+    fn contact(&self) -> Contact {
+        Contact { spring: self.finger.probe_taxel().element.g1, rest_strain_pct: self.finger.probe_rest_strain_pct() }
+    }
+
+    /// One control tick with command `command_g`; `on_frame` receives each completed 8×8 scan.
+    pub fn tick(&mut self, command_g: f32, mut on_frame: impl FnMut(f64, &StrainGrid)) -> TickRecord {
+        let t_s = self.time_s();
+        let mut faults = FaultFlags::NONE;
+        // Control: A1 on the gauge reading of the last tick, then the filter, then the DAC.
+        let adjusted = match self.last_gauge {
+            Ok(sensed) => {
+                let a = self.law.update(command_g, sensed);
+                if a.saturated {
+                    faults.insert(FaultFlags::ACTUATOR_SATURATED);
+                }
+                if a.invalid_input {
+                    faults.insert(FaultFlags::INVALID_INPUT);
+                }
+                a.force_g
+            }
+            Err(fault) => {
+                faults.insert(match fault {
+                    GaugeFault::AtRail { .. } => FaultFlags::GAUGE_AT_RAIL,
+                    GaugeFault::OutOfRange { .. } => FaultFlags::GAUGE_OUT_OF_RANGE,
+                });
+                0.0
+            }
+        };
+        let filtered = self.filter.update(&mut self.filter_state, adjusted);
+        let actuator = &self.config.actuator;
+        let drive_v = f64::from(actuator.dac.volts(actuator.code(filtered)));
+
+        // Plant: ten RK4 steps; the gauge is sampled eight times within the tick.
+        let p = self.config.applicator;
+        let contact = self.contact();
+        let dt = TICK_S / SUBSTEPS as f64;
+        let mut samples = [AdcCode(0); SAMPLES_PER_TICK];
+        let mut stress_sum = 0.0;
+        for k in 0..SUBSTEPS {
+            applicator::step(&p, &mut self.plant, &contact, drive_v, dt);
+            stress_sum += contact.force_g(&p, self.plant.tip_m);
+            if let Some(slot) = k.checked_sub(SUBSTEPS - SAMPLES_PER_TICK).and_then(|i| samples.get_mut(i)) {
+                let force = self.plant.gauge_force_g(&p) + self.config.gauge_noise_g * self.gauge_noise.gaussian();
+                *slot = self.config.gauge.adc.code(self.config.gauge.volts(force as f32));
+            }
+        }
+        self.last_gauge = self.config.gauge.average_force(&samples);
+        let mean_stress = stress_sum / SUBSTEPS as f64;
+        self.finger.tick(mean_stress, TICK_S);
+        let t_end = t_s + TICK_S;
+        let true_force = contact.force_g(&p, self.plant.tip_m);
+
+        // The probed element's own channel, converted and inverted as on the chip.
+        let probe = self.config.probe.index();
+        let code = self.finger.sample_probe_channel(true_force, t_end);
+        let adc = self.config.readout.adc;
+        let strain = self.calibration.get(probe).map_or(f32::NAN, |cal| code_to_strain_pct(&adc, cal, code));
+        let estimate = self.estimator.force_g(strain);
+
+        if self.config.scan_array {
+            for _ in 0..self.scan_steps_per_tick {
+                let sampled = self.scan.selected();
+                let previous = TaxelId::from_index(sampled.index() + TAXELS - 1);
+                let step = self.scan.advance();
+                let code = self.finger.sample_scan(sampled, previous, true_force, t_end);
+                let strain = self.calibration.get(sampled.index()).map_or(f32::NAN, |c| code_to_strain_pct(&adc, c, code));
+                if let Some(cell) = self.frame.get_mut(sampled.row()).and_then(|r| r.get_mut(sampled.col())) {
+                    *cell = strain;
+                }
+                if step.frame_complete {
+                    on_frame(t_end, &self.frame);
+                }
+            }
+        }
+
+        if command_g > 0.5 && true_force <= 0.0 {
+            faults.insert(FaultFlags::CONTACT_LOST);
+        }
+        self.tick += 1;
+        TickRecord {
+            t_s: t_end,
+            command_g,
+            sensed_g: self.last_gauge.unwrap_or(f32::NAN),
+            adjusted_g: adjusted,
+            strain_pct: strain,
+            estimate_g: estimate,
+            true_force_g: true_force as f32,
+            in_contact: true_force > 0.0,
+            faults,
+        }
+    }
+}

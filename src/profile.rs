@@ -1,0 +1,281 @@
+//! Command profiles: the memo's protocols as setpoint generators, shared by the firmware's
+//! command source and the simulator's scenarios. Stateful (the pseudo-random protocol draws
+//! its steps as time advances) but allocation-free; same seed, same sequence on every target.
+
+use rand_xoshiro::rand_core::{RngCore, SeedableRng};
+use rand_xoshiro::Xoshiro128PlusPlus;
+
+/// Frequencies of the memo's sum-of-sinusoids excitation (section 4), Hz.
+pub const SINES_HZ: [f32; 6] = [0.017, 0.062, 0.23, 0.79, 1.9, 5.0];
+
+/// The protocols. Times in seconds, forces in grams.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Protocol {
+    /// Appendix A Fig. a/b: `increment_g` steps up to `top_g` and back down, each held `hold_s`.
+    ForceSteps { increment_g: f32, top_g: f32, hold_s: f32 },
+    /// One step load: `lead_s` at zero, `load_g` for `on_s`, then zero for `off_s`.
+    Step { load_g: f32, lead_s: f32, on_s: f32, off_s: f32 },
+    /// Step loads of 10, 30, 50 and 80 g, each 50 s on and 25 s off.
+    StepLoads,
+    /// Graph 1: loads of 10..=100 g in 10 g increments, each held `hold_s` then 19 s rest.
+    StaticLinearity { hold_s: f32 },
+    /// Graph 5: 50 g for 20 s then 80 s rest, then 100 g for 20 s then 80 s rest.
+    PermanentDeformation,
+    /// Graph 6: `count` loads of `load_g`, `on_s` on and `off_s` off.
+    RepeatedSteps { load_g: f32, on_s: f32, off_s: f32, count: u16 },
+    /// Graph 3: `offset_g` plus a sine of `amplitude_g` swept exponentially from `f0_hz` to
+    /// `f1_hz` over `duration_s`.
+    Sweep { offset_g: f32, amplitude_g: f32, f0_hz: f32, f1_hz: f32, duration_s: f32 },
+    /// Table III: steps at random times (dwell uniform in `dwell_min_s..dwell_max_s`), each change
+    /// uniform in ±`max_change_g`, reflected into `min_g..=max_g`.
+    PseudoRandom { seed: u64, min_g: f32, max_g: f32, max_change_g: f32, dwell_min_s: f32, dwell_max_s: f32, duration_s: f32 },
+    /// Section 4: `offset_g` plus six sinusoids of `amplitude_g` at [`SINES_HZ`], random phases.
+    Sines { seed: u64, offset_g: f32, amplitude_g: f32, duration_s: f32 },
+    /// Commands below 10 g (where the memo's fixed-gain loop lost contact), each held `hold_s`.
+    LowForce { hold_s: f32 },
+}
+
+const STEP_LOADS_G: [f32; 4] = [10.0, 30.0, 50.0, 80.0];
+const LOW_FORCE_G: [f32; 4] = [8.0, 6.0, 4.0, 2.0];
+
+impl Protocol {
+    pub const PSEUDO_RANDOM_MEMO: Protocol = Protocol::PseudoRandom {
+        seed: 1989,
+        min_g: 20.0,
+        max_g: 40.0,
+        max_change_g: 20.0,
+        dwell_min_s: 2.0,
+        dwell_max_s: 8.0,
+        duration_s: 100.0,
+    };
+    pub const SINES_MEMO: Protocol = Protocol::Sines { seed: 138, offset_g: 25.0, amplitude_g: 4.0, duration_s: 100.0 };
+    pub const FORCE_STEPS_MEMO: Protocol = Protocol::ForceSteps { increment_g: 10.0, top_g: 100.0, hold_s: 0.5 };
+
+    /// Length of the protocol.
+    pub fn duration_s(&self) -> f32 {
+        match *self {
+            Protocol::ForceSteps { increment_g, top_g, hold_s } => {
+                let n = libm::roundf(top_g / increment_g);
+                (2.0 * n + 1.0) * hold_s
+            }
+            Protocol::Step { lead_s, on_s, off_s, .. } => lead_s + on_s + off_s,
+            Protocol::StepLoads => STEP_LOADS_G.len() as f32 * 75.0 + 2.0,
+            Protocol::StaticLinearity { hold_s } => 10.0 * (hold_s + 19.0) + 2.0,
+            Protocol::PermanentDeformation => 2.0 + 2.0 * 100.0,
+            Protocol::RepeatedSteps { on_s, off_s, count, .. } => 2.0 + f32::from(count) * (on_s + off_s),
+            Protocol::Sweep { duration_s, .. } => duration_s + 2.0,
+            Protocol::PseudoRandom { duration_s, .. } | Protocol::Sines { duration_s, .. } => duration_s,
+            Protocol::LowForce { hold_s } => 1.0 + LOW_FORCE_G.len() as f32 * hold_s,
+        }
+    }
+}
+
+/// Runs a [`Protocol`]: call [`CommandSource::command_g`] with non-decreasing times.
+#[derive(Clone, Debug)]
+pub struct CommandSource {
+    protocol: Protocol,
+    rng: Xoshiro128PlusPlus,
+    level_g: f32,
+    next_change_s: f32,
+    phases_rad: [f32; 6],
+}
+
+impl CommandSource {
+    pub fn new(protocol: Protocol) -> Self {
+        let seed = match protocol {
+            Protocol::PseudoRandom { seed, .. } | Protocol::Sines { seed, .. } => seed,
+            _ => 0,
+        };
+        let mut rng = Xoshiro128PlusPlus::seed_from_u64(seed);
+        let mut phases_rad = [0.0; 6];
+        for p in phases_rad.iter_mut() {
+            *p = 2.0 * core::f32::consts::PI * unit(&mut rng);
+        }
+        let level_g = match protocol {
+            Protocol::PseudoRandom { min_g, max_g, .. } => 0.5 * (min_g + max_g),
+            _ => 0.0,
+        };
+        Self { protocol, rng, level_g, next_change_s: 0.0, phases_rad }
+    }
+
+    pub fn protocol(&self) -> Protocol {
+        self.protocol
+    }
+
+    /// Commanded force at time `t_s` (0 after the protocol ends).
+    pub fn command_g(&mut self, t_s: f32) -> f32 {
+        if !(0.0..self.protocol.duration_s()).contains(&t_s) {
+            return 0.0;
+        }
+        match self.protocol {
+            Protocol::ForceSteps { increment_g, top_g, hold_s } => {
+                let n = libm::roundf(top_g / increment_g);
+                let k = libm::floorf(t_s / hold_s);
+                let level = if k <= n { k } else { 2.0 * n - k };
+                (level * increment_g).max(0.0)
+            }
+            Protocol::Step { load_g, lead_s, on_s, .. } => {
+                if t_s >= lead_s && t_s < lead_s + on_s {
+                    load_g
+                } else {
+                    0.0
+                }
+            }
+            Protocol::StepLoads => {
+                let tt = t_s - 2.0;
+                let k = libm::floorf(tt / 75.0);
+                let within = tt - 75.0 * k;
+                match STEP_LOADS_G.get(k as usize) {
+                    Some(&g) if tt >= 0.0 && within < 50.0 => g,
+                    _ => 0.0,
+                }
+            }
+            Protocol::StaticLinearity { hold_s } => {
+                let tt = t_s - 2.0;
+                let period = hold_s + 19.0;
+                let k = libm::floorf(tt / period);
+                if tt >= 0.0 && tt - k * period < hold_s {
+                    10.0 * (k + 1.0)
+                } else {
+                    0.0
+                }
+            }
+            Protocol::PermanentDeformation => {
+                let tt = t_s - 2.0;
+                if (0.0..20.0).contains(&tt) {
+                    50.0
+                } else if (100.0..120.0).contains(&tt) {
+                    100.0
+                } else {
+                    0.0
+                }
+            }
+            Protocol::RepeatedSteps { load_g, on_s, off_s, .. } => {
+                let tt = t_s - 2.0;
+                let period = on_s + off_s;
+                if tt >= 0.0 && tt - libm::floorf(tt / period) * period < on_s {
+                    load_g
+                } else {
+                    0.0
+                }
+            }
+            Protocol::Sweep { offset_g, amplitude_g, f0_hz, f1_hz, duration_s } => {
+                let tt = t_s - 2.0;
+                if tt < 0.0 {
+                    // Ramp to the offset first, so the sweep starts in contact.
+                    return offset_g * t_s / 2.0;
+                }
+                // Exponential chirp: phase = 2π f0 T/ln(k) (k^(t/T) − 1), k = f1/f0.
+                let ln_k = libm::logf(f1_hz / f0_hz);
+                let phase = 2.0 * core::f32::consts::PI * f0_hz * duration_s / ln_k
+                    * (libm::expf(ln_k * tt / duration_s) - 1.0);
+                offset_g + amplitude_g * libm::sinf(phase)
+            }
+            Protocol::PseudoRandom { min_g, max_g, max_change_g, dwell_min_s, dwell_max_s, .. } => {
+                while t_s >= self.next_change_s {
+                    let change = (2.0 * unit(&mut self.rng) - 1.0) * max_change_g;
+                    self.level_g = reflect(self.level_g + change, min_g, max_g);
+                    self.next_change_s += dwell_min_s + (dwell_max_s - dwell_min_s) * unit(&mut self.rng);
+                }
+                self.level_g
+            }
+            Protocol::Sines { offset_g, amplitude_g, .. } => {
+                let mut f = offset_g;
+                for (hz, phase) in SINES_HZ.iter().zip(self.phases_rad.iter()) {
+                    f += amplitude_g * libm::sinf(2.0 * core::f32::consts::PI * hz * t_s + phase);
+                }
+                f.max(0.0)
+            }
+            Protocol::LowForce { hold_s } => {
+                let k = libm::floorf((t_s - 1.0) / hold_s);
+                if t_s < 1.0 {
+                    0.0
+                } else {
+                    LOW_FORCE_G.get(k as usize).copied().unwrap_or(0.0)
+                }
+            }
+        }
+    }
+}
+
+/// Uniform in [0, 1).
+fn unit(rng: &mut Xoshiro128PlusPlus) -> f32 {
+    (rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Folds `x` back into `[lo, hi]` at the edges.
+fn reflect(x: f32, lo: f32, hi: f32) -> f32 {
+    let r = if x > hi {
+        2.0 * hi - x
+    } else if x < lo {
+        2.0 * lo - x
+    } else {
+        x
+    };
+    r.clamp(lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn force_steps_climb_and_descend_in_10_g_increments() {
+        let mut s = CommandSource::new(Protocol::FORCE_STEPS_MEMO);
+        assert_eq!(s.command_g(0.1), 0.0);
+        assert_eq!(s.command_g(0.6), 10.0);
+        assert_eq!(s.command_g(5.2), 100.0);
+        assert_eq!(s.command_g(5.6), 90.0);
+        assert_eq!(s.command_g(10.4), 0.0);
+        assert!((Protocol::FORCE_STEPS_MEMO.duration_s() - 10.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn step_loads_follow_the_memo_timing() {
+        let mut s = CommandSource::new(Protocol::StepLoads);
+        assert_eq!(s.command_g(1.0), 0.0);
+        assert_eq!(s.command_g(2.5), 10.0);
+        assert_eq!(s.command_g(51.9), 10.0);
+        assert_eq!(s.command_g(52.1), 0.0);
+        assert_eq!(s.command_g(78.0), 30.0);
+        assert_eq!(s.command_g(2.0 + 225.0 + 10.0), 80.0);
+        assert_eq!(s.command_g(2.0 + 225.0 + 60.0), 0.0);
+    }
+
+    #[test]
+    fn pseudo_random_stays_in_band_changes_by_at_most_20_g_and_repeats() {
+        let run = || {
+            let mut s = CommandSource::new(Protocol::PSEUDO_RANDOM_MEMO);
+            (0..100_000).map(|k| s.command_g(k as f32 * 0.001)).collect::<Vec<_>>()
+        };
+        let a = run();
+        assert_eq!(a, run());
+        let mut changes = 0;
+        for w in a.windows(2) {
+            assert!((20.0..=40.0).contains(&w[1]));
+            let d = (w[1] - w[0]).abs();
+            assert!(d <= 20.0 + 1e-4);
+            changes += usize::from(d > 0.0);
+        }
+        // Dwell 2–8 s over 100 s: between 12 and 50 changes.
+        assert!((12..=50).contains(&changes), "{changes}");
+    }
+
+    #[test]
+    fn sines_are_the_memo_excitation() {
+        let mut s = CommandSource::new(Protocol::SINES_MEMO);
+        let xs: Vec<f32> = (0..100_000).map(|k| s.command_g(k as f32 * 0.001)).collect();
+        let mean = xs.iter().sum::<f32>() / xs.len() as f32;
+        // The slow 0.017 Hz component does not average out over 100 s; the mean is 25 ± 4.
+        assert!((mean - 25.0).abs() < 4.0, "{mean}");
+        let max = xs.iter().cloned().fold(f32::MIN, f32::max);
+        assert!(max <= 25.0 + 24.0 + 1e-3);
+    }
+
+    #[test]
+    fn reflect_folds_into_the_band() {
+        assert_eq!(reflect(45.0, 20.0, 40.0), 35.0);
+        assert_eq!(reflect(12.0, 20.0, 40.0), 28.0);
+        assert_eq!(reflect(100.0, 20.0, 40.0), 20.0);
+    }
+}
