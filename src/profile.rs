@@ -31,7 +31,8 @@ pub enum Protocol {
     PseudoRandom { seed: u64, min_g: f32, max_g: f32, max_change_g: f32, dwell_min_s: f32, dwell_max_s: f32, duration_s: f32 },
     /// Section 4: `offset_g` plus six sinusoids of `amplitude_g` at [`SINES_HZ`], random phases.
     Sines { seed: u64, offset_g: f32, amplitude_g: f32, duration_s: f32 },
-    /// Commands below 10 g (where the memo's fixed-gain loop lost contact), each held `hold_s`.
+    /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
+    /// each applied from rest (1 s at zero) and held `hold_s`.
     LowForce { hold_s: f32 },
 }
 
@@ -65,7 +66,7 @@ impl Protocol {
             Protocol::RepeatedSteps { on_s, off_s, count, .. } => 2.0 + f32::from(count) * (on_s + off_s),
             Protocol::Sweep { duration_s, .. } => duration_s + 2.0,
             Protocol::PseudoRandom { duration_s, .. } | Protocol::Sines { duration_s, .. } => duration_s,
-            Protocol::LowForce { hold_s } => 1.0 + LOW_FORCE_G.len() as f32 * hold_s,
+            Protocol::LowForce { hold_s } => LOW_FORCE_G.len() as f32 * (1.0 + hold_s),
         }
     }
 }
@@ -187,8 +188,9 @@ impl CommandSource {
                 f.max(0.0)
             }
             Protocol::LowForce { hold_s } => {
-                let k = libm::floorf((t_s - 1.0) / hold_s);
-                if t_s < 1.0 {
+                let period = 1.0 + hold_s;
+                let k = libm::floorf(t_s / period);
+                if t_s - k * period < 1.0 {
                     0.0
                 } else {
                     LOW_FORCE_G.get(k as usize).copied().unwrap_or(0.0)

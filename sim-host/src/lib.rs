@@ -8,3 +8,4 @@ pub mod applicator;
 pub mod finger;
 pub mod noise;
 pub mod rig;
+pub mod scenario;

@@ -1,0 +1,130 @@
+//! The memo's experiments as named scenarios, each a command profile run on the rig.
+
+use tactile_core::control::GainSchedule;
+use tactile_core::profile::{CommandSource, Protocol};
+
+use crate::finger::StrainGrid;
+use crate::rig::{Rig, RigConfig, RigError, TickRecord};
+
+/// The named scenarios, in the order `tactile` lists them.
+pub const SCENARIOS: [&str; 10] = [
+    "force-steps",
+    "step",
+    "step-loads",
+    "static-linearity",
+    "permanent-deformation",
+    "repeated-steps",
+    "sweep",
+    "pseudo-random",
+    "sines",
+    "low-force",
+];
+
+/// Options a scenario takes from the command line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScenarioOptions {
+    /// Load for `step` (and `repeated-steps`), grams.
+    pub load_g: f32,
+    /// Seed of the pseudo-random and sines protocols.
+    pub protocol_seed: u64,
+    /// Replace the A1 schedule by fixed gains at their 100 g value (the law that failed).
+    pub fixed_gains: bool,
+    /// Duration for the open-ended protocols (pseudo-random, sines), s.
+    pub duration_s: f32,
+}
+
+impl Default for ScenarioOptions {
+    fn default() -> Self {
+        Self { load_g: 50.0, protocol_seed: 1989, fixed_gains: false, duration_s: 100.0 }
+    }
+}
+
+/// Why a scenario could not start.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ScenarioError {
+    Unknown(String),
+    Rig(RigError),
+}
+
+impl core::fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            ScenarioError::Unknown(name) => {
+                write!(f, "unknown scenario '{name}'; valid scenarios: {}", SCENARIOS.join(", "))
+            }
+            ScenarioError::Rig(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for ScenarioError {}
+
+/// The protocol a named scenario runs.
+pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioError> {
+    Ok(match name {
+        "force-steps" => Protocol::FORCE_STEPS_MEMO,
+        "step" => Protocol::Step { load_g: o.load_g, lead_s: 2.0, on_s: 50.0, off_s: 25.0 },
+        "step-loads" => Protocol::StepLoads,
+        "static-linearity" => Protocol::StaticLinearity { hold_s: 0.2 },
+        "permanent-deformation" => Protocol::PermanentDeformation,
+        "repeated-steps" => Protocol::RepeatedSteps { load_g: 20.0, on_s: 10.0, off_s: 5.0, count: 6 },
+        "sweep" => Protocol::Sweep { offset_g: 40.0, amplitude_g: 10.0, f0_hz: 1.0, f1_hz: 54.0, duration_s: 30.0 },
+        "pseudo-random" => match Protocol::PSEUDO_RANDOM_MEMO {
+            Protocol::PseudoRandom { min_g, max_g, max_change_g, dwell_min_s, dwell_max_s, .. } => Protocol::PseudoRandom {
+                seed: o.protocol_seed,
+                min_g,
+                max_g,
+                max_change_g,
+                dwell_min_s,
+                dwell_max_s,
+                duration_s: o.duration_s,
+            },
+            other => other,
+        },
+        "sines" => Protocol::Sines { seed: o.protocol_seed, offset_g: 25.0, amplitude_g: 4.0, duration_s: o.duration_s },
+        "low-force" => Protocol::LowForce { hold_s: 3.0 },
+        other => return Err(ScenarioError::Unknown(other.to_string())),
+    })
+}
+
+/// A finished run: every control tick and every 8×8 frame.
+#[derive(Clone, Debug, Default)]
+pub struct Run {
+    pub name: String,
+    pub ticks: Vec<TickRecord>,
+    pub frames: Vec<(f64, StrainGrid)>,
+}
+
+/// Runs `protocol` on a rig built from `config`; `progress` is told the fraction done.
+pub fn run_protocol(
+    name: &str,
+    protocol: Protocol,
+    mut config: RigConfig,
+    fixed_gains: bool,
+    mut progress: impl FnMut(f64),
+) -> Result<Run, ScenarioError> {
+    if fixed_gains {
+        config.law.schedule = GainSchedule::Fixed { command_g: 100.0 };
+    }
+    let mut rig = Rig::new(config).map_err(ScenarioError::Rig)?;
+    let mut source = CommandSource::new(protocol);
+    let n = (f64::from(protocol.duration_s()) / crate::rig::TICK_S).round() as usize;
+    let mut run = Run { name: name.to_string(), ticks: Vec::with_capacity(n), frames: Vec::new() };
+    for k in 0..n {
+        let command = source.command_g(rig.time_s() as f32);
+        let frames = &mut run.frames;
+        let rec = rig.tick(command, |t, grid| frames.push((t, *grid)));
+        run.ticks.push(rec);
+        if k % 1000 == 0 {
+            progress(k as f64 / n as f64);
+        }
+    }
+    progress(1.0);
+    Ok(run)
+}
+
+/// Runs a named scenario.
+pub fn run_named(name: &str, options: &ScenarioOptions, config: RigConfig, progress: impl FnMut(f64)) -> Result<Run, ScenarioError> {
+    let p = protocol(name, options)?;
+    run_protocol(name, p, config, options.fixed_gains, progress)
+}
