@@ -109,6 +109,37 @@ impl ForceLaw {
     }
 }
 
+/// Limits how fast the command fed to the law may change.
+///
+/// A step of the command releases or stores the finger's elastic energy faster than the
+/// lightly damped probe can follow: on unloading the probe rebounds off the finger and on the
+/// next load it strikes it. Slewing the command at a rate the mechanics can track (a 30 g step
+/// over 60 ms at 500 g/s, two periods of the 50 Hz mode) keeps the probe on the finger; it also
+/// keeps A1's derivative term from kicking on every step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlewLimiter {
+    pub max_rate_g_per_s: f32,
+    pub dt_s: f32,
+    last_g: f32,
+}
+
+impl SlewLimiter {
+    pub const fn new(max_rate_g_per_s: f32, dt_s: f32) -> Self {
+        Self { max_rate_g_per_s, dt_s, last_g: 0.0 }
+    }
+
+    /// The next command, moved toward `target_g` by at most one step of the rate; a
+    /// non-finite target holds the last command.
+    #[inline]
+    pub fn update(&mut self, target_g: f32) -> f32 {
+        if target_g.is_finite() {
+            let step = self.max_rate_g_per_s * self.dt_s;
+            self.last_g += (target_g - self.last_g).clamp(-step, step);
+        }
+        self.last_g
+    }
+}
+
 /// The actuator path: grams at the probe → volts into the current amplifier → DAC code.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ActuatorConfig {
@@ -198,6 +229,19 @@ mod tests {
         }
         // The bad tick left the derivative memory untouched.
         assert_eq!(law.previous_error_g(), 0.0);
+    }
+
+    #[test]
+    fn slew_limiter_ramps_at_its_rate() {
+        let mut s = SlewLimiter::new(500.0, 0.001);
+        let out: Vec<f32> = (0..5).map(|_| s.update(30.0)).collect();
+        assert_eq!(out, vec![0.5, 1.0, 1.5, 2.0, 2.5]);
+        for _ in 0..100 {
+            s.update(30.0);
+        }
+        assert_eq!(s.update(30.0), 30.0);
+        assert_eq!(s.update(f32::NAN), 30.0);
+        assert_eq!(s.update(29.8), 29.8);
     }
 
     #[test]

@@ -39,7 +39,19 @@ pub enum Protocol {
 const STEP_LOADS_G: [f32; 4] = [10.0, 30.0, 50.0, 80.0];
 const LOW_FORCE_G: [f32; 4] = [8.0, 6.0, 4.0, 2.0];
 
+/// Command slew limit for step-like protocols, g/s (see `control::SlewLimiter`).
+pub const STEP_SLEW_G_PER_S: f32 = 500.0;
+
 impl Protocol {
+    /// The slew limit the command source applies: steps are slewed at
+    /// [`STEP_SLEW_G_PER_S`]; the sweep and the sinusoids pass unlimited.
+    pub fn slew_limit_g_per_s(&self) -> f32 {
+        match self {
+            Protocol::Sweep { .. } | Protocol::Sines { .. } => f32::INFINITY,
+            _ => STEP_SLEW_G_PER_S,
+        }
+    }
+
     pub const PSEUDO_RANDOM_MEMO: Protocol = Protocol::PseudoRandom {
         seed: 1989,
         min_g: 20.0,

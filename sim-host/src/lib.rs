@@ -4,8 +4,11 @@
 //! The plant modules (`applicator`, `finger`, `noise`) use only `core` and `libm`, so the
 //! firmware-in-the-loop build can run the same physics without `std`.
 
+pub mod analysis;
 pub mod applicator;
 pub mod finger;
+pub mod metrics;
 pub mod noise;
+pub mod record;
 pub mod rig;
 pub mod scenario;

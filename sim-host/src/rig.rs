@@ -3,7 +3,7 @@
 //! and finger. The plant is integrated at 10 kHz (ten RK4 steps per 1 ms control tick; the
 //! applicator tests check the step size).
 
-use tactile_core::control::{ActuatorConfig, ForceLaw, ForceLawConfig};
+use tactile_core::control::{ActuatorConfig, ForceLaw, ForceLawConfig, SlewLimiter};
 use tactile_core::filter::{LowpassNotch, LowpassNotchConfig, LowpassNotchState};
 use tactile_core::gauge::{AdcCode, GaugeConfig, GaugeFault, SAMPLES_PER_TICK};
 use tactile_core::tactile::{ScanSequencer, TaxelCalibration, TaxelId, TAXELS};
@@ -24,6 +24,8 @@ pub const TICK_S: f64 = 1e-3;
 pub struct RigConfig {
     pub seed: u64,
     pub law: ForceLawConfig,
+    /// Command slew limit ahead of the law, g/s (scenarios take it from their protocol).
+    pub command_slew_g_per_s: f32,
     pub filter: LowpassNotchConfig,
     pub gauge: GaugeConfig,
     pub actuator: ActuatorConfig,
@@ -56,6 +58,7 @@ impl Default for RigConfig {
         Self {
             seed: 1,
             law: ForceLawConfig { ke: SIM_ERROR_GAIN, ..ForceLawConfig::MEMO },
+            command_slew_g_per_s: tactile_core::profile::STEP_SLEW_G_PER_S,
             filter: LowpassNotchConfig::MEMO,
             gauge: GaugeConfig::MEMO,
             actuator: ActuatorConfig::MEMO,
@@ -75,7 +78,8 @@ impl Default for RigConfig {
 pub struct TickRecord {
     pub t_s: f64,
     pub command_g: f32,
-    /// Force from the gauge path (the value the law used next tick); NaN on a gauge fault.
+    /// Force from the gauge path (the value the law uses next tick); on a gauge fault, the raw
+    /// reading, with the fault flagged.
     pub sensed_g: f32,
     pub adjusted_g: f32,
     pub strain_pct: f32,
@@ -106,6 +110,7 @@ impl core::fmt::Display for RigError {
 pub struct Rig {
     pub config: RigConfig,
     law: ForceLaw,
+    slew: SlewLimiter,
     filter: LowpassNotch,
     filter_state: LowpassNotchState,
     pub plant: ApplicatorState,
@@ -130,6 +135,7 @@ impl Rig {
         let scan_steps_per_tick = libm::round(TICK_S / f64::from(config.readout.scan.dwell_s)).max(1.0) as usize;
         Ok(Self {
             law: ForceLaw::new(config.law),
+            slew: SlewLimiter::new(config.command_slew_g_per_s, config.law.dt_s),
             filter,
             filter_state: LowpassNotchState::default(),
             plant: ApplicatorState { stuck: true, ..Default::default() },
@@ -159,9 +165,10 @@ impl Rig {
         let t_s = self.time_s();
         let mut faults = FaultFlags::NONE;
         // Control: A1 on the gauge reading of the last tick, then the filter, then the DAC.
+        let shaped_g = self.slew.update(command_g);
         let adjusted = match self.last_gauge {
             Ok(sensed) => {
-                let a = self.law.update(command_g, sensed);
+                let a = self.law.update(shaped_g, sensed);
                 if a.saturated {
                     faults.insert(FaultFlags::ACTUATOR_SATURATED);
                 }
@@ -225,14 +232,17 @@ impl Rig {
             }
         }
 
-        if command_g > 0.5 && true_force <= 0.0 {
+        if shaped_g > 0.5 && true_force <= 0.0 {
             faults.insert(FaultFlags::CONTACT_LOST);
         }
         self.tick += 1;
         TickRecord {
             t_s: t_end,
             command_g,
-            sensed_g: self.last_gauge.unwrap_or(f32::NAN),
+            sensed_g: match self.last_gauge {
+                Ok(f) | Err(GaugeFault::OutOfRange { force_g: f }) => f,
+                Err(GaugeFault::AtRail { code }) => self.config.gauge.force_g(self.config.gauge.adc.volts(code)),
+            },
             adjusted_g: adjusted,
             strain_pct: strain,
             estimate_g: estimate,

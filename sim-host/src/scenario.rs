@@ -65,7 +65,7 @@ pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioErr
         "force-steps" => Protocol::FORCE_STEPS_MEMO,
         "step" => Protocol::Step { load_g: o.load_g, lead_s: 2.0, on_s: 50.0, off_s: 25.0 },
         "step-loads" => Protocol::StepLoads,
-        "static-linearity" => Protocol::StaticLinearity { hold_s: 0.2 },
+        "static-linearity" => Protocol::StaticLinearity { hold_s: 0.5 },
         "permanent-deformation" => Protocol::PermanentDeformation,
         "repeated-steps" => Protocol::RepeatedSteps { load_g: 20.0, on_s: 10.0, off_s: 5.0, count: 6 },
         "sweep" => Protocol::Sweep { offset_g: 40.0, amplitude_g: 10.0, f0_hz: 1.0, f1_hz: 54.0, duration_s: 30.0 },
@@ -106,6 +106,7 @@ pub fn run_protocol(
     if fixed_gains {
         config.law.schedule = GainSchedule::Fixed { command_g: 100.0 };
     }
+    config.command_slew_g_per_s = protocol.slew_limit_g_per_s();
     let mut rig = Rig::new(config).map_err(ScenarioError::Rig)?;
     let mut source = CommandSource::new(protocol);
     let n = (f64::from(protocol.duration_s()) / crate::rig::TICK_S).round() as usize;

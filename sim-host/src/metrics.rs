@@ -1,0 +1,141 @@
+//! The numbers each experiment is judged by, computed from a run.
+
+use crate::rig::TickRecord;
+
+/// One commanded level of a step protocol.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    pub start: usize,
+    pub end: usize,
+    pub command_g: f32,
+}
+
+/// Splits a run into runs of constant command.
+pub fn segments(ticks: &[TickRecord]) -> Vec<Segment> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 1..=ticks.len() {
+        if i == ticks.len() || ticks[i].command_g != ticks[start].command_g {
+            out.push(Segment { start, end: i, command_g: ticks[start].command_g });
+            start = i;
+        }
+    }
+    out
+}
+
+/// Settling time (s) of a segment: from its start until the true force enters ±`band_g` of
+/// the command for good; `None` if it never does.
+pub fn settling_time_s(ticks: &[TickRecord], seg: &Segment, band_g: f32) -> Option<f64> {
+    let slice = &ticks[seg.start..seg.end];
+    let last_out = slice.iter().rposition(|r| (r.true_force_g - seg.command_g).abs() > band_g);
+    match last_out {
+        None => Some(0.0),
+        Some(i) if i + 1 < slice.len() => Some((i + 1) as f64 * crate::rig::TICK_S),
+        Some(_) => None,
+    }
+}
+
+/// Force-steps summary: the worst settling time over the non-zero steps.
+pub fn worst_step_settling_s(ticks: &[TickRecord]) -> Option<f64> {
+    let segs = segments(ticks);
+    let mut worst: f64 = 0.0;
+    for s in segs.iter().filter(|s| s.command_g > 0.0) {
+        worst = worst.max(settling_time_s(ticks, s, 1.0)?);
+    }
+    Some(worst)
+}
+
+/// Per commanded level: fraction of the hold out of contact, and the worst |force − command|
+/// after `settle_s`.
+pub fn hold_quality(ticks: &[TickRecord], settle_s: f64) -> Vec<(f32, f64, f32)> {
+    let skip = (settle_s / crate::rig::TICK_S) as usize;
+    segments(ticks)
+        .iter()
+        .filter(|s| s.command_g > 0.0 && s.end - s.start > skip)
+        .map(|s| {
+            let held = &ticks[s.start + skip..s.end];
+            let lost = held.iter().filter(|r| !r.in_contact).count() as f64 / held.len() as f64;
+            let worst = held.iter().map(|r| (r.true_force_g - s.command_g).abs()).fold(0.0, f32::max);
+            (s.command_g, lost, worst)
+        })
+        .collect()
+}
+
+/// Static linearity (Graph 1 procedure): for each load, the strain 0.1 s after the load was
+/// applied (mean of 10 samples 1 ms apart) minus the strain just before it (a new offset).
+/// "Applied" is when the slewed command reaches the load (`slew_g_per_s`): the memo's rig
+/// stepped, ours ramps at a rate its probe can follow.
+pub fn static_linearity(ticks: &[TickRecord], slew_g_per_s: f32) -> Vec<(f32, f64)> {
+    let segs = segments(ticks);
+    segs.iter()
+        .enumerate()
+        .filter(|(_, s)| s.command_g > 0.0)
+        .filter_map(|(i, s)| {
+            let before = segs.get(i.checked_sub(1)?)?;
+            let offset = mean(ticks[before.end.saturating_sub(10)..before.end].iter().map(|r| f64::from(r.strain_pct)));
+            let ramp = (s.command_g / slew_g_per_s / crate::rig::TICK_S as f32).ceil() as usize;
+            let at = s.start + ramp + 100;
+            let reading = mean(ticks.get(at..at + 10)?.iter().map(|r| f64::from(r.strain_pct)));
+            Some((s.command_g, reading - offset))
+        })
+        .collect()
+}
+
+/// Permanent deformation (Graph 5): for each load, the strain at the end of the rest that
+/// follows it minus the strain before it was applied.
+pub fn residual_deformation(ticks: &[TickRecord]) -> Vec<(f32, f64)> {
+    let segs = segments(ticks);
+    segs.iter()
+        .enumerate()
+        .filter(|(_, s)| s.command_g > 0.0)
+        .filter_map(|(i, s)| {
+            let before = segs.get(i.checked_sub(1)?)?;
+            let after = segs.get(i + 1)?;
+            let b = mean(ticks[before.end.saturating_sub(200)..before.end].iter().map(|r| f64::from(r.strain_pct)));
+            let a = mean(ticks[after.end.saturating_sub(200)..after.end].iter().map(|r| f64::from(r.strain_pct)));
+            Some((s.command_g, a - b))
+        })
+        .collect()
+}
+
+/// RMS of (a − b) over the ticks where `keep` holds.
+pub fn rms(ticks: &[TickRecord], a: impl Fn(&TickRecord) -> f64, b: impl Fn(&TickRecord) -> f64) -> f64 {
+    let n = ticks.len().max(1) as f64;
+    (ticks.iter().map(|r| (a(r) - b(r)).powi(2)).sum::<f64>() / n).sqrt()
+}
+
+pub fn mean(xs: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 {
+        f64::NAN
+    } else {
+        s / n as f64
+    }
+}
+
+/// Closed-loop magnitude (true force over command) at `hz`: a stepped sine of `amplitude_g`
+/// about `offset_g` on the rig, lock-in over whole periods after a settling second.
+pub fn closed_loop_gain(config: crate::rig::RigConfig, offset_g: f64, amplitude_g: f64, hz: f64) -> Result<f64, crate::rig::RigError> {
+    let mut rig = crate::rig::Rig::new(crate::rig::RigConfig { scan_array: false, command_slew_g_per_s: f32::INFINITY, ..config })?;
+    let w = 2.0 * core::f64::consts::PI * hz;
+    let ramp = 1000;
+    for k in 0..ramp {
+        rig.tick((offset_g * k as f64 / ramp as f64) as f32, |_, _| {});
+    }
+    let periods = (2.0 * hz).ceil().max(4.0);
+    let n_settle = 1000;
+    let n = (periods / hz / crate::rig::TICK_S).round() as usize;
+    let (mut acc_f, mut acc_c) = (num_complex::Complex64::new(0.0, 0.0), num_complex::Complex64::new(0.0, 0.0));
+    for k in 0..(n_settle + n) {
+        let t = rig.time_s();
+        let c = offset_g + amplitude_g * (w * t).sin();
+        let r = rig.tick(c as f32, |_, _| {});
+        if k >= n_settle {
+            let ph = num_complex::Complex64::new(0.0, -w * r.t_s).exp();
+            acc_f += (f64::from(r.true_force_g) - offset_g) * ph;
+            let ph_c = num_complex::Complex64::new(0.0, -w * t).exp();
+            acc_c += (c - offset_g) * ph_c;
+        }
+    }
+    Ok(acc_f.norm() / acc_c.norm())
+}

@@ -1,0 +1,274 @@
+//! The project's record format (`../shared/data/README.md`):
+//!
+//! ```text
+//! # key=value            (comment lines; sample_rate_hz when known)
+//! t_s,force_g,strain_pct (header; other columns may follow and are ignored)
+//! 0.0000,0.109,-0.00589
+//! ```
+//!
+//! Writing and strict reading: every problem names the file, the line and the column.
+
+use std::fmt;
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+
+use crate::finger::StrainGrid;
+use crate::rig::TickRecord;
+
+/// A record read back: the three required columns, any extra ones, and the metadata.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Record {
+    pub meta: Vec<(String, String)>,
+    pub t_s: Vec<f64>,
+    pub force_g: Vec<f64>,
+    pub strain_pct: Vec<f64>,
+    /// Extra numeric columns by name (command_g, true_force_g, …).
+    pub extra: Vec<(String, Vec<f64>)>,
+}
+
+impl Record {
+    pub fn meta(&self, key: &str) -> Option<&str> {
+        self.meta.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+    }
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.extra.iter().find(|(k, _)| k == name).map(|(_, v)| v.as_slice())
+    }
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+    /// Sample period from the time column (median step).
+    pub fn sample_period_s(&self) -> Option<f64> {
+        let mut d: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        if d.is_empty() {
+            return None;
+        }
+        d.sort_by(f64::total_cmp);
+        Some(d[d.len() / 2])
+    }
+}
+
+/// What is wrong with a record, and where.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordError {
+    pub file: PathBuf,
+    /// 1-based line, when the problem has one.
+    pub line: Option<usize>,
+    /// Column name (or number), when the problem has one.
+    pub column: Option<String>,
+    pub message: String,
+}
+
+impl fmt::Display for RecordError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+        }
+        if let Some(c) = &self.column {
+            write!(f, ": column '{c}'")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for RecordError {}
+
+const REQUIRED: [&str; 3] = ["t_s", "force_g", "strain_pct"];
+
+/// Reads a record strictly. Time must increase and be evenly sampled (within 1 % of the median
+/// step); every cell of the required and extra columns must be a finite number.
+pub fn read_record(path: &Path) -> Result<Record, RecordError> {
+    let err = |line: Option<usize>, column: Option<String>, message: String| RecordError {
+        file: path.to_path_buf(),
+        line,
+        column,
+        message,
+    };
+    let file = std::fs::File::open(path).map_err(|e| err(None, None, format!("cannot open: {e}")))?;
+    parse_record(std::io::BufReader::new(file), path)
+}
+
+/// [`read_record`] on any reader (`path` only names the source in errors).
+pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordError> {
+    let err = |line: Option<usize>, column: Option<String>, message: String| RecordError {
+        file: path.to_path_buf(),
+        line,
+        column,
+        message,
+    };
+    let mut rec = Record::default();
+    let mut header: Option<Vec<String>> = None;
+    let mut index = [0usize; 3];
+    for (i, line) in reader.lines().enumerate() {
+        let n = i + 1;
+        let line = line.map_err(|e| err(Some(n), None, format!("unreadable line: {e}")))?;
+        let trimmed = line.trim();
+        if trimmed.is_empty() {
+            continue;
+        }
+        if let Some(comment) = trimmed.strip_prefix('#') {
+            if let Some((k, v)) = comment.split_once('=') {
+                rec.meta.push((k.trim().to_string(), v.trim().to_string()));
+            }
+            continue;
+        }
+        let cells: Vec<&str> = trimmed.split(',').map(str::trim).collect();
+        let Some(names) = &header else {
+            let names: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
+            for (slot, want) in index.iter_mut().zip(REQUIRED) {
+                *slot = names.iter().position(|c| c == want).ok_or_else(|| {
+                    err(Some(n), Some(want.to_string()), format!("header lacks the required column (found: {})", names.join(",")))
+                })?;
+            }
+            rec.extra = names
+                .iter()
+                .filter(|c| !REQUIRED.contains(&c.as_str()))
+                .map(|c| (c.clone(), Vec::new()))
+                .collect();
+            header = Some(names);
+            continue;
+        };
+        if cells.len() != names.len() {
+            return Err(err(Some(n), None, format!("{} cells, the header has {}", cells.len(), names.len())));
+        }
+        let mut values = Vec::with_capacity(cells.len());
+        for (cell, name) in cells.iter().zip(names) {
+            let v: f64 = cell.parse().map_err(|_| err(Some(n), Some(name.clone()), format!("'{cell}' is not a number")))?;
+            if !v.is_finite() {
+                return Err(err(Some(n), Some(name.clone()), format!("'{cell}' is not finite")));
+            }
+            values.push(v);
+        }
+        let t = values[index[0]];
+        if let Some(&last) = rec.t_s.last() {
+            if t <= last {
+                return Err(err(Some(n), Some("t_s".into()), format!("time {t} does not increase (previous {last})")));
+            }
+        }
+        rec.t_s.push(t);
+        rec.force_g.push(values[index[1]]);
+        rec.strain_pct.push(values[index[2]]);
+        let mut extra = rec.extra.iter_mut();
+        for (j, v) in values.iter().enumerate() {
+            if !index.contains(&j) {
+                if let Some((_, col)) = extra.next() {
+                    col.push(*v);
+                }
+            }
+        }
+    }
+    if header.is_none() {
+        return Err(err(None, None, "empty: no header line t_s,force_g,strain_pct".into()));
+    }
+    if rec.len() < 2 {
+        return Err(err(None, None, format!("{} data rows; a record needs at least two", rec.len())));
+    }
+    let step = rec.sample_period_s().unwrap_or(0.0);
+    // The first step that strays from the median by more than 1 % is uneven sampling.
+    let mut line_of_row = 0;
+    for (k, w) in rec.t_s.windows(2).enumerate() {
+        if ((w[1] - w[0]) - step).abs() > 0.01 * step {
+            line_of_row = k + 2;
+            break;
+        }
+    }
+    if line_of_row > 0 {
+        return Err(err(
+            None,
+            Some("t_s".into()),
+            format!("uneven sampling at data row {line_of_row}: step {:.6} s vs median {step:.6} s", rec.t_s[line_of_row - 1] - rec.t_s[line_of_row - 2]),
+        ));
+    }
+    Ok(rec)
+}
+
+/// Writes ticks (decimated to `record_hz`) as a record with the extra columns the simulator
+/// knows: command, adjusted command, the on-chip estimate, and the true contact force.
+pub fn write_record(path: &Path, meta: &[(String, String)], ticks: &[TickRecord], every: usize) -> std::io::Result<()> {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for (k, v) in meta {
+        writeln!(w, "# {k}={v}")?;
+    }
+    writeln!(w, "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g,true_force_g,contact,faults")?;
+    for r in ticks.iter().skip(every.max(1) - 1).step_by(every.max(1)) {
+        writeln!(
+            w,
+            "{:.4},{:.3},{:.5},{:.3},{:.3},{:.3},{:.3},{},{}",
+            r.t_s,
+            r.sensed_g,
+            r.strain_pct,
+            r.command_g,
+            r.adjusted_g,
+            r.estimate_g,
+            r.true_force_g,
+            u8::from(r.in_contact),
+            r.faults.0
+        )?;
+    }
+    w.flush()
+}
+
+/// Writes whole 8×8 frames: `t_s,r0c0,…,r7c7` (strain in percent).
+pub fn write_frames(path: &Path, meta: &[(String, String)], frames: &[(f64, StrainGrid)]) -> std::io::Result<()> {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for (k, v) in meta {
+        writeln!(w, "# {k}={v}")?;
+    }
+    write!(w, "t_s")?;
+    for r in 0..8 {
+        for c in 0..8 {
+            write!(w, ",r{r}c{c}")?;
+        }
+    }
+    writeln!(w)?;
+    for (t, grid) in frames {
+        write!(w, "{t:.4}")?;
+        for row in grid {
+            for v in row {
+                write!(w, ",{v:.4}")?;
+            }
+        }
+        writeln!(w)?;
+    }
+    w.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Record, RecordError> {
+        parse_record(text.as_bytes(), Path::new("mem.csv"))
+    }
+
+    #[test]
+    fn reads_the_shared_format_with_extra_columns() {
+        let r = parse("# sample_rate_hz=200\nt_s,force_g,strain_pct,x\n0.0,1.0,0.5,9\n0.005,2.0,0.6,8\n0.010,3.0,0.7,7\n").unwrap();
+        assert_eq!(r.meta("sample_rate_hz"), Some("200"));
+        assert_eq!(r.force_g, vec![1.0, 2.0, 3.0]);
+        assert_eq!(r.column("x"), Some(&[9.0, 8.0, 7.0][..]));
+        assert!((r.sample_period_s().unwrap() - 0.005).abs() < 1e-12);
+    }
+
+    #[test]
+    fn errors_name_the_line_and_column() {
+        let e = parse("t_s,force_g,strain_pct\n0.0,1.0,0.5\n0.005,abc,0.6\n").unwrap_err();
+        assert_eq!((e.line, e.column.as_deref()), (Some(3), Some("force_g")));
+        assert_eq!(e.to_string(), "mem.csv:3: column 'force_g': 'abc' is not a number");
+        let e = parse("t_s,force_g,strain_pct\n0.0,1.0,NaN\n0.005,1,1\n").unwrap_err();
+        assert_eq!((e.line, e.column.as_deref()), (Some(2), Some("strain_pct")));
+        let e = parse("t_s,force_g\n0.0,1.0\n").unwrap_err();
+        assert_eq!(e.column.as_deref(), Some("strain_pct"));
+        let e = parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.005,1,1\n").unwrap_err();
+        assert_eq!((e.line, e.column.as_deref()), (Some(4), Some("t_s")));
+        let e = parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1\n").unwrap_err();
+        assert_eq!(e.line, Some(3));
+        let e = parse("# only=comments\n").unwrap_err();
+        assert!(e.message.contains("empty"));
+        let e = parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.02,1,1\n0.05,1,1\n").unwrap_err();
+        assert!(e.message.contains("uneven sampling"), "{e}");
+    }
+}
