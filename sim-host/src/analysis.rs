@@ -25,7 +25,8 @@ pub fn mechanical_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, o
     let cb = 2.0 * p.beam_damping_ratio * (p.beam_stiffness_n_per_m * p.tip_mass_kg).sqrt();
     let kf = tangent_stiffness(law, load_g) * 100.0 / p.indentation_mm_per_100pct * 1e3 * NEWTONS_PER_GRAM;
     let kb = Complex64::new(p.beam_stiffness_n_per_m, 0.0) + cb * s;
-    let kc = Complex64::new(kf, 0.0) + p.contact_damping_n_s_per_m * s;
+    let compression = law.strain_pct(load_g);
+    let kc = Complex64::new(kf, 0.0) + p.contact_damping_n_s_per_m(load_g, compression) * s;
     let d = p.tip_mass_kg * s * s + kb + kc;
     let x = 1.0 / (m * s * s + b * s + kb - kb * kb / d);
     p.beam_stiffness_n_per_m * x * (p.tip_mass_kg * s * s + kc) / d
@@ -41,7 +42,7 @@ pub fn applicator_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, o
 /// `load_g` at `hz`, friction off, lock-in over whole periods after the transient.
 pub fn measured_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, amplitude_g: f64, hz: f64) -> Complex64 {
     let p = ApplicatorParams { static_friction_nm: 0.0, ..*p };
-    let contact = Contact { spring: *law, rest_strain_pct: 0.0 };
+    let contact = Contact::new(&p, *law, 0.0);
     let volts_per_g = 1.0 / p.grams_per_volt();
     let dt = 1e-5;
     // Start at the static equilibrium of the load.
@@ -170,6 +171,10 @@ mod tests {
             let (n, worst) = loop_encirclements(&c.law, &filter, &c.applicator, &spring, load);
             assert_eq!(n, 0, "{load} g");
             assert!(worst < 1.0 / 1.3, "{load} g: |L| = {worst} at −180°");
+        }
+        for load in [2.0, 5.0, 10.0, 20.0, 50.0, 100.0] {
+            let (_, worst) = loop_encirclements(&ForceLawConfig { ke: 1.0, ..c.law }, &filter, &c.applicator, &spring, load);
+            eprintln!("{load} g: largest stable overall gain {:.3}", 1.0 / worst * load / 100.0);
         }
         // Fixed gains at their 100 g value are unstable below about 20 g: the schedule's job.
         let fixed = ForceLawConfig { schedule: GainSchedule::Fixed { command_g: 100.0 }, ..c.law };

@@ -38,11 +38,13 @@ pub struct ApplicatorParams {
     pub beam_damping_ratio: f64,
     /// Probe indentation (mm) per 100 % strain of the element under it.
     pub indentation_mm_per_100pct: f64,
-    /// Rubber's high-frequency loss under the probe, as a dashpot in parallel with G₁
-    /// (N·s/m). The memo's Maxwell–Kelvin model is fitted at 10 Hz and has no such term;
-    /// elastomers have loss factors of 0.1–0.3 at tens of hertz. Its time constant with G₁ is
-    /// below a millisecond, invisible in the strain records.
-    pub contact_damping_n_s_per_m: f64,
+    /// Rubber's high-frequency loss under the probe: a dashpot in parallel with G₁ whose
+    /// coefficient is the loss factor times the spring's secant stiffness over ω at 50 Hz
+    /// (structural damping, so it grows with the load as the spring does). The memo's
+    /// Maxwell–Kelvin model is fitted at 10 Hz and has no such term; elastomers have loss
+    /// factors of 0.1–0.5 at tens of hertz. Its time constant with G₁ is below a millisecond,
+    /// invisible in the strain records.
+    pub contact_loss_factor: f64,
 }
 
 impl Default for ApplicatorParams {
@@ -66,13 +68,18 @@ impl ApplicatorParams {
         tip_mass_kg: 2.61e-3,
         beam_damping_ratio: 0.01,
         indentation_mm_per_100pct: 9.0,
-        // Loss factor 0.2 at the 50 Hz mode: c = η k / ω = 0.2 · 845 / 314.
-        contact_damping_n_s_per_m: 0.54,
+        contact_loss_factor: 0.36,
     };
 
     /// Grams at the probe per volt into the amplifier (memo: 19.2).
     pub fn grams_per_volt(&self) -> f64 {
         self.amplifier_a_per_v * self.torque_constant_nm_per_a / self.arm_m / NEWTONS_PER_GRAM
+    }
+
+    /// Contact dashpot (N·s/m) for a contact carrying `spring_g` at `compression_pct`.
+    pub fn contact_damping_n_s_per_m(&self, spring_g: f64, compression_pct: f64) -> f64 {
+        let c = Contact::new(self, SpringLaw::constant(1.0), 0.0);
+        spring_g / compression_pct * c.damping_s_pct_per_m * NEWTONS_PER_GRAM
     }
 
     fn motor_mass_kg(&self) -> f64 {
@@ -101,6 +108,18 @@ pub struct Contact {
     pub spring: SpringLaw,
     /// The finger surface's rest strain (viscoelastic states), percent.
     pub rest_strain_pct: f64,
+    /// Probe strain per metre of tip travel.
+    strain_pct_per_m: f64,
+    /// Dashpot per unit secant stiffness: grams per (g/%) per (m/s).
+    damping_s_pct_per_m: f64,
+}
+
+impl Contact {
+    pub fn new(p: &ApplicatorParams, spring: SpringLaw, rest_strain_pct: f64) -> Self {
+        let strain_pct_per_m = 100.0 / (p.indentation_mm_per_100pct * 1e-3);
+        let omega = 2.0 * core::f64::consts::PI * 50.0;
+        Self { spring, rest_strain_pct, strain_pct_per_m, damping_s_pct_per_m: p.contact_loss_factor * strain_pct_per_m / omega }
+    }
 }
 
 impl ApplicatorState {
@@ -114,83 +133,123 @@ impl Contact {
     /// Contact force (grams) with the tip at `tip_m` moving at `tip_m_per_s`; zero when lifted
     /// off (the dashpot cannot pull).
     #[inline]
-    pub fn force_g(&self, p: &ApplicatorParams, tip_m: f64, tip_m_per_s: f64) -> f64 {
-        let probe_strain_pct = tip_m * 1e3 / p.indentation_mm_per_100pct * 100.0;
-        let compression = probe_strain_pct - self.rest_strain_pct;
+    pub fn force_g(&self, tip_m: f64, tip_m_per_s: f64) -> f64 {
+        let compression = tip_m * self.strain_pct_per_m - self.rest_strain_pct;
         if compression <= 0.0 {
             0.0
         } else {
-            let damping_g = p.contact_damping_n_s_per_m * tip_m_per_s / NEWTONS_PER_GRAM;
-            (self.spring.stress_g(compression) + damping_g).max(0.0)
+            let spring_g = self.spring.stress_g(compression);
+            let damping_g = spring_g / compression * self.damping_s_pct_per_m * tip_m_per_s;
+            (spring_g + damping_g).max(0.0)
         }
     }
 }
 
-/// One integration step of `dt_s` (fourth-order Runge–Kutta with Karnopp stick/slip at the step
-/// boundaries) with amplifier input `drive_v` held.
-pub fn step(p: &ApplicatorParams, s: &mut ApplicatorState, contact: &Contact, drive_v: f64, dt_s: f64) {
-    let m_motor = p.motor_mass_kg();
-    let motor_n_per_a = p.torque_constant_nm_per_a / p.arm_m;
-    let friction_n = p.static_friction_nm / p.arm_m;
-    let viscous_n_s_per_m = p.viscous_nm_s_per_rad / (p.arm_m * p.arm_m);
-    let beam_damping = 2.0 * p.beam_damping_ratio * libm::sqrt(p.beam_stiffness_n_per_m * p.tip_mass_kg);
-    let amp_rate = 2.0 * core::f64::consts::PI * p.amplifier_pole_hz;
+/// Tip-referred constants of the applicator for a fixed step, computed once per run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lumped {
+    params: ApplicatorParams,
+    dt_s: f64,
+    inv_m_motor: f64,
+    inv_m_tip: f64,
+    motor_n_per_a: f64,
+    friction_n: f64,
+    viscous_n_s_per_m: f64,
+    beam_damping: f64,
+    /// The amplifier is linear and driven only by its input: its current is advanced exactly,
+    /// with these decays over a half and a whole step.
+    amp_decay_half: f64,
+    amp_decay_full: f64,
+}
 
-    // Stick/slip decision at the start of the step.
-    let beam_n = |x: &[f64; 5]| p.beam_stiffness_n_per_m * (x[1] - x[3]) + beam_damping * (x[2] - x[4]);
-    let x0 = [s.current_a, s.motor_m, s.motor_m_per_s, s.tip_m, s.tip_m_per_s];
-    if friction_n <= 0.0 {
-        s.stuck = false;
-    } else if s.stuck {
-        let drive = motor_n_per_a * s.current_a - beam_n(&x0);
-        if drive.abs() > friction_n {
-            s.stuck = false;
+impl Lumped {
+    pub fn new(p: &ApplicatorParams, dt_s: f64) -> Self {
+        let amp_rate = 2.0 * core::f64::consts::PI * p.amplifier_pole_hz;
+        Self {
+            params: *p,
+            dt_s,
+            inv_m_motor: 1.0 / p.motor_mass_kg(),
+            inv_m_tip: 1.0 / p.tip_mass_kg,
+            motor_n_per_a: p.torque_constant_nm_per_a / p.arm_m,
+            friction_n: p.static_friction_nm / p.arm_m,
+            viscous_n_s_per_m: p.viscous_nm_s_per_rad / (p.arm_m * p.arm_m),
+            beam_damping: 2.0 * p.beam_damping_ratio * libm::sqrt(p.beam_stiffness_n_per_m * p.tip_mass_kg),
+            amp_decay_half: libm::exp(-amp_rate * dt_s / 2.0),
+            amp_decay_full: libm::exp(-amp_rate * dt_s),
         }
     }
-    let stuck = s.stuck;
-    let slip_direction = if s.motor_m_per_s != 0.0 {
-        s.motor_m_per_s.signum()
-    } else {
-        (motor_n_per_a * s.current_a - beam_n(&x0)).signum()
-    };
 
-    let deriv = |x: &[f64; 5]| -> [f64; 5] {
-        let di = (p.amplifier_a_per_v * drive_v - x[0]) * amp_rate;
+    /// The step this was built for.
+    pub fn dt_s(&self) -> f64 {
+        self.dt_s
+    }
+}
+
+/// One integration step of `dt_s` with amplifier input `drive_v` held.
+pub fn step(p: &ApplicatorParams, s: &mut ApplicatorState, contact: &Contact, drive_v: f64, dt_s: f64) {
+    step_lumped(&Lumped::new(p, dt_s), s, contact, drive_v);
+}
+
+/// One step of `l.dt_s()`: the amplifier current advanced exactly, the mechanics by fourth-order
+/// Runge–Kutta, with Karnopp stick/slip decided at the step boundaries.
+#[inline]
+pub fn step_lumped(l: &Lumped, s: &mut ApplicatorState, contact: &Contact, drive_v: f64) {
+    let p = &l.params;
+    let dt_s = l.dt_s;
+    let kb = p.beam_stiffness_n_per_m;
+    let beam_n = |x: &[f64; 4]| kb * (x[0] - x[2]) + l.beam_damping * (x[1] - x[3]);
+    let x0 = [s.motor_m, s.motor_m_per_s, s.tip_m, s.tip_m_per_s];
+
+    // Current at the start, middle and end of the step (exact first-order response).
+    let i_ss = p.amplifier_a_per_v * drive_v;
+    let currents = [
+        s.current_a,
+        i_ss + (s.current_a - i_ss) * l.amp_decay_half,
+        i_ss + (s.current_a - i_ss) * l.amp_decay_full,
+    ];
+
+    // Stick/slip decision at the start of the step.
+    let drive0 = l.motor_n_per_a * s.current_a - beam_n(&x0);
+    if l.friction_n <= 0.0 {
+        s.stuck = false;
+    } else if s.stuck && drive0.abs() > l.friction_n {
+        s.stuck = false;
+    }
+    let stuck = s.stuck;
+    let slip_direction = if s.motor_m_per_s != 0.0 { s.motor_m_per_s.signum() } else { drive0.signum() };
+    let friction = l.friction_n * slip_direction;
+
+    let deriv = |x: &[f64; 4], current_a: f64| -> [f64; 4] {
         let fb = beam_n(x);
         let (dxm, dvm) = if stuck {
             (0.0, 0.0)
         } else {
-            let f = motor_n_per_a * x[0] - fb - friction_n * slip_direction - viscous_n_s_per_m * x[2];
-            (x[2], f / m_motor)
+            (x[1], (l.motor_n_per_a * current_a - fb - friction - l.viscous_n_s_per_m * x[1]) * l.inv_m_motor)
         };
-        let fc = contact.force_g(p, x[3], x[4]) * NEWTONS_PER_GRAM;
-        [di, dxm, dvm, x[4], (fb - fc) / p.tip_mass_kg]
+        let fc = contact.force_g(x[2], x[3]) * NEWTONS_PER_GRAM;
+        [dxm, dvm, x[3], (fb - fc) * l.inv_m_tip]
     };
-    let add = |a: &[f64; 5], k: &[f64; 5], h: f64| -> [f64; 5] {
-        let mut r = *a;
-        for (ri, ki) in r.iter_mut().zip(k) {
-            *ri += h * ki;
-        }
-        r
-    };
-    let k1 = deriv(&x0);
-    let k2 = deriv(&add(&x0, &k1, dt_s / 2.0));
-    let k3 = deriv(&add(&x0, &k2, dt_s / 2.0));
-    let k4 = deriv(&add(&x0, &k3, dt_s));
+    let add = |a: &[f64; 4], k: &[f64; 4], h: f64| -> [f64; 4] { [a[0] + h * k[0], a[1] + h * k[1], a[2] + h * k[2], a[3] + h * k[3]] };
+    let [i_start, i_mid, i_end] = currents;
+    let k1 = deriv(&x0, i_start);
+    let k2 = deriv(&add(&x0, &k1, dt_s / 2.0), i_mid);
+    let k3 = deriv(&add(&x0, &k2, dt_s / 2.0), i_mid);
+    let k4 = deriv(&add(&x0, &k3, dt_s), i_end);
     let mut x = x0;
     for (i, xi) in x.iter_mut().enumerate() {
         *xi += dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     }
     // Kinetic friction may not reverse the motion: when the velocity changes sign and the drive
     // cannot overcome static friction, the motor sticks.
-    if friction_n > 0.0 && !stuck && x[2] * slip_direction <= 0.0 {
-        let drive = motor_n_per_a * x[0] - beam_n(&x);
-        if drive.abs() <= friction_n {
-            x[2] = 0.0;
+    if l.friction_n > 0.0 && !stuck && x[1] * slip_direction <= 0.0 {
+        let drive = l.motor_n_per_a * i_end - beam_n(&x);
+        if drive.abs() <= l.friction_n {
+            x[1] = 0.0;
             s.stuck = true;
         }
     }
-    [s.current_a, s.motor_m, s.motor_m_per_s, s.tip_m, s.tip_m_per_s] = x;
+    s.current_a = i_end;
+    [s.motor_m, s.motor_m_per_s, s.tip_m, s.tip_m_per_s] = x;
 }
 
 #[cfg(test)]
@@ -203,7 +262,7 @@ mod tests {
     }
 
     fn linear_contact(g1: f64) -> Contact {
-        Contact { spring: SpringLaw::constant(g1), rest_strain_pct: 0.0 }
+        Contact::new(&ApplicatorParams::MEMO, SpringLaw::constant(g1), 0.0)
     }
 
     /// Settles at the force the amplifier commands: a step of 2.6 V is 50 g at the probe, once
@@ -219,7 +278,7 @@ mod tests {
         }
         let f = s.gauge_force_g(&p);
         assert!((f - 50.0).abs() <= 1.15, "{f}");
-        let fc = contact.force_g(&p, s.tip_m, 0.0);
+        let fc = contact.force_g(s.tip_m, 0.0);
         assert!((fc - f).abs() < 0.01, "contact {fc} vs gauge {f}");
     }
 
@@ -236,7 +295,7 @@ mod tests {
 
     fn integration_error_with_friction(static_friction_nm: f64) {
         let p = ApplicatorParams { static_friction_nm, ..ApplicatorParams::MEMO };
-        let contact = Contact { spring: tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1, rest_strain_pct: 0.0 };
+        let contact = Contact::new(&p, tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1, 0.0);
         let volts = 30.0 / p.grams_per_volt();
         let run = |substeps: usize| {
             let mut s = ApplicatorState::default();
@@ -263,8 +322,8 @@ mod tests {
     fn lifted_probe_has_no_contact_force() {
         let p = ApplicatorParams::MEMO;
         let contact = linear_contact(4.0);
-        assert_eq!(contact.force_g(&p, -0.001, 0.0), 0.0);
+        assert_eq!(contact.force_g(-0.001, 0.0), 0.0);
         // 0.9 mm indentation is 10 % strain: 40 g on a 4 g/% spring.
-        assert!((contact.force_g(&p, 0.9e-3, 0.0) - 40.0).abs() < 1e-9);
+        assert!((contact.force_g(0.9e-3, 0.0) - 40.0).abs() < 1e-9);
     }
 }

@@ -82,6 +82,8 @@ pub struct Taxel {
     pub state: NonlinearMkState,
     /// Amplified |V_s| with no strain (about 5 V).
     pub rest_amplitude_v: f64,
+    /// Pre-amplifier gain that makes eq. 2's amplitude at rest equal `rest_amplitude_v`.
+    preamp_gain: f64,
     pub amplifier: ReadoutAmplifier,
     /// Stress integral since the last update (g·s), and its start time.
     stress_integral_g_s: f64,
@@ -141,6 +143,10 @@ pub struct Finger {
     pub effects: Effects,
     pub readout: ReadoutParams,
     noise: Noise,
+    /// Taxels that carry part of the probe's load, with their share.
+    loaded: heapless::Vec<(usize, f64), TAXELS>,
+    /// Fraction of the previous taxel left in a scan sample.
+    blend: f64,
     plays_g: [f64; 3],
     slow_kelvin_pct: f64,
     delay_line: [f64; MAX_DELAY_TICKS],
@@ -179,21 +185,34 @@ impl Finger {
             };
             let target = readout.rest_output_target_v * trim_err as f32;
             amplifier.rp1_ohm = amplifier.trim_rp1_ohm(rest_amplitude_v as f32, target).unwrap_or(73.5e3);
+            let c0 = readout.geometry.capacitance_f(0.0);
             Taxel {
                 element,
                 state: NonlinearMkState::default(),
                 rest_amplitude_v,
+                preamp_gain: rest_amplitude_v / readout.node.sensed_amplitude_v(c0),
                 amplifier,
                 stress_integral_g_s: 0.0,
                 last_update_s: 0.0,
                 detector_v: rest_amplitude_v - f64::from(amplifier.diode_drop_v),
             }
         });
+        let mut loaded = heapless::Vec::new();
+        for i in 0..TAXELS {
+            let id = TaxelId::from_index(i);
+            let w = crosstalk_weight(id.row() as i32 - probe.row() as i32, id.col() as i32 - probe.col() as i32);
+            if w > 0.0 && i != probe.index() {
+                // At most 64 entries: the push cannot fail.
+                let _ = loaded.push((i, w));
+            }
+        }
         Self {
             taxels,
             probe,
             effects,
             readout,
+            loaded,
+            blend: f64::from(readout.scan.blend()),
             noise: Noise::new(seed ^ 0x6e6f_6973),
             plays_g: [0.0; 3],
             slow_kelvin_pct: 0.0,
@@ -217,11 +236,8 @@ impl Finger {
     /// tick's mean contact force). Neighbours accumulate their share and are brought up to date
     /// when scanned.
     pub fn tick(&mut self, probe_stress_g: f64, dt_s: f64) {
-        let (pr, pc) = (self.probe.row() as i32, self.probe.col() as i32);
-        for (i, t) in self.taxels.iter_mut().enumerate() {
-            let id = TaxelId::from_index(i);
-            let w = crosstalk_weight(id.row() as i32 - pr, id.col() as i32 - pc);
-            if w > 0.0 {
+        for &(i, w) in &self.loaded {
+            if let Some(t) = self.taxels.get_mut(i) {
                 t.stress_integral_g_s += w * probe_stress_g * dt_s;
             }
         }
@@ -246,7 +262,11 @@ impl Finger {
         let Some(t) = self.taxels.get_mut(index) else { return 0.0 };
         let elapsed = t_s - t.last_update_s;
         let mean = if elapsed > 0.0 { t.stress_integral_g_s / elapsed } else { 0.0 };
-        if elapsed > 0.0 {
+        let unloaded = t.stress_integral_g_s == 0.0 && t.state == NonlinearMkState::default();
+        if unloaded {
+            // Nothing to relax: skip the exponentials (most of the array, most of the time).
+            t.last_update_s = t_s;
+        } else if elapsed > 0.0 {
             t.element.step(&mut t.state, mean, elapsed);
             t.stress_integral_g_s = 0.0;
             t.last_update_s = t_s;
@@ -269,16 +289,17 @@ impl Finger {
 
     fn time_effects_pct(&self, t_s: f64) -> f64 {
         let fx = &self.effects;
-        fx.drift_pct_per_s * t_s
-            + fx.interference_pct * libm::sin(2.0 * core::f64::consts::PI * fx.interference_hz * t_s)
+        let mut e = fx.drift_pct_per_s * t_s;
+        if fx.interference_pct != 0.0 {
+            e += fx.interference_pct * libm::sin(2.0 * core::f64::consts::PI * fx.interference_hz * t_s);
+        }
+        e
     }
 
     /// Amplifier output of a taxel for strain `strain_pct` (before the envelope settling).
     fn detector_target_v(&self, taxel: &Taxel, strain_pct: f64) -> f64 {
         let g = &self.readout.geometry;
-        let c0 = g.capacitance_f(0.0);
-        let scale = taxel.rest_amplitude_v / self.readout.node.sensed_amplitude_v(c0);
-        let vs = scale * self.readout.node.sensed_amplitude_v(g.capacitance_f(strain_pct));
+        let vs = taxel.preamp_gain * self.readout.node.sensed_amplitude_v(g.capacitance_f(strain_pct));
         vs - f64::from(taxel.amplifier.diode_drop_v)
     }
 
@@ -324,7 +345,7 @@ impl Finger {
         let target = self.detector_target_v(&self.taxels[i], strain);
         // The detector starts from the previous taxel's level and settles toward this one's.
         let start = self.taxels[previous.index()].detector_v;
-        let v = target + (start - target) * f64::from(self.readout.scan.blend());
+        let v = target + (start - target) * self.blend;
         self.taxels[i].detector_v = v;
         self.convert(i, v)
     }
@@ -391,7 +412,7 @@ mod tests {
     fn a_short_dwell_reads_a_blend_of_the_previous_taxel() {
         let mut quick = ReadoutParams { noise_pct: 0.0, ..Default::default() };
         quick.scan.dwell_s = quick.scan.envelope_tau_s; // one τ: 37 % of the previous taxel
-        let mut f = Finger { readout: quick, ..finger(Effects::MEMO) };
+        let mut f = Finger::new(3, TaxelId::new(3, 2).unwrap_or_default(), Effects::MEMO, quick);
         let cal = f.rest_calibration(1);
         let probe = f.probe;
         let next = TaxelId::from_index(probe.index() + 1);

@@ -6,9 +6,11 @@
 
 pub mod analysis;
 pub mod applicator;
+pub mod cli;
 pub mod finger;
 pub mod metrics;
 pub mod noise;
+pub mod plot;
 pub mod record;
 pub mod rig;
 pub mod scenario;

@@ -1,18 +1,19 @@
-//! Seeded Gaussian noise (Box–Muller over xoshiro), allocation-free so the plant can run
+//! Seeded Gaussian noise (ziggurat over xoshiro), allocation-free so the plant can run
 //! without `std`.
 
+use rand::Rng;
+use rand_distr::StandardNormal;
 use rand_xoshiro::rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 #[derive(Clone, Debug)]
 pub struct Noise {
     rng: Xoshiro256PlusPlus,
-    spare: Option<f64>,
 }
 
 impl Noise {
     pub fn new(seed: u64) -> Self {
-        Self { rng: Xoshiro256PlusPlus::seed_from_u64(seed), spare: None }
+        Self { rng: Xoshiro256PlusPlus::seed_from_u64(seed) }
     }
 
     /// Uniform in (0, 1).
@@ -21,15 +22,9 @@ impl Noise {
     }
 
     /// Standard normal.
+    #[inline]
     pub fn gaussian(&mut self) -> f64 {
-        if let Some(z) = self.spare.take() {
-            return z;
-        }
-        let (u1, u2) = (self.uniform(), self.uniform());
-        let r = libm::sqrt(-2.0 * libm::log(u1));
-        let theta = 2.0 * core::f64::consts::PI * u2;
-        self.spare = Some(r * libm::sin(theta));
-        r * libm::cos(theta)
+        self.rng.sample(StandardNormal)
     }
 }
 

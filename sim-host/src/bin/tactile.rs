@@ -1,0 +1,127 @@
+//! `tactile`: the memo's experiments on the simulator.
+//!
+//! ```text
+//! tactile list
+//! tactile experiment NAME [--out DIR] [--seed N] [--load G] [--fixed-gains] [--duration S]
+//!                         [--record-hz HZ] [--effect NAME=VALUE]... [--no-plot]
+//! tactile demo [--out DIR] [--seed N]
+//! ```
+//! Exit codes: 0 done, 1 failed while running, 2 bad usage (unknown scenario, effect, option).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use sim_host::cli;
+use sim_host::rig::RigConfig;
+use sim_host::scenario::{ScenarioOptions, SCENARIOS};
+
+#[derive(Parser)]
+#[command(name = "tactile", version, about = "Force applicator and tactile finger after UCB/ERL M89/138, on the simulator")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List the scenarios and the effects that can be switched on.
+    List,
+    /// Run one of the memo's experiments, write its record, frames and plot.
+    Experiment {
+        /// Scenario name (see `tactile list`).
+        name: String,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Seed of the simulated noise and finger variation.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Load for `step`, grams.
+        #[arg(long, default_value_t = 50.0)]
+        load: f32,
+        /// Replace the A1 gain schedule by its 100 g value (the law that failed).
+        #[arg(long)]
+        fixed_gains: bool,
+        /// Duration of `pseudo-random` and `sines`, seconds.
+        #[arg(long, default_value_t = 100.0)]
+        duration: f32,
+        /// Seed of the pseudo-random and sines protocols.
+        #[arg(long, default_value_t = 1989)]
+        protocol_seed: u64,
+        /// Record sample rate, Hz (the control loop runs at 1000).
+        #[arg(long, default_value_t = 200.0)]
+        record_hz: f64,
+        /// Switch on an effect, NAME=VALUE (repeatable; see `tactile list`).
+        #[arg(long = "effect")]
+        effects: Vec<String>,
+        /// Skip the PNG.
+        #[arg(long)]
+        no_plot: bool,
+    },
+    /// The main job without a board: the memo's experiment set, plots and a report.
+    Demo {
+        #[arg(long, default_value = "out/demo")]
+        out: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+}
+
+fn usage_error(message: &str) -> ExitCode {
+    eprintln!("tactile: {message}");
+    ExitCode::from(2)
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::List => {
+            print!("{}", cli::listing());
+            ExitCode::SUCCESS
+        }
+        Command::Experiment { name, out, seed, load, fixed_gains, duration, protocol_seed, record_hz, effects, no_plot } => {
+            if !SCENARIOS.contains(&name.as_str()) {
+                return usage_error(&format!("unknown scenario '{name}'; valid scenarios: {}", SCENARIOS.join(", ")));
+            }
+            if !(record_hz > 0.0 && record_hz <= 1000.0) {
+                return usage_error(&format!("--record-hz {record_hz}: must be in (0, 1000]"));
+            }
+            if !(load.is_finite() && (0.0..=120.0).contains(&load)) {
+                return usage_error(&format!("--load {load}: the applicator's range is 0 to 120 g"));
+            }
+            if !(duration.is_finite() && duration > 0.0 && duration <= 3600.0) {
+                return usage_error(&format!("--duration {duration}: must be in (0, 3600] s"));
+            }
+            let mut config = RigConfig { seed, ..Default::default() };
+            for spec in &effects {
+                if let Err(e) = cli::apply_effect(&mut config.effects, spec) {
+                    return usage_error(&e);
+                }
+            }
+            let options = ScenarioOptions { load_g: load, protocol_seed, fixed_gains, duration_s: duration };
+            match cli::experiment(&name, &options, config, &out, record_hz, !no_plot) {
+                Ok(o) => {
+                    print!("{}", o.summary);
+                    for f in o.files {
+                        println!("  wrote {}", f.display());
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("tactile: {e}");
+                    ExitCode::from(1)
+                }
+            }
+        }
+        Command::Demo { out, seed } => match cli::demo(&out, seed) {
+            Ok(path) => {
+                println!("report: {}", path.display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("tactile: {e}");
+                ExitCode::from(1)
+            }
+        },
+    }
+}

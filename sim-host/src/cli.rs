@@ -1,0 +1,217 @@
+//! The `tactile` command's experiments and demo, kept in the library so tests drive them.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::finger::Effects;
+use crate::metrics;
+use crate::record::{write_frames, write_record};
+use crate::rig::{RigConfig, TICK_S};
+use crate::scenario::{self, Run, ScenarioOptions, SCENARIOS};
+
+/// Effects the command line can switch on, with what their strength means.
+pub const EFFECTS: [(&str, &str); 6] = [
+    ("stiffening", "load dependence of the springs, 1 = the memo's, 0 = linear"),
+    ("hysteresis", "play-operator amplitude, % strain"),
+    ("drift", "baseline drift, % strain per second"),
+    ("interference", "periodic interference amplitude, % strain (at 7.3 Hz, or VALUE@HZ)"),
+    ("delay", "read-out delay, seconds"),
+    ("slow-relaxation", "extra Kelvin compliance relative to G2 at 30 g (tau 40 s)"),
+];
+
+/// Parses `NAME=VALUE` into the effects.
+pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
+    let valid = || EFFECTS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ");
+    let (name, value) = spec.split_once('=').ok_or_else(|| format!("effect '{spec}' is not NAME=VALUE; valid names: {}", valid()))?;
+    let (value, hz) = match value.split_once('@') {
+        Some((v, hz)) => (v, Some(hz)),
+        None => (value, None),
+    };
+    let number = |s: &str| -> Result<f64, String> {
+        s.parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0).ok_or_else(|| format!("effect '{name}': '{s}' is not a non-negative number"))
+    };
+    let v = number(value)?;
+    match name {
+        "stiffening" => effects.stiffening = v,
+        "hysteresis" => effects.hysteresis_pct = v,
+        "drift" => effects.drift_pct_per_s = v,
+        "interference" => {
+            effects.interference_pct = v;
+            if let Some(hz) = hz {
+                effects.interference_hz = number(hz)?;
+            }
+        }
+        "delay" => {
+            if v > 0.5 {
+                return Err(format!("effect 'delay': {v} s is longer than the 0.5 s the read-out buffer holds"));
+            }
+            effects.delay_s = v;
+        }
+        "slow-relaxation" => effects.slow_relaxation = v,
+        other => return Err(format!("unknown effect '{other}'; valid effects: {}", valid())),
+    }
+    Ok(())
+}
+
+/// What an experiment run produced.
+pub struct ExperimentOutput {
+    pub run: Run,
+    pub summary: String,
+    pub files: Vec<PathBuf>,
+    pub wall_s: f64,
+}
+
+fn progress_bar(name: &str, simulated_s: f64) -> ProgressBar {
+    // Runs that take over a second of wall time get a bar (hidden when not on a terminal).
+    let bar = if simulated_s > 20.0 { ProgressBar::new(1000) } else { ProgressBar::hidden() };
+    bar.set_style(ProgressStyle::with_template("{msg:>22} [{bar:40}] {percent:>3}%").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    bar.set_message(name.to_string());
+    bar
+}
+
+/// Runs a named scenario, writes its record, frames and plot into `out`.
+pub fn experiment(
+    name: &str,
+    options: &ScenarioOptions,
+    config: RigConfig,
+    out: &Path,
+    record_hz: f64,
+    plot: bool,
+) -> Result<ExperimentOutput, Box<dyn std::error::Error>> {
+    let protocol = scenario::protocol(name, options)?;
+    std::fs::create_dir_all(out)?;
+    let seed = config.seed;
+    let effects = config.effects;
+    let bar = progress_bar(name, f64::from(protocol.duration_s()));
+    let start = Instant::now();
+    let run = scenario::run_protocol(name, protocol, config, options.fixed_gains, |f| bar.set_position((f * 1000.0) as u64))?;
+    bar.finish_and_clear();
+    let wall_s = start.elapsed().as_secs_f64();
+    let every = ((1.0 / record_hz) / TICK_S).round().max(1.0) as usize;
+    let meta = vec![
+        ("source".to_string(), "tactile simulator (sim-host)".to_string()),
+        ("scenario".to_string(), name.to_string()),
+        ("seed".to_string(), seed.to_string()),
+        ("sample_rate_hz".to_string(), format!("{}", 1.0 / (every as f64 * TICK_S))),
+        ("fixed_gains".to_string(), options.fixed_gains.to_string()),
+        ("effects".to_string(), format!("{effects:?}")),
+    ];
+    let record = out.join(format!("{name}.csv"));
+    write_record(&record, &meta, &run.ticks, every)?;
+    let frames = out.join(format!("{name}_frames.csv"));
+    write_frames(&frames, &meta, &run.frames)?;
+    let mut files = vec![record, frames];
+    if plot {
+        let png = out.join(format!("{name}.png"));
+        crate::plot::plot_run(&png, name, &run.ticks).map_err(|e| format!("plot {}: {e}", png.display()))?;
+        files.push(png);
+    }
+    let summary = summarize(&run, wall_s);
+    Ok(ExperimentOutput { run, summary, files, wall_s })
+}
+
+/// The short summary of a run: speed, and what the scenario is judged by.
+pub fn summarize(run: &Run, wall_s: f64) -> String {
+    let t = &run.ticks;
+    let simulated = t.len() as f64 * TICK_S;
+    let mut s = String::new();
+    let _ = writeln!(s, "{}: {simulated:.1} s simulated in {wall_s:.2} s ({:.0}x real time), {} frames", run.name, simulated / wall_s.max(1e-9), run.frames.len());
+    match run.name.as_str() {
+        "force-steps" => match metrics::worst_step_settling_s(t) {
+            Some(w) => {
+                let _ = writeln!(s, "  worst settling into ±1 g: {:.0} ms (memo: about 80 ms)", w * 1e3);
+            }
+            None => {
+                let _ = writeln!(s, "  a step never settled into ±1 g");
+            }
+        },
+        "low-force" => {
+            for (level, lost, worst) in metrics::hold_quality(t, 0.3) {
+                let _ = writeln!(s, "  {level:>4} g: out of contact {:5.1} % of the hold, worst error {worst:6.2} g", lost * 100.0);
+            }
+        }
+        "static-linearity" => {
+            for (load, strain) in metrics::static_linearity(t, tactile_core::profile::STEP_SLEW_G_PER_S) {
+                let _ = writeln!(s, "  {load:>5} g -> {strain:6.2} %");
+            }
+        }
+        "permanent-deformation" => {
+            for (load, r) in metrics::residual_deformation(t) {
+                let _ = writeln!(s, "  residual after {load} g for 20 s and 80 s rest: {r:.2} % (memo: {})", if load < 75.0 { "0.2 %" } else { "0.4 %" });
+            }
+        }
+        _ => {}
+    }
+    let loaded: Vec<_> = t.iter().filter(|r| r.command_g > 0.0).copied().collect();
+    if !loaded.is_empty() {
+        let track = metrics::rms(&loaded, |r| f64::from(r.true_force_g), |r| f64::from(r.command_g));
+        let est = metrics::rms(t, |r| f64::from(r.estimate_g), |r| f64::from(r.true_force_g));
+        let _ = writeln!(s, "  tracking RMS (force − command, loaded): {track:.2} g; on-chip estimate RMS error: {est:.2} g");
+    }
+    s
+}
+
+/// Lists the scenarios and effects.
+pub fn listing() -> String {
+    let mut s = String::from("scenarios:\n");
+    for n in SCENARIOS {
+        let _ = writeln!(s, "  {n}");
+    }
+    s.push_str("effects (--effect NAME=VALUE):\n");
+    for (n, d) in EFFECTS {
+        let _ = writeln!(s, "  {n:<16} {d}");
+    }
+    s
+}
+
+/// The main job without a board: the memo's experiment set, plots, and a report.
+pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>> {
+    std::fs::create_dir_all(out)?;
+    let mut report = String::from("# Tactile applicator and finger: the memo's experiments on the simulator\n\n");
+    let _ = writeln!(report, "Produced by `tactile demo --out {} --seed {seed}`. Each experiment writes `NAME.csv` (the record at 200 Hz), `NAME_frames.csv` (8×8 frames at 62.5 Hz) and `NAME.png`.\n", out.display());
+    report.push_str("| experiment | simulated (s) | speed (× real time) | result |\n|---|---|---|---|\n");
+    let mut details = String::new();
+    let runs: [(&str, ScenarioOptions); 11] = [
+        ("force-steps", ScenarioOptions::default()),
+        ("low-force", ScenarioOptions::default()),
+        ("low-force", ScenarioOptions { fixed_gains: true, ..Default::default() }),
+        ("step", ScenarioOptions { load_g: 50.0, ..Default::default() }),
+        ("step-loads", ScenarioOptions::default()),
+        ("static-linearity", ScenarioOptions::default()),
+        ("permanent-deformation", ScenarioOptions::default()),
+        ("repeated-steps", ScenarioOptions::default()),
+        ("sweep", ScenarioOptions::default()),
+        ("pseudo-random", ScenarioOptions::default()),
+        ("sines", ScenarioOptions::default()),
+    ];
+    for (name, options) in runs {
+        let dir = if options.fixed_gains { out.join("fixed-gains") } else { out.to_path_buf() };
+        let config = RigConfig { seed, ..Default::default() };
+        let o = experiment(name, &options, config, &dir, 200.0, true)?;
+        let label = if options.fixed_gains { format!("{name} (fixed gains)") } else { name.to_string() };
+        let headline = o.summary.lines().nth(1).unwrap_or("").trim().to_string();
+        let simulated = o.run.ticks.len() as f64 * TICK_S;
+        let _ = writeln!(report, "| {label} | {simulated:.0} | {:.0} | {headline} |", simulated / o.wall_s.max(1e-9));
+        let _ = writeln!(details, "## {label}\n\n```text\n{}```\n", o.summary);
+        for f in &o.files {
+            if f.extension().is_some_and(|e| e == "png") {
+                let rel = f.strip_prefix(out).unwrap_or(f);
+                let _ = writeln!(details, "![{label}]({})\n", rel.display());
+            }
+        }
+        eprint!("{}", o.summary);
+    }
+    report.push_str("\n## Closed-loop magnitude (stepped sine, 10 g about 50 g)\n\n| Hz | dB |\n|---|---|\n");
+    for hz in [1.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0] {
+        let g = metrics::closed_loop_gain(RigConfig { seed, ..Default::default() }, 50.0, 10.0, hz)?;
+        let _ = writeln!(report, "| {hz} | {:+.2} |", 20.0 * g.log10());
+    }
+    report.push('\n');
+    report.push_str(&details);
+    let path = out.join("report.md");
+    std::fs::write(&path, report)?;
+    Ok(path)
+}
