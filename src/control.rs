@@ -81,7 +81,10 @@ pub struct ForceLaw {
 
 impl ForceLaw {
     pub fn new(config: ForceLawConfig) -> Self {
-        Self { config, previous_error_g: 0.0 }
+        Self {
+            config,
+            previous_error_g: 0.0,
+        }
     }
 
     /// The error e(k) kept from the previous tick (0 after a reset, as in the memo's recursion).
@@ -97,7 +100,11 @@ impl ForceLaw {
     #[inline]
     pub fn update(&mut self, command_g: f32, sensed_g: f32) -> Adjusted {
         if !command_g.is_finite() || !sensed_g.is_finite() {
-            return Adjusted { force_g: 0.0, saturated: false, invalid_input: true };
+            return Adjusted {
+                force_g: 0.0,
+                saturated: false,
+                invalid_input: true,
+            };
         }
         let c = &self.config;
         let error_g = command_g - sensed_g;
@@ -105,7 +112,11 @@ impl ForceLaw {
         self.previous_error_g = error_g;
         let raw = command_g + c.gain_scale(command_g) * (c.kp * error_g + derivative);
         let force_g = raw.clamp(c.adjusted_min_g, c.adjusted_max_g);
-        Adjusted { force_g, saturated: force_g != raw, invalid_input: false }
+        Adjusted {
+            force_g,
+            saturated: force_g != raw,
+            invalid_input: false,
+        }
     }
 }
 
@@ -125,7 +136,11 @@ pub struct SlewLimiter {
 
 impl SlewLimiter {
     pub const fn new(max_rate_g_per_s: f32, dt_s: f32) -> Self {
-        Self { max_rate_g_per_s, dt_s, last_g: 0.0 }
+        Self {
+            max_rate_g_per_s,
+            dt_s,
+            last_g: 0.0,
+        }
     }
 
     /// The next command, moved toward `target_g` by at most one step of the rate; a
@@ -156,8 +171,10 @@ impl Default for ActuatorConfig {
 }
 
 impl ActuatorConfig {
-    pub const MEMO: ActuatorConfig =
-        ActuatorConfig { grams_per_volt: 19.2, dac: crate::gauge::AdcScale::BIPOLAR_10V_12BIT };
+    pub const MEMO: ActuatorConfig = ActuatorConfig {
+        grams_per_volt: 19.2,
+        dac: crate::gauge::AdcScale::BIPOLAR_10V_12BIT,
+    };
 
     /// DAC code for a force; clamps at the converter's range.
     #[inline]
@@ -222,7 +239,11 @@ mod tests {
     #[test]
     fn non_finite_input_gives_the_safe_output_and_a_flag() {
         let mut law = ForceLaw::new(ForceLawConfig::MEMO);
-        for (c, s) in [(f32::NAN, 1.0), (10.0, f32::INFINITY), (f32::NEG_INFINITY, 0.0)] {
+        for (c, s) in [
+            (f32::NAN, 1.0),
+            (10.0, f32::INFINITY),
+            (f32::NEG_INFINITY, 0.0),
+        ] {
             let a = law.update(c, s);
             assert_eq!(a.force_g, 0.0);
             assert!(a.invalid_input);

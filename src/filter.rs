@@ -33,7 +33,10 @@ pub struct BiquadState {
 
 impl Biquad {
     /// The identity section.
-    pub const IDENTITY: Biquad = Biquad { b: [1.0, 0.0, 0.0], a: [0.0, 0.0] };
+    pub const IDENTITY: Biquad = Biquad {
+        b: [1.0, 0.0, 0.0],
+        a: [0.0, 0.0],
+    };
 
     /// Runs one sample through the section.
     #[inline]
@@ -120,7 +123,10 @@ impl LowpassNotchConfig {
         let lowpass = complex_div((1.0, 0.0), (1.0, w / self.omega_l_rad_s));
         let ratio = self.omega_o_rad_s / self.omega_n_rad_s;
         let gain = ratio * ratio;
-        let num = (gain * (self.omega_n_rad_s * self.omega_n_rad_s - w * w), 0.0);
+        let num = (
+            gain * (self.omega_n_rad_s * self.omega_n_rad_s - w * w),
+            0.0,
+        );
         let den = (
             self.omega_o_rad_s * self.omega_o_rad_s - w * w,
             self.omega_o_rad_s / self.q * w,
@@ -131,7 +137,13 @@ impl LowpassNotchConfig {
     /// Discretizes the filter into two sections (lowpass, then notch).
     pub fn discretize(&self) -> Result<LowpassNotch, FilterError> {
         let t = self.sample_period_s;
-        let all = [self.omega_l_rad_s, self.omega_o_rad_s, self.q, self.omega_n_rad_s, t];
+        let all = [
+            self.omega_l_rad_s,
+            self.omega_o_rad_s,
+            self.q,
+            self.omega_n_rad_s,
+            t,
+        ];
         if all.iter().any(|v| !v.is_finite() || *v <= 0.0) {
             return Err(FilterError::NonPositiveParameter);
         }
@@ -155,15 +167,25 @@ impl LowpassNotchConfig {
         // Notch zeros: K_n²(z−1)² + ω_n²(z+1)²; pole pair: K_o²(z−1)² + (ω_o/Q)K_o(z²−1) + ω_o²(z+1)².
         let (wn, kn) = (self.omega_n_rad_s, prewarp(self.omega_n_rad_s));
         let (wo, ko) = (self.omega_o_rad_s, prewarp(self.omega_o_rad_s));
-        let num = [kn * kn + wn * wn, 2.0 * (wn * wn - kn * kn), kn * kn + wn * wn];
+        let num = [
+            kn * kn + wn * wn,
+            2.0 * (wn * wn - kn * kn),
+            kn * kn + wn * wn,
+        ];
         let bw = wo / self.q * ko;
-        let den = [ko * ko + bw + wo * wo, 2.0 * (wo * wo - ko * ko), ko * ko - bw + wo * wo];
+        let den = [
+            ko * ko + bw + wo * wo,
+            2.0 * (wo * wo - ko * ko),
+            ko * ko - bw + wo * wo,
+        ];
         let gain = (wo / wn) * (wo / wn);
         let notch = Biquad {
             b: num.map(|c| (gain * c / den[0]) as f32),
             a: [(den[1] / den[0]) as f32, (den[2] / den[0]) as f32],
         };
-        Ok(LowpassNotch { sections: [lowpass, notch] })
+        Ok(LowpassNotch {
+            sections: [lowpass, notch],
+        })
     }
 }
 
@@ -204,7 +226,10 @@ impl LowpassNotch {
     /// Digital frequency response at ω (rad/s) for sample period `t_s`, as (re, im).
     pub fn response(&self, omega_rad_s: f64, t_s: f64) -> (f64, f64) {
         let [lowpass, notch] = &self.sections;
-        complex_mul(lowpass.response(omega_rad_s * t_s), notch.response(omega_rad_s * t_s))
+        complex_mul(
+            lowpass.response(omega_rad_s * t_s),
+            notch.response(omega_rad_s * t_s),
+        )
     }
 
     /// True when every section is stable.
@@ -276,7 +301,10 @@ mod tests {
         };
         let (f_a, m_a) = peak(&|w| magnitude(config.analog_response(w)));
         let (f_d, m_d) = peak(&|w| magnitude(filter.response(w, 0.001)));
-        assert!((f_a - f_d).abs() < 0.5, "analog peak {f_a} Hz, digital {f_d} Hz");
+        assert!(
+            (f_a - f_d).abs() < 0.5,
+            "analog peak {f_a} Hz, digital {f_d} Hz"
+        );
         assert!((db(m_a) - db(m_d)).abs() < 0.2);
         // Hand check: |H| at the analog peak is above 1 (the Q = 2.8 bump survives the lowpass).
         assert!(m_a > 1.0);

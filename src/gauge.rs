@@ -23,7 +23,11 @@ pub struct AdcScale {
 
 impl AdcScale {
     /// A 12-bit converter spanning the memo's ±10 V.
-    pub const BIPOLAR_10V_12BIT: AdcScale = AdcScale { full_scale_code: 4095, min_v: -10.0, max_v: 10.0 };
+    pub const BIPOLAR_10V_12BIT: AdcScale = AdcScale {
+        full_scale_code: 4095,
+        min_v: -10.0,
+        max_v: 10.0,
+    };
 
     /// Volts per code.
     #[inline]
@@ -148,9 +152,17 @@ mod tests {
         let g = GaugeConfig::MEMO;
         let mut s = [AdcCode(2100); 8];
         s[3] = AdcCode(4095);
-        assert_eq!(g.average_force(&s), Err(GaugeFault::AtRail { code: AdcCode(4095) }));
+        assert_eq!(
+            g.average_force(&s),
+            Err(GaugeFault::AtRail {
+                code: AdcCode(4095)
+            })
+        );
         s[3] = AdcCode(0);
-        assert_eq!(g.average_force(&s), Err(GaugeFault::AtRail { code: AdcCode(0) }));
+        assert_eq!(
+            g.average_force(&s),
+            Err(GaugeFault::AtRail { code: AdcCode(0) })
+        );
     }
 
     #[test]

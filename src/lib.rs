@@ -15,7 +15,16 @@
 //! Units: force in grams-force (`_g`), strain in percent deflection (`_pct`), time in seconds
 //! (`_s`), voltages in volts (`_v`), raw converter codes as [`gauge::AdcCode`].
 #![cfg_attr(not(test), no_std)]
-#![deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
+// No panics outside the tests: no unwrap, expect, panicking index or explicit panic.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic
+    )
+)]
 
 pub mod control;
 pub mod filter;

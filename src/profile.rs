@@ -12,9 +12,18 @@ pub const SINES_HZ: [f32; 6] = [0.017, 0.062, 0.23, 0.79, 1.9, 5.0];
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Protocol {
     /// Appendix A Fig. a/b: `increment_g` steps up to `top_g` and back down, each held `hold_s`.
-    ForceSteps { increment_g: f32, top_g: f32, hold_s: f32 },
+    ForceSteps {
+        increment_g: f32,
+        top_g: f32,
+        hold_s: f32,
+    },
     /// One step load: `lead_s` at zero, `load_g` for `on_s`, then zero for `off_s`.
-    Step { load_g: f32, lead_s: f32, on_s: f32, off_s: f32 },
+    Step {
+        load_g: f32,
+        lead_s: f32,
+        on_s: f32,
+        off_s: f32,
+    },
     /// Step loads of 10, 30, 50 and 80 g, each 50 s on and 25 s off.
     StepLoads,
     /// Graph 1: loads of 10..=100 g in 10 g increments, each held `hold_s` then 19 s rest.
@@ -22,15 +31,39 @@ pub enum Protocol {
     /// Graph 5: 50 g for 20 s then 80 s rest, then 100 g for 20 s then 80 s rest.
     PermanentDeformation,
     /// Graph 6: `count` loads of `load_g`, `on_s` on and `off_s` off.
-    RepeatedSteps { load_g: f32, on_s: f32, off_s: f32, count: u16 },
+    RepeatedSteps {
+        load_g: f32,
+        on_s: f32,
+        off_s: f32,
+        count: u16,
+    },
     /// Graph 3: `offset_g` plus a sine of `amplitude_g` swept exponentially from `f0_hz` to
     /// `f1_hz` over `duration_s`.
-    Sweep { offset_g: f32, amplitude_g: f32, f0_hz: f32, f1_hz: f32, duration_s: f32 },
+    Sweep {
+        offset_g: f32,
+        amplitude_g: f32,
+        f0_hz: f32,
+        f1_hz: f32,
+        duration_s: f32,
+    },
     /// Table III: steps at random times (dwell uniform in `dwell_min_s..dwell_max_s`), each change
     /// uniform in ±`max_change_g`, reflected into `min_g..=max_g`.
-    PseudoRandom { seed: u64, min_g: f32, max_g: f32, max_change_g: f32, dwell_min_s: f32, dwell_max_s: f32, duration_s: f32 },
+    PseudoRandom {
+        seed: u64,
+        min_g: f32,
+        max_g: f32,
+        max_change_g: f32,
+        dwell_min_s: f32,
+        dwell_max_s: f32,
+        duration_s: f32,
+    },
     /// Section 4: `offset_g` plus six sinusoids of `amplitude_g` at [`SINES_HZ`], random phases.
-    Sines { seed: u64, offset_g: f32, amplitude_g: f32, duration_s: f32 },
+    Sines {
+        seed: u64,
+        offset_g: f32,
+        amplitude_g: f32,
+        duration_s: f32,
+    },
     /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
     /// each applied from rest (1 s at zero) and held `hold_s`.
     LowForce { hold_s: f32 },
@@ -61,23 +94,45 @@ impl Protocol {
         dwell_max_s: 8.0,
         duration_s: 100.0,
     };
-    pub const SINES_MEMO: Protocol = Protocol::Sines { seed: 138, offset_g: 25.0, amplitude_g: 4.0, duration_s: 100.0 };
-    pub const FORCE_STEPS_MEMO: Protocol = Protocol::ForceSteps { increment_g: 10.0, top_g: 100.0, hold_s: 0.5 };
+    pub const SINES_MEMO: Protocol = Protocol::Sines {
+        seed: 138,
+        offset_g: 25.0,
+        amplitude_g: 4.0,
+        duration_s: 100.0,
+    };
+    pub const FORCE_STEPS_MEMO: Protocol = Protocol::ForceSteps {
+        increment_g: 10.0,
+        top_g: 100.0,
+        hold_s: 0.5,
+    };
 
     /// Length of the protocol.
     pub fn duration_s(&self) -> f32 {
         match *self {
-            Protocol::ForceSteps { increment_g, top_g, hold_s } => {
+            Protocol::ForceSteps {
+                increment_g,
+                top_g,
+                hold_s,
+            } => {
                 let n = libm::roundf(top_g / increment_g);
                 (2.0 * n + 1.0) * hold_s
             }
-            Protocol::Step { lead_s, on_s, off_s, .. } => lead_s + on_s + off_s,
+            Protocol::Step {
+                lead_s,
+                on_s,
+                off_s,
+                ..
+            } => lead_s + on_s + off_s,
             Protocol::StepLoads => STEP_LOADS_G.len() as f32 * 75.0 + 2.0,
             Protocol::StaticLinearity { hold_s } => 10.0 * (hold_s + 19.0) + 2.0,
             Protocol::PermanentDeformation => 2.0 + 2.0 * 100.0,
-            Protocol::RepeatedSteps { on_s, off_s, count, .. } => 2.0 + f32::from(count) * (on_s + off_s),
+            Protocol::RepeatedSteps {
+                on_s, off_s, count, ..
+            } => 2.0 + f32::from(count) * (on_s + off_s),
             Protocol::Sweep { duration_s, .. } => duration_s + 2.0,
-            Protocol::PseudoRandom { duration_s, .. } | Protocol::Sines { duration_s, .. } => duration_s,
+            Protocol::PseudoRandom { duration_s, .. } | Protocol::Sines { duration_s, .. } => {
+                duration_s
+            }
             Protocol::LowForce { hold_s } => LOW_FORCE_G.len() as f32 * (1.0 + hold_s),
         }
     }
@@ -108,7 +163,13 @@ impl CommandSource {
             Protocol::PseudoRandom { min_g, max_g, .. } => 0.5 * (min_g + max_g),
             _ => 0.0,
         };
-        Self { protocol, rng, level_g, next_change_s: 0.0, phases_rad }
+        Self {
+            protocol,
+            rng,
+            level_g,
+            next_change_s: 0.0,
+            phases_rad,
+        }
     }
 
     pub fn protocol(&self) -> Protocol {
@@ -121,13 +182,22 @@ impl CommandSource {
             return 0.0;
         }
         match self.protocol {
-            Protocol::ForceSteps { increment_g, top_g, hold_s } => {
+            Protocol::ForceSteps {
+                increment_g,
+                top_g,
+                hold_s,
+            } => {
                 let n = libm::roundf(top_g / increment_g);
                 let k = libm::floorf(t_s / hold_s);
                 let level = if k <= n { k } else { 2.0 * n - k };
                 (level * increment_g).max(0.0)
             }
-            Protocol::Step { load_g, lead_s, on_s, .. } => {
+            Protocol::Step {
+                load_g,
+                lead_s,
+                on_s,
+                ..
+            } => {
                 if t_s >= lead_s && t_s < lead_s + on_s {
                     load_g
                 } else {
@@ -163,7 +233,12 @@ impl CommandSource {
                     0.0
                 }
             }
-            Protocol::RepeatedSteps { load_g, on_s, off_s, .. } => {
+            Protocol::RepeatedSteps {
+                load_g,
+                on_s,
+                off_s,
+                ..
+            } => {
                 let tt = t_s - 2.0;
                 let period = on_s + off_s;
                 if tt >= 0.0 && tt - libm::floorf(tt / period) * period < on_s {
@@ -172,7 +247,13 @@ impl CommandSource {
                     0.0
                 }
             }
-            Protocol::Sweep { offset_g, amplitude_g, f0_hz, f1_hz, duration_s } => {
+            Protocol::Sweep {
+                offset_g,
+                amplitude_g,
+                f0_hz,
+                f1_hz,
+                duration_s,
+            } => {
                 let tt = t_s - 2.0;
                 if tt < 0.0 {
                     // Ramp to the offset first, so the sweep starts in contact.
@@ -184,15 +265,27 @@ impl CommandSource {
                     * (libm::expf(ln_k * tt / duration_s) - 1.0);
                 offset_g + amplitude_g * libm::sinf(phase)
             }
-            Protocol::PseudoRandom { min_g, max_g, max_change_g, dwell_min_s, dwell_max_s, .. } => {
+            Protocol::PseudoRandom {
+                min_g,
+                max_g,
+                max_change_g,
+                dwell_min_s,
+                dwell_max_s,
+                ..
+            } => {
                 while t_s >= self.next_change_s {
                     let change = (2.0 * unit(&mut self.rng) - 1.0) * max_change_g;
                     self.level_g = reflect(self.level_g + change, min_g, max_g);
-                    self.next_change_s += dwell_min_s + (dwell_max_s - dwell_min_s) * unit(&mut self.rng);
+                    self.next_change_s +=
+                        dwell_min_s + (dwell_max_s - dwell_min_s) * unit(&mut self.rng);
                 }
                 self.level_g
             }
-            Protocol::Sines { offset_g, amplitude_g, .. } => {
+            Protocol::Sines {
+                offset_g,
+                amplitude_g,
+                ..
+            } => {
                 let mut f = offset_g;
                 for (hz, phase) in SINES_HZ.iter().zip(self.phases_rad.iter()) {
                     f += amplitude_g * libm::sinf(2.0 * core::f32::consts::PI * hz * t_s + phase);
@@ -260,7 +353,9 @@ mod tests {
     fn pseudo_random_stays_in_band_changes_by_at_most_20_g_and_repeats() {
         let run = || {
             let mut s = CommandSource::new(Protocol::PSEUDO_RANDOM_MEMO);
-            (0..100_000).map(|k| s.command_g(k as f32 * 0.001)).collect::<Vec<_>>()
+            (0..100_000)
+                .map(|k| s.command_g(k as f32 * 0.001))
+                .collect::<Vec<_>>()
         };
         let a = run();
         assert_eq!(a, run());
@@ -278,7 +373,9 @@ mod tests {
     #[test]
     fn sines_are_the_memo_excitation() {
         let mut s = CommandSource::new(Protocol::SINES_MEMO);
-        let xs: Vec<f32> = (0..100_000).map(|k| s.command_g(k as f32 * 0.001)).collect();
+        let xs: Vec<f32> = (0..100_000)
+            .map(|k| s.command_g(k as f32 * 0.001))
+            .collect();
         let mean = xs.iter().sum::<f32>() / xs.len() as f32;
         // The slow 0.017 Hz component does not average out over 100 s; the mean is 25 ± 4.
         assert!((mean - 25.0).abs() < 4.0, "{mean}");

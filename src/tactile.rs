@@ -25,7 +25,10 @@ impl TaxelId {
     /// `None` when out of the array.
     pub const fn new(row: usize, col: usize) -> Option<TaxelId> {
         if row < ROWS && col < COLS {
-            Some(TaxelId { row: row as u8, col: col as u8 })
+            Some(TaxelId {
+                row: row as u8,
+                col: col as u8,
+            })
         } else {
             None
         }
@@ -33,7 +36,10 @@ impl TaxelId {
     /// Row-major index 0..64, wrapping.
     pub const fn from_index(index: usize) -> TaxelId {
         let i = index % TAXELS;
-        TaxelId { row: (i / COLS) as u8, col: (i % COLS) as u8 }
+        TaxelId {
+            row: (i / COLS) as u8,
+            col: (i % COLS) as u8,
+        }
     }
     pub const fn row(self) -> usize {
         self.row as usize
@@ -56,8 +62,11 @@ pub struct ElementGeometry {
 
 impl ElementGeometry {
     /// 2.5 mm × 5.1 mm plates, 0.7 mm gap, dielectric constant about 4.
-    pub const MEMO: ElementGeometry =
-        ElementGeometry { dielectric_constant: 4.0, plate_area_m2: 2.5e-3 * 5.1e-3, gap_m: 0.7e-3 };
+    pub const MEMO: ElementGeometry = ElementGeometry {
+        dielectric_constant: 4.0,
+        plate_area_m2: 2.5e-3 * 5.1e-3,
+        gap_m: 0.7e-3,
+    };
 
     /// Eq. 1: C = K₀ ε₀ A / (d₀ − Δd), with Δd = ε d₀ (ε in percent / 100).
     pub fn capacitance_f(&self, strain_pct: f64) -> f64 {
@@ -133,13 +142,15 @@ impl ReadoutAmplifier {
     /// Output voltage for an envelope-detector input of `sensed_v − V_D`.
     #[inline]
     pub fn output_v(&self, sensed_v: f32) -> f32 {
-        -self.rpf_ohm * (self.offset_supply_v / self.rp1_ohm + (sensed_v - self.diode_drop_v) / self.r1_ohm)
+        -self.rpf_ohm
+            * (self.offset_supply_v / self.rp1_ohm + (sensed_v - self.diode_drop_v) / self.r1_ohm)
     }
 
     /// Sensed amplitude V_s that produced `output_v` (the amplifier relation solved for V_s).
     #[inline]
     pub fn sensed_v(&self, output_v: f32) -> f32 {
-        -(self.r1_ohm / self.rpf_ohm) * (output_v + self.rpf_ohm / self.rp1_ohm * self.offset_supply_v)
+        -(self.r1_ohm / self.rpf_ohm)
+            * (output_v + self.rpf_ohm / self.rp1_ohm * self.offset_supply_v)
             + self.diode_drop_v
     }
 
@@ -199,7 +210,10 @@ pub struct ScanConfig {
 impl ScanConfig {
     /// τ = 25 µs, dwell 250 µs (10 τ: the blend is e⁻¹⁰ = 4.5×10⁻⁵ of the previous taxel, below
     /// one 12-bit code), so a frame of 64 taxels takes 16 ms: 62.5 frames per second.
-    pub const DESIGN: ScanConfig = ScanConfig { envelope_tau_s: 25e-6, dwell_s: 250e-6 };
+    pub const DESIGN: ScanConfig = ScanConfig {
+        envelope_tau_s: 25e-6,
+        dwell_s: 250e-6,
+    };
 
     /// Fraction of the previous taxel's level left in a sample.
     pub fn blend(&self) -> f32 {
@@ -245,7 +259,11 @@ impl ScanSequencer {
     pub fn advance(&mut self) -> ScanStep {
         let sampled = self.selected();
         self.index = ((self.index as usize + 1) % TAXELS) as u8;
-        ScanStep { sampled, next: self.selected(), frame_complete: sampled.index() == TAXELS - 1 }
+        ScanStep {
+            sampled,
+            next: self.selected(),
+            frame_complete: sampled.index() == TAXELS - 1,
+        }
     }
 }
 
@@ -257,16 +275,25 @@ pub struct ArrayFrame<T: Copy> {
 
 impl<T: Copy + Default> Default for ArrayFrame<T> {
     fn default() -> Self {
-        Self { cells: [[T::default(); COLS]; ROWS] }
+        Self {
+            cells: [[T::default(); COLS]; ROWS],
+        }
     }
 }
 
 impl<T: Copy> ArrayFrame<T> {
     pub fn get(&self, taxel: TaxelId) -> Option<T> {
-        self.cells.get(taxel.row()).and_then(|r| r.get(taxel.col())).copied()
+        self.cells
+            .get(taxel.row())
+            .and_then(|r| r.get(taxel.col()))
+            .copied()
     }
     pub fn set(&mut self, taxel: TaxelId, value: T) {
-        if let Some(cell) = self.cells.get_mut(taxel.row()).and_then(|r| r.get_mut(taxel.col())) {
+        if let Some(cell) = self
+            .cells
+            .get_mut(taxel.row())
+            .and_then(|r| r.get_mut(taxel.col()))
+        {
             *cell = value;
         }
     }
@@ -318,7 +345,11 @@ mod tests {
         assert!((amp.sensed_v(rest_out) - 5.0).abs() < 1e-4);
         // 10 % strain: V_s = 5/0.9 = 5.5556 V.
         let strained_out = amp.output_v(5.0 / 0.9);
-        let cal = TaxelCalibration { amplifier: amp, rest_output_v: rest_out, gain: 1.0 };
+        let cal = TaxelCalibration {
+            amplifier: amp,
+            rest_output_v: rest_out,
+            gain: 1.0,
+        };
         let exact = cal.strain_pct(strained_out, StrainForm::Exact);
         let appendix = cal.strain_pct(strained_out, StrainForm::Appendix);
         assert!((exact - 10.0).abs() < 2e-3, "{exact}");
@@ -330,7 +361,10 @@ mod tests {
     fn trim_brings_the_rest_output_into_range_only_from_the_negative_rail() {
         let memo = ReadoutAmplifier::MEMO_ELEMENT_4_2;
         assert_eq!(memo.trim_rp1_ohm(5.0, 0.0), None);
-        let mut amp = ReadoutAmplifier { offset_supply_v: -14.7, ..memo };
+        let mut amp = ReadoutAmplifier {
+            offset_supply_v: -14.7,
+            ..memo
+        };
         // −14.7 / R_p1 = −4.4/22k → R_p1 = 73.5 kΩ for V_out,o = 0.
         let rp1 = amp.trim_rp1_ohm(5.0, 0.0).unwrap();
         assert!((rp1 - 73_500.0).abs() < 1.0, "{rp1}");

@@ -91,7 +91,10 @@ pub struct FrameCounter {
 
 impl FrameCounter {
     pub const fn new() -> Self {
-        Self { next_seq: 0, dropped: 0 }
+        Self {
+            next_seq: 0,
+            dropped: 0,
+        }
     }
     /// The sequence number for the next frame.
     pub fn next_seq(&mut self) -> u32 {

@@ -103,7 +103,10 @@ impl Rational2 {
     }
 
     pub fn reciprocal(&self) -> Rational2 {
-        Rational2 { num: self.den, den: self.num }
+        Rational2 {
+            num: self.den,
+            den: self.num,
+        }
     }
 
     /// Tustin discretization for sample period `dt_s`. Poles must be in the closed left
@@ -129,14 +132,12 @@ impl Rational2 {
         // M = (I − A h)⁻¹ with I − A h = [[1, −h], [e0 h, 1 + e1 h]].
         let det = (1.0 + e1 * h) + e0 * h * h;
         let m = [[(1.0 + e1 * h) / det, h / det], [-e0 * h / det, 1.0 / det]];
-        let a = [[0.0, 1.0], [-e0, -e1]];
-        // A_d − I = M A T, B_d = M B T, C_d = C M, D_d = D + C M B h.
-        let mut ad_minus_i = [[0.0; 2]; 2];
-        for (i, row) in ad_minus_i.iter_mut().enumerate() {
-            for (j, cell) in row.iter_mut().enumerate() {
-                *cell = (m[i][0] * a[0][j] + m[i][1] * a[1][j]) * dt_s;
-            }
-        }
+        // A_d − I = M A T, B_d = M B T, C_d = C M, D_d = D + C M B h, with A = [[0, 1], [−e0, −e1]].
+        let [[m00, m01], [m10, m11]] = m;
+        let ad_minus_i = [
+            [-m01 * e0 * dt_s, (m00 - m01 * e1) * dt_s],
+            [-m11 * e0 * dt_s, (m10 - m11 * e1) * dt_s],
+        ];
         let bd = [m[0][1] * dt_s, m[1][1] * dt_s];
         let cd = [r0 * m[0][0] + r1 * m[1][0], r0 * m[0][1] + r1 * m[1][1]];
         let dd = d + cd[1] * h; // C M B = cd[1], since B = [0, 1]
@@ -168,7 +169,10 @@ pub struct Discrete2State<T> {
 
 impl<T: Real> Default for Discrete2State<T> {
     fn default() -> Self {
-        Self { x: [T::ZERO; 2], carry: [T::ZERO; 2] }
+        Self {
+            x: [T::ZERO; 2],
+            carry: [T::ZERO; 2],
+        }
     }
 }
 
@@ -179,7 +183,10 @@ impl<T: Real> Discrete2<T> {
         let [x0, x1] = state.x;
         let y = self.cd[0] * x0 + self.cd[1] * x1 + self.dd * u;
         let [[p, q], [r, s]] = self.ad_minus_i;
-        let dx = [p * x0 + q * x1 + self.bd[0] * u, r * x0 + s * x1 + self.bd[1] * u];
+        let dx = [
+            p * x0 + q * x1 + self.bd[0] * u,
+            r * x0 + s * x1 + self.bd[1] * u,
+        ];
         for ((x, carry), d) in state.x.iter_mut().zip(state.carry.iter_mut()).zip(dx) {
             // Kahan summation: the increments are ~10⁻⁴ of the state at 1 kHz.
             let y = d - *carry;
@@ -219,14 +226,41 @@ pub struct MaxwellKelvin {
 
 impl MaxwellKelvin {
     /// Table I, element 4,2, fitted at the given step load.
-    pub const TABLE_I_10G: MaxwellKelvin = MaxwellKelvin { g1: 2.4, n1: 5000.0, alpha: 0.0, n2: 500.0, g2: 26.0 };
-    pub const TABLE_I_30G: MaxwellKelvin = MaxwellKelvin { g1: 3.6, n1: 5770.0, alpha: 0.0, n2: 500.0, g2: 47.0 };
-    pub const TABLE_I_50G: MaxwellKelvin = MaxwellKelvin { g1: 4.4, n1: 6670.0, alpha: 0.0, n2: 500.0, g2: 66.0 };
-    pub const TABLE_I_80G: MaxwellKelvin = MaxwellKelvin { g1: 5.3, n1: 8250.0, alpha: 0.0, n2: 300.0, g2: 90.0 };
+    pub const TABLE_I_10G: MaxwellKelvin = MaxwellKelvin {
+        g1: 2.4,
+        n1: 5000.0,
+        alpha: 0.0,
+        n2: 500.0,
+        g2: 26.0,
+    };
+    pub const TABLE_I_30G: MaxwellKelvin = MaxwellKelvin {
+        g1: 3.6,
+        n1: 5770.0,
+        alpha: 0.0,
+        n2: 500.0,
+        g2: 47.0,
+    };
+    pub const TABLE_I_50G: MaxwellKelvin = MaxwellKelvin {
+        g1: 4.4,
+        n1: 6670.0,
+        alpha: 0.0,
+        n2: 500.0,
+        g2: 66.0,
+    };
+    pub const TABLE_I_80G: MaxwellKelvin = MaxwellKelvin {
+        g1: 5.3,
+        n1: 8250.0,
+        alpha: 0.0,
+        n2: 300.0,
+        g2: 90.0,
+    };
 
     pub fn is_valid(&self) -> bool {
         let p = [self.g1, self.n1, self.alpha, self.n2, self.g2];
-        p.iter().all(|v| v.is_finite() && *v >= 0.0) && self.g1 > 0.0 && self.n1 > 0.0 && self.n2 > 0.0
+        p.iter().all(|v| v.is_finite() && *v >= 0.0)
+            && self.g1 > 0.0
+            && self.n1 > 0.0
+            && self.n2 > 0.0
     }
 
     /// ε(s)/σ(s) = 1/G₁ + 1/(sN₁ + α) + 1/(sN₂ + G₂), evaluated directly from eq. 14.
@@ -243,7 +277,13 @@ impl MaxwellKelvin {
 
     /// The mapping of eq. 16 to the coefficients of eq. 17 (FACTS.md).
     pub fn second_order(&self) -> SecondOrder {
-        let MaxwellKelvin { g1, n1, alpha, n2, g2 } = *self;
+        let MaxwellKelvin {
+            g1,
+            n1,
+            alpha,
+            n2,
+            g2,
+        } = *self;
         SecondOrder {
             a1: g2 / n2 + alpha / n1 + g1 / n1 + g1 / n2,
             a2: (alpha * g2 + g1 * g2 + g1 * alpha) / (n1 * n2),
@@ -282,11 +322,20 @@ pub struct SecondOrder {
 
 impl SecondOrder {
     /// The memo's fit to the sum-of-sinusoids excitation (section 4).
-    pub const MEMO_FIT: SecondOrder = SecondOrder { a1: 3.01, a2: 0.784, b0: 5.81, b1: 13.26, b2: 2.53 };
+    pub const MEMO_FIT: SecondOrder = SecondOrder {
+        a1: 3.01,
+        a2: 0.784,
+        b0: 5.81,
+        b1: 13.26,
+        b2: 2.53,
+    };
 
     /// Strain over stress.
     pub fn compliance(&self) -> Rational2 {
-        Rational2 { num: [1.0, self.a1, self.a2], den: [self.b0, self.b1, self.b2] }
+        Rational2 {
+            num: [1.0, self.a1, self.a2],
+            den: [self.b0, self.b1, self.b2],
+        }
     }
 
     pub fn forward<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
@@ -314,7 +363,10 @@ pub struct InverseEstimator {
 
 impl InverseEstimator {
     pub fn new(model: Discrete2<f32>) -> Self {
-        Self { model, state: Discrete2State::default() }
+        Self {
+            model,
+            state: Discrete2State::default(),
+        }
     }
     /// Force from the latest strain sample. The linear state runs unclamped; only the reported
     /// force is clamped at zero (a normal force only pushes).
@@ -344,7 +396,11 @@ pub struct SpringLaw {
 
 impl SpringLaw {
     pub const fn constant(g: f64) -> Self {
-        Self { base: g, sqrt_coeff: 0.0, linear_coeff: 0.0 }
+        Self {
+            base: g,
+            sqrt_coeff: 0.0,
+            linear_coeff: 0.0,
+        }
     }
 
     /// Stiffness carrying `stress_g` (σ < 0 is treated as 0).
@@ -409,11 +465,19 @@ impl NonlinearMk {
     /// 0.54√σ and G₂(σ) = 17 + 0.91σ (Table I within 10 %), N₁ = 5000 (the memo's permanent
     /// deformation, 0.2 % after 1000 g·s), N₂ = 500, and α = 5 g/% (a 1000 s recovery).
     pub const ELEMENT_4_2: NonlinearMk = NonlinearMk {
-        g1: SpringLaw { base: 0.5, sqrt_coeff: 0.54, linear_coeff: 0.0 },
+        g1: SpringLaw {
+            base: 0.5,
+            sqrt_coeff: 0.54,
+            linear_coeff: 0.0,
+        },
         n1: 5000.0,
         alpha: 5.0,
         n2: 500.0,
-        g2: SpringLaw { base: 17.0, sqrt_coeff: 0.0, linear_coeff: 0.91 },
+        g2: SpringLaw {
+            base: 17.0,
+            sqrt_coeff: 0.0,
+            linear_coeff: 0.91,
+        },
     };
 
     /// The linear model this element behaves like for small changes about `stress_g` (secant
@@ -523,9 +587,22 @@ mod tests {
 
     #[test]
     fn mapping_reproduces_eq_16_at_several_points() {
-        let mk = MaxwellKelvin { g1: 4.4, n1: 6670.0, alpha: 3.0, n2: 500.0, g2: 66.0 };
+        let mk = MaxwellKelvin {
+            g1: 4.4,
+            n1: 6670.0,
+            alpha: 3.0,
+            n2: 500.0,
+            g2: 66.0,
+        };
         let tf = mk.second_order().compliance();
-        for s in [(0.0, 0.01), (-0.05, 0.3), (0.2, 1.0), (0.0, 31.4), (1.5, -2.0), (3.0, 0.0)] {
+        for s in [
+            (0.0, 0.01),
+            (-0.05, 0.3),
+            (0.2, 1.0),
+            (0.0, 31.4),
+            (1.5, -2.0),
+            (3.0, 0.0),
+        ] {
             let direct = mk.compliance(s);
             let mapped = tf.eval(s);
             let err = ((direct.0 - mapped.0).powi(2) + (direct.1 - mapped.1).powi(2)).sqrt();
@@ -565,7 +642,14 @@ mod tests {
     #[test]
     fn inverse_of_forward_recovers_a_pseudo_random_stress() {
         for dt in [0.001, 0.01, 0.1] {
-            for so in [SecondOrder::MEMO_FIT, MaxwellKelvin { alpha: 5.0, ..MaxwellKelvin::TABLE_I_30G }.second_order()] {
+            for so in [
+                SecondOrder::MEMO_FIT,
+                MaxwellKelvin {
+                    alpha: 5.0,
+                    ..MaxwellKelvin::TABLE_I_30G
+                }
+                .second_order(),
+            ] {
                 let fwd = so.forward::<f32>(dt).unwrap();
                 let inv = so.inverse::<f32>(dt).unwrap();
                 let (mut sf, mut si) = (Discrete2State::default(), Discrete2State::default());
@@ -606,10 +690,18 @@ mod tests {
     #[test]
     fn pure_maxwell_kelvin_has_no_inverse_but_alpha_gives_one() {
         let mk = MaxwellKelvin::TABLE_I_50G;
-        assert_eq!(mk.inverse::<f32>(0.001).unwrap_err(), ModelError::NoStaticGain);
-        assert!(MaxwellKelvin { alpha: 2.0, ..mk }.inverse::<f32>(0.001).is_ok());
+        assert_eq!(
+            mk.inverse::<f32>(0.001).unwrap_err(),
+            ModelError::NoStaticGain
+        );
+        assert!(MaxwellKelvin { alpha: 2.0, ..mk }
+            .inverse::<f32>(0.001)
+            .is_ok());
         let bad = MaxwellKelvin { g1: f64::NAN, ..mk };
-        assert_eq!(bad.forward::<f32>(0.001).unwrap_err(), ModelError::InvalidParameter);
+        assert_eq!(
+            bad.forward::<f32>(0.001).unwrap_err(),
+            ModelError::InvalidParameter
+        );
     }
 
     #[test]
@@ -631,7 +723,11 @@ mod tests {
             let s = el.g1.stress_g(e);
             assert!((el.g1.strain_pct(s) - e).abs() < 1e-9);
         }
-        let lin = SpringLaw { base: 17.0, sqrt_coeff: 0.3, linear_coeff: 0.91 };
+        let lin = SpringLaw {
+            base: 17.0,
+            sqrt_coeff: 0.3,
+            linear_coeff: 0.91,
+        };
         for e in [0.1, 0.5, 1.0] {
             let s = lin.stress_g(e);
             assert!((lin.strain_pct(s) - e).abs() < 1e-9, "{e} {s}");

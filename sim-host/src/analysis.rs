@@ -18,12 +18,19 @@ pub fn tangent_stiffness(law: &SpringLaw, load_g: f64) -> f64 {
 
 /// Gauge grams per gram of motor force, linearized about `load_g` on the spring `law`
 /// (friction ignored; amplifier not included).
-pub fn mechanical_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, omega_rad_s: f64) -> Complex64 {
+pub fn mechanical_response(
+    p: &ApplicatorParams,
+    law: &SpringLaw,
+    load_g: f64,
+    omega_rad_s: f64,
+) -> Complex64 {
     let s = Complex64::new(0.0, omega_rad_s);
     let m = p.motor_inertia_kg_m2 / (p.arm_m * p.arm_m);
     let b = p.viscous_nm_s_per_rad / (p.arm_m * p.arm_m);
     let cb = 2.0 * p.beam_damping_ratio * (p.beam_stiffness_n_per_m * p.tip_mass_kg).sqrt();
-    let kf = tangent_stiffness(law, load_g) * 100.0 / p.indentation_mm_per_100pct * 1e3 * NEWTONS_PER_GRAM;
+    let kf = tangent_stiffness(law, load_g) * 100.0 / p.indentation_mm_per_100pct
+        * 1e3
+        * NEWTONS_PER_GRAM;
     let kb = Complex64::new(p.beam_stiffness_n_per_m, 0.0) + cb * s;
     let compression = law.strain_pct(load_g);
     let kc = Complex64::new(kf, 0.0) + p.contact_damping_n_s_per_m(load_g, compression) * s;
@@ -33,15 +40,33 @@ pub fn mechanical_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, o
 }
 
 /// Amplifier input (expressed as grams of commanded force) to gauge grams.
-pub fn applicator_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, omega_rad_s: f64) -> Complex64 {
-    let amp = 1.0 / Complex64::new(1.0, omega_rad_s / (2.0 * core::f64::consts::PI * p.amplifier_pole_hz));
+pub fn applicator_response(
+    p: &ApplicatorParams,
+    law: &SpringLaw,
+    load_g: f64,
+    omega_rad_s: f64,
+) -> Complex64 {
+    let amp = 1.0
+        / Complex64::new(
+            1.0,
+            omega_rad_s / (2.0 * core::f64::consts::PI * p.amplifier_pole_hz),
+        );
     amp * mechanical_response(p, law, load_g, omega_rad_s)
 }
 
 /// Measures the same response from the simulated plant: a sine of `amplitude_g` about
 /// `load_g` at `hz`, friction off, lock-in over whole periods after the transient.
-pub fn measured_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, amplitude_g: f64, hz: f64) -> Complex64 {
-    let p = ApplicatorParams { static_friction_nm: 0.0, ..*p };
+pub fn measured_response(
+    p: &ApplicatorParams,
+    law: &SpringLaw,
+    load_g: f64,
+    amplitude_g: f64,
+    hz: f64,
+) -> Complex64 {
+    let p = ApplicatorParams {
+        static_friction_nm: 0.0,
+        ..*p
+    };
     let contact = Contact::new(&p, *law, 0.0);
     let volts_per_g = 1.0 / p.grams_per_volt();
     let dt = 1e-5;
@@ -136,7 +161,9 @@ mod tests {
         let p = ApplicatorParams::MEMO;
         let law = NonlinearMk::ELEMENT_4_2.g1;
         let two_pi = 2.0 * core::f64::consts::PI;
-        let analytic = peaks(10.0, 300.0, 0.5, |hz| applicator_response(&p, &law, 50.0, two_pi * hz).norm());
+        let analytic = peaks(10.0, 300.0, 0.5, |hz| {
+            applicator_response(&p, &law, 50.0, two_pi * hz).norm()
+        });
         assert_eq!(analytic.len(), 2, "{analytic:?}");
         // Measured from the simulated plant by sine excitation, about the analytic peaks.
         let measured = peaks(30.0, 240.0, 2.0, |hz| {
@@ -147,8 +174,16 @@ mod tests {
             }
         });
         assert_eq!(measured.len(), 2, "{measured:?}");
-        assert!((measured[0] - 50.0).abs() <= 5.0, "inertia–finger mode at {} Hz", measured[0]);
-        assert!((measured[1] - 190.0).abs() <= 19.0, "beam mode at {} Hz", measured[1]);
+        assert!(
+            (measured[0] - 50.0).abs() <= 5.0,
+            "inertia–finger mode at {} Hz",
+            measured[0]
+        );
+        assert!(
+            (measured[1] - 190.0).abs() <= 19.0,
+            "beam mode at {} Hz",
+            measured[1]
+        );
         // The simulation and the linearization agree where both are defined.
         for hz in [5.0, 20.0, 80.0] {
             let a = applicator_response(&p, &law, 50.0, two_pi * hz);
@@ -173,13 +208,29 @@ mod tests {
             assert!(worst < 1.0 / 1.3, "{load} g: |L| = {worst} at −180°");
         }
         for load in [2.0, 5.0, 10.0, 20.0, 50.0, 100.0] {
-            let (_, worst) = loop_encirclements(&ForceLawConfig { ke: 1.0, ..c.law }, &filter, &c.applicator, &spring, load);
-            eprintln!("{load} g: largest stable overall gain {:.3}", 1.0 / worst * load / 100.0);
+            let (_, worst) = loop_encirclements(
+                &ForceLawConfig { ke: 1.0, ..c.law },
+                &filter,
+                &c.applicator,
+                &spring,
+                load,
+            );
+            eprintln!(
+                "{load} g: largest stable overall gain {:.3}",
+                1.0 / worst * load / 100.0
+            );
         }
         // Fixed gains at their 100 g value are unstable below about 20 g: the schedule's job.
-        let fixed = ForceLawConfig { schedule: GainSchedule::Fixed { command_g: 100.0 }, ..c.law };
+        let fixed = ForceLawConfig {
+            schedule: GainSchedule::Fixed { command_g: 100.0 },
+            ..c.law
+        };
         for load in [2.0, 5.0, 10.0] {
-            assert_eq!(loop_encirclements(&fixed, &filter, &c.applicator, &spring, load).0, 1, "{load} g");
+            assert_eq!(
+                loop_encirclements(&fixed, &filter, &c.applicator, &spring, load).0,
+                1,
+                "{load} g"
+            );
         }
     }
 }

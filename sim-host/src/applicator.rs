@@ -118,7 +118,12 @@ impl Contact {
     pub fn new(p: &ApplicatorParams, spring: SpringLaw, rest_strain_pct: f64) -> Self {
         let strain_pct_per_m = 100.0 / (p.indentation_mm_per_100pct * 1e-3);
         let omega = 2.0 * core::f64::consts::PI * 50.0;
-        Self { spring, rest_strain_pct, strain_pct_per_m, damping_s_pct_per_m: p.contact_loss_factor * strain_pct_per_m / omega }
+        Self {
+            spring,
+            rest_strain_pct,
+            strain_pct_per_m,
+            damping_s_pct_per_m: p.contact_loss_factor * strain_pct_per_m / omega,
+        }
     }
 }
 
@@ -173,7 +178,9 @@ impl Lumped {
             motor_n_per_a: p.torque_constant_nm_per_a / p.arm_m,
             friction_n: p.static_friction_nm / p.arm_m,
             viscous_n_s_per_m: p.viscous_nm_s_per_rad / (p.arm_m * p.arm_m),
-            beam_damping: 2.0 * p.beam_damping_ratio * libm::sqrt(p.beam_stiffness_n_per_m * p.tip_mass_kg),
+            beam_damping: 2.0
+                * p.beam_damping_ratio
+                * libm::sqrt(p.beam_stiffness_n_per_m * p.tip_mass_kg),
             amp_decay_half: libm::exp(-amp_rate * dt_s / 2.0),
             amp_decay_full: libm::exp(-amp_rate * dt_s),
         }
@@ -186,7 +193,13 @@ impl Lumped {
 }
 
 /// One integration step of `dt_s` with amplifier input `drive_v` held.
-pub fn step(p: &ApplicatorParams, s: &mut ApplicatorState, contact: &Contact, drive_v: f64, dt_s: f64) {
+pub fn step(
+    p: &ApplicatorParams,
+    s: &mut ApplicatorState,
+    contact: &Contact,
+    drive_v: f64,
+    dt_s: f64,
+) {
     step_lumped(&Lumped::new(p, dt_s), s, contact, drive_v);
 }
 
@@ -210,13 +223,15 @@ pub fn step_lumped(l: &Lumped, s: &mut ApplicatorState, contact: &Contact, drive
 
     // Stick/slip decision at the start of the step.
     let drive0 = l.motor_n_per_a * s.current_a - beam_n(&x0);
-    if l.friction_n <= 0.0 {
-        s.stuck = false;
-    } else if s.stuck && drive0.abs() > l.friction_n {
+    if l.friction_n <= 0.0 || drive0.abs() > l.friction_n {
         s.stuck = false;
     }
     let stuck = s.stuck;
-    let slip_direction = if s.motor_m_per_s != 0.0 { s.motor_m_per_s.signum() } else { drive0.signum() };
+    let slip_direction = if s.motor_m_per_s != 0.0 {
+        s.motor_m_per_s.signum()
+    } else {
+        drive0.signum()
+    };
     let friction = l.friction_n * slip_direction;
 
     let deriv = |x: &[f64; 4], current_a: f64| -> [f64; 4] {
@@ -224,12 +239,23 @@ pub fn step_lumped(l: &Lumped, s: &mut ApplicatorState, contact: &Contact, drive
         let (dxm, dvm) = if stuck {
             (0.0, 0.0)
         } else {
-            (x[1], (l.motor_n_per_a * current_a - fb - friction - l.viscous_n_s_per_m * x[1]) * l.inv_m_motor)
+            (
+                x[1],
+                (l.motor_n_per_a * current_a - fb - friction - l.viscous_n_s_per_m * x[1])
+                    * l.inv_m_motor,
+            )
         };
         let fc = contact.force_g(x[2], x[3]) * NEWTONS_PER_GRAM;
         [dxm, dvm, x[3], (fb - fc) * l.inv_m_tip]
     };
-    let add = |a: &[f64; 4], k: &[f64; 4], h: f64| -> [f64; 4] { [a[0] + h * k[0], a[1] + h * k[1], a[2] + h * k[2], a[3] + h * k[3]] };
+    let add = |a: &[f64; 4], k: &[f64; 4], h: f64| -> [f64; 4] {
+        [
+            a[0] + h * k[0],
+            a[1] + h * k[1],
+            a[2] + h * k[2],
+            a[3] + h * k[3],
+        ]
+    };
     let [i_start, i_mid, i_end] = currents;
     let k1 = deriv(&x0, i_start);
     let k2 = deriv(&add(&x0, &k1, dt_s / 2.0), i_mid);
@@ -271,7 +297,10 @@ mod tests {
     fn static_force_equals_commanded_torque_within_friction() {
         let p = ApplicatorParams::MEMO;
         let contact = linear_contact(4.0);
-        let mut s = ApplicatorState { stuck: true, ..Default::default() };
+        let mut s = ApplicatorState {
+            stuck: true,
+            ..Default::default()
+        };
         let volts = 50.0 / p.grams_per_volt();
         for _ in 0..50_000 {
             step(&p, &mut s, &contact, volts, 1e-4);
@@ -294,8 +323,15 @@ mod tests {
     }
 
     fn integration_error_with_friction(static_friction_nm: f64) {
-        let p = ApplicatorParams { static_friction_nm, ..ApplicatorParams::MEMO };
-        let contact = Contact::new(&p, tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1, 0.0);
+        let p = ApplicatorParams {
+            static_friction_nm,
+            ..ApplicatorParams::MEMO
+        };
+        let contact = Contact::new(
+            &p,
+            tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1,
+            0.0,
+        );
         let volts = 30.0 / p.grams_per_volt();
         let run = |substeps: usize| {
             let mut s = ApplicatorState::default();
@@ -311,16 +347,22 @@ mod tests {
         };
         let coarse = run(1);
         let fine = run(8);
-        let worst = coarse.iter().zip(&fine).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let worst = coarse
+            .iter()
+            .zip(&fine)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         let bound = if static_friction_nm > 0.0 { 0.2 } else { 0.01 };
-        assert!(worst < bound, "worst {worst} g with friction {static_friction_nm} N·m");
+        assert!(
+            worst < bound,
+            "worst {worst} g with friction {static_friction_nm} N·m"
+        );
         // And the run is a real oscillation, not a trivial one: it overshoots 30 g.
         assert!(fine.iter().cloned().fold(0.0, f64::max) > 35.0);
     }
 
     #[test]
     fn lifted_probe_has_no_contact_force() {
-        let p = ApplicatorParams::MEMO;
         let contact = linear_contact(4.0);
         assert_eq!(contact.force_g(-0.001, 0.0), 0.0);
         // 0.9 mm indentation is 10 % strain: 40 g on a 4 g/% spring.

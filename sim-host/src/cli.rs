@@ -14,24 +14,47 @@ use crate::scenario::{self, Run, ScenarioOptions, SCENARIOS};
 
 /// Effects the command line can switch on, with what their strength means.
 pub const EFFECTS: [(&str, &str); 6] = [
-    ("stiffening", "load dependence of the springs, 1 = the memo's, 0 = linear"),
+    (
+        "stiffening",
+        "load dependence of the springs, 1 = the memo's, 0 = linear",
+    ),
     ("hysteresis", "play-operator amplitude, % strain"),
     ("drift", "baseline drift, % strain per second"),
-    ("interference", "periodic interference amplitude, % strain (at 7.3 Hz, or VALUE@HZ)"),
+    (
+        "interference",
+        "periodic interference amplitude, % strain (at 7.3 Hz, or VALUE@HZ)",
+    ),
     ("delay", "read-out delay, seconds"),
-    ("slow-relaxation", "extra Kelvin compliance relative to G2 at 30 g (tau 40 s)"),
+    (
+        "slow-relaxation",
+        "extra Kelvin compliance relative to G2 at 30 g (tau 40 s)",
+    ),
 ];
 
 /// Parses `NAME=VALUE` into the effects.
 pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
-    let valid = || EFFECTS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ");
-    let (name, value) = spec.split_once('=').ok_or_else(|| format!("effect '{spec}' is not NAME=VALUE; valid names: {}", valid()))?;
+    let valid = || {
+        EFFECTS
+            .iter()
+            .map(|(n, _)| *n)
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (name, value) = spec.split_once('=').ok_or_else(|| {
+        format!(
+            "effect '{spec}' is not NAME=VALUE; valid names: {}",
+            valid()
+        )
+    })?;
     let (value, hz) = match value.split_once('@') {
         Some((v, hz)) => (v, Some(hz)),
         None => (value, None),
     };
     let number = |s: &str| -> Result<f64, String> {
-        s.parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0).ok_or_else(|| format!("effect '{name}': '{s}' is not a non-negative number"))
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .ok_or_else(|| format!("effect '{name}': '{s}' is not a non-negative number"))
     };
     let v = number(value)?;
     match name {
@@ -46,12 +69,19 @@ pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
         }
         "delay" => {
             if v > 0.5 {
-                return Err(format!("effect 'delay': {v} s is longer than the 0.5 s the read-out buffer holds"));
+                return Err(format!(
+                    "effect 'delay': {v} s is longer than the 0.5 s the read-out buffer holds"
+                ));
             }
             effects.delay_s = v;
         }
         "slow-relaxation" => effects.slow_relaxation = v,
-        other => return Err(format!("unknown effect '{other}'; valid effects: {}", valid())),
+        other => {
+            return Err(format!(
+                "unknown effect '{other}'; valid effects: {}",
+                valid()
+            ))
+        }
     }
     Ok(())
 }
@@ -66,8 +96,15 @@ pub struct ExperimentOutput {
 
 fn progress_bar(name: &str, simulated_s: f64) -> ProgressBar {
     // Runs that take over a second of wall time get a bar (hidden when not on a terminal).
-    let bar = if simulated_s > 20.0 { ProgressBar::new(1000) } else { ProgressBar::hidden() };
-    bar.set_style(ProgressStyle::with_template("{msg:>22} [{bar:40}] {percent:>3}%").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    let bar = if simulated_s > 20.0 {
+        ProgressBar::new(1000)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>22} [{bar:40}] {percent:>3}%")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
     bar.set_message(name.to_string());
     bar
 }
@@ -87,15 +124,23 @@ pub fn experiment(
     let effects = config.effects;
     let bar = progress_bar(name, f64::from(protocol.duration_s()));
     let start = Instant::now();
-    let run = scenario::run_protocol(name, protocol, config, options.fixed_gains, |f| bar.set_position((f * 1000.0) as u64))?;
+    let run = scenario::run_protocol(name, protocol, config, options.fixed_gains, |f| {
+        bar.set_position((f * 1000.0) as u64)
+    })?;
     bar.finish_and_clear();
     let wall_s = start.elapsed().as_secs_f64();
     let every = ((1.0 / record_hz) / TICK_S).round().max(1.0) as usize;
     let meta = vec![
-        ("source".to_string(), "tactile simulator (sim-host)".to_string()),
+        (
+            "source".to_string(),
+            "tactile simulator (sim-host)".to_string(),
+        ),
         ("scenario".to_string(), name.to_string()),
         ("seed".to_string(), seed.to_string()),
-        ("sample_rate_hz".to_string(), format!("{}", 1.0 / (every as f64 * TICK_S))),
+        (
+            "sample_rate_hz".to_string(),
+            format!("{}", 1.0 / (every as f64 * TICK_S)),
+        ),
         ("fixed_gains".to_string(), options.fixed_gains.to_string()),
         ("effects".to_string(), format!("{effects:?}")),
     ];
@@ -106,11 +151,17 @@ pub fn experiment(
     let mut files = vec![record, frames];
     if plot {
         let png = out.join(format!("{name}.png"));
-        crate::plot::plot_run(&png, name, &run.ticks).map_err(|e| format!("plot {}: {e}", png.display()))?;
+        crate::plot::plot_run(&png, name, &run.ticks)
+            .map_err(|e| format!("plot {}: {e}", png.display()))?;
         files.push(png);
     }
     let summary = summarize(&run, wall_s);
-    Ok(ExperimentOutput { run, summary, files, wall_s })
+    Ok(ExperimentOutput {
+        run,
+        summary,
+        files,
+        wall_s,
+    })
 }
 
 /// The short summary of a run: speed, and what the scenario is judged by.
@@ -118,11 +169,21 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
     let t = &run.ticks;
     let simulated = t.len() as f64 * TICK_S;
     let mut s = String::new();
-    let _ = writeln!(s, "{}: {simulated:.1} s simulated in {wall_s:.2} s ({:.0}x real time), {} frames", run.name, simulated / wall_s.max(1e-9), run.frames.len());
+    let _ = writeln!(
+        s,
+        "{}: {simulated:.1} s simulated in {wall_s:.2} s ({:.0}x real time), {} frames",
+        run.name,
+        simulated / wall_s.max(1e-9),
+        run.frames.len()
+    );
     match run.name.as_str() {
         "force-steps" => match metrics::worst_step_settling_s(t) {
             Some(w) => {
-                let _ = writeln!(s, "  worst settling into ±1 g: {:.0} ms (memo: about 80 ms)", w * 1e3);
+                let _ = writeln!(
+                    s,
+                    "  worst settling into ±1 g: {:.0} ms (memo: about 80 ms)",
+                    w * 1e3
+                );
             }
             None => {
                 let _ = writeln!(s, "  a step never settled into ±1 g");
@@ -134,21 +195,35 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
             }
         }
         "static-linearity" => {
-            for (load, strain) in metrics::static_linearity(t, tactile_core::profile::STEP_SLEW_G_PER_S) {
+            for (load, strain) in
+                metrics::static_linearity(t, tactile_core::profile::STEP_SLEW_G_PER_S)
+            {
                 let _ = writeln!(s, "  {load:>5} g -> {strain:6.2} %");
             }
         }
         "permanent-deformation" => {
             for (load, r) in metrics::residual_deformation(t) {
-                let _ = writeln!(s, "  residual after {load} g for 20 s and 80 s rest: {r:.2} % (memo: {})", if load < 75.0 { "0.2 %" } else { "0.4 %" });
+                let _ = writeln!(
+                    s,
+                    "  residual after {load} g for 20 s and 80 s rest: {r:.2} % (memo: {})",
+                    if load < 75.0 { "0.2 %" } else { "0.4 %" }
+                );
             }
         }
         _ => {}
     }
     let loaded: Vec<_> = t.iter().filter(|r| r.command_g > 0.0).copied().collect();
     if !loaded.is_empty() {
-        let track = metrics::rms(&loaded, |r| f64::from(r.true_force_g), |r| f64::from(r.command_g));
-        let est = metrics::rms(t, |r| f64::from(r.estimate_g), |r| f64::from(r.true_force_g));
+        let track = metrics::rms(
+            &loaded,
+            |r| f64::from(r.true_force_g),
+            |r| f64::from(r.command_g),
+        );
+        let est = metrics::rms(
+            t,
+            |r| f64::from(r.estimate_g),
+            |r| f64::from(r.true_force_g),
+        );
         let _ = writeln!(s, "  tracking RMS (force − command, loaded): {track:.2} g; on-chip estimate RMS error: {est:.2} g");
     }
     s
@@ -170,15 +245,31 @@ pub fn listing() -> String {
 /// The main job without a board: the memo's experiment set, plots, and a report.
 pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>> {
     std::fs::create_dir_all(out)?;
-    let mut report = String::from("# Tactile applicator and finger: the memo's experiments on the simulator\n\n");
+    let mut report = String::from(
+        "# Tactile applicator and finger: the memo's experiments on the simulator\n\n",
+    );
     let _ = writeln!(report, "Produced by `tactile demo --out {} --seed {seed}`. Each experiment writes `NAME.csv` (the record at 200 Hz), `NAME_frames.csv` (8×8 frames at 62.5 Hz) and `NAME.png`.\n", out.display());
-    report.push_str("| experiment | simulated (s) | speed (× real time) | result |\n|---|---|---|---|\n");
+    report.push_str(
+        "| experiment | simulated (s) | speed (× real time) | result |\n|---|---|---|---|\n",
+    );
     let mut details = String::new();
     let runs: [(&str, ScenarioOptions); 11] = [
         ("force-steps", ScenarioOptions::default()),
         ("low-force", ScenarioOptions::default()),
-        ("low-force", ScenarioOptions { fixed_gains: true, ..Default::default() }),
-        ("step", ScenarioOptions { load_g: 50.0, ..Default::default() }),
+        (
+            "low-force",
+            ScenarioOptions {
+                fixed_gains: true,
+                ..Default::default()
+            },
+        ),
+        (
+            "step",
+            ScenarioOptions {
+                load_g: 50.0,
+                ..Default::default()
+            },
+        ),
         ("step-loads", ScenarioOptions::default()),
         ("static-linearity", ScenarioOptions::default()),
         ("permanent-deformation", ScenarioOptions::default()),
@@ -188,13 +279,28 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
         ("sines", ScenarioOptions::default()),
     ];
     for (name, options) in runs {
-        let dir = if options.fixed_gains { out.join("fixed-gains") } else { out.to_path_buf() };
-        let config = RigConfig { seed, ..Default::default() };
+        let dir = if options.fixed_gains {
+            out.join("fixed-gains")
+        } else {
+            out.to_path_buf()
+        };
+        let config = RigConfig {
+            seed,
+            ..Default::default()
+        };
         let o = experiment(name, &options, config, &dir, 200.0, true)?;
-        let label = if options.fixed_gains { format!("{name} (fixed gains)") } else { name.to_string() };
+        let label = if options.fixed_gains {
+            format!("{name} (fixed gains)")
+        } else {
+            name.to_string()
+        };
         let headline = o.summary.lines().nth(1).unwrap_or("").trim().to_string();
         let simulated = o.run.ticks.len() as f64 * TICK_S;
-        let _ = writeln!(report, "| {label} | {simulated:.0} | {:.0} | {headline} |", simulated / o.wall_s.max(1e-9));
+        let _ = writeln!(
+            report,
+            "| {label} | {simulated:.0} | {:.0} | {headline} |",
+            simulated / o.wall_s.max(1e-9)
+        );
         let _ = writeln!(details, "## {label}\n\n```text\n{}```\n", o.summary);
         for f in &o.files {
             if f.extension().is_some_and(|e| e == "png") {
@@ -204,9 +310,19 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
         }
         eprint!("{}", o.summary);
     }
-    report.push_str("\n## Closed-loop magnitude (stepped sine, 10 g about 50 g)\n\n| Hz | dB |\n|---|---|\n");
+    report.push_str(
+        "\n## Closed-loop magnitude (stepped sine, 10 g about 50 g)\n\n| Hz | dB |\n|---|---|\n",
+    );
     for hz in [1.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0] {
-        let g = metrics::closed_loop_gain(RigConfig { seed, ..Default::default() }, 50.0, 10.0, hz)?;
+        let g = metrics::closed_loop_gain(
+            RigConfig {
+                seed,
+                ..Default::default()
+            },
+            50.0,
+            10.0,
+            hz,
+        )?;
         let _ = writeln!(report, "| {hz} | {:+.2} |", 20.0 * g.log10());
     }
     report.push('\n');

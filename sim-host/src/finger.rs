@@ -9,8 +9,8 @@
 
 use tactile_core::gauge::{AdcCode, AdcScale};
 use tactile_core::tactile::{
-    ElementGeometry, ReadoutAmplifier, ScanConfig, SenseNode, StrainForm, TaxelCalibration, TaxelId, COLS,
-    ROWS, TAXELS,
+    ElementGeometry, ReadoutAmplifier, ScanConfig, SenseNode, StrainForm, TaxelCalibration,
+    TaxelId, COLS, ROWS, TAXELS,
 };
 use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState, SpringLaw};
 
@@ -62,7 +62,8 @@ const STIFFENING_PIVOT_G: f64 = 30.0;
 
 fn scale_law(law: SpringLaw, s: f64) -> SpringLaw {
     let pivot = law.stiffness(STIFFENING_PIVOT_G);
-    let varying = law.sqrt_coeff * libm::sqrt(STIFFENING_PIVOT_G) + law.linear_coeff * STIFFENING_PIVOT_G;
+    let varying =
+        law.sqrt_coeff * libm::sqrt(STIFFENING_PIVOT_G) + law.linear_coeff * STIFFENING_PIVOT_G;
     SpringLaw {
         base: (pivot - s * varying).max(0.2),
         sqrt_coeff: s * law.sqrt_coeff,
@@ -184,7 +185,9 @@ impl Finger {
                 ..ReadoutAmplifier::MEMO_ELEMENT_4_2
             };
             let target = readout.rest_output_target_v * trim_err as f32;
-            amplifier.rp1_ohm = amplifier.trim_rp1_ohm(rest_amplitude_v as f32, target).unwrap_or(73.5e3);
+            amplifier.rp1_ohm = amplifier
+                .trim_rp1_ohm(rest_amplitude_v as f32, target)
+                .unwrap_or(73.5e3);
             let c0 = readout.geometry.capacitance_f(0.0);
             Taxel {
                 element,
@@ -200,7 +203,10 @@ impl Finger {
         let mut loaded = heapless::Vec::new();
         for i in 0..TAXELS {
             let id = TaxelId::from_index(i);
-            let w = crosstalk_weight(id.row() as i32 - probe.row() as i32, id.col() as i32 - probe.col() as i32);
+            let w = crosstalk_weight(
+                id.row() as i32 - probe.row() as i32,
+                id.col() as i32 - probe.col() as i32,
+            );
             if w > 0.0 && i != probe.index() {
                 // At most 64 entries: the push cannot fail.
                 let _ = loaded.push((i, w));
@@ -251,7 +257,8 @@ impl Finger {
             *p = p.clamp(probe_stress_g - r, probe_stress_g + r);
         }
         if self.effects.slow_relaxation > 0.0 {
-            let g3 = NonlinearMk::ELEMENT_4_2.g2.stiffness(STIFFENING_PIVOT_G) / self.effects.slow_relaxation;
+            let g3 = NonlinearMk::ELEMENT_4_2.g2.stiffness(STIFFENING_PIVOT_G)
+                / self.effects.slow_relaxation;
             let phi = libm::exp(-dt_s / self.effects.slow_relaxation_tau_s);
             self.slow_kelvin_pct = self.slow_kelvin_pct * phi + (1.0 - phi) * probe_stress_g / g3;
         }
@@ -259,9 +266,15 @@ impl Finger {
 
     /// Brings a neighbour's viscoelastic state up to time `t_s` with its mean stress.
     fn catch_up(&mut self, index: usize, t_s: f64) -> f64 {
-        let Some(t) = self.taxels.get_mut(index) else { return 0.0 };
+        let Some(t) = self.taxels.get_mut(index) else {
+            return 0.0;
+        };
         let elapsed = t_s - t.last_update_s;
-        let mean = if elapsed > 0.0 { t.stress_integral_g_s / elapsed } else { 0.0 };
+        let mean = if elapsed > 0.0 {
+            t.stress_integral_g_s / elapsed
+        } else {
+            0.0
+        };
         let unloaded = t.stress_integral_g_s == 0.0 && t.state == NonlinearMkState::default();
         if unloaded {
             // Nothing to relax: skip the exponentials (most of the array, most of the time).
@@ -280,7 +293,12 @@ impl Finger {
         let t = self.probe_taxel();
         let mut e = t.element.strain_pct(&t.state, stress_g);
         if self.effects.hysteresis_pct > 0.0 {
-            let mean = self.plays_g.iter().zip(PLAY_RADII_G).map(|(p, r)| (p - stress_g) / r).sum::<f64>()
+            let mean = self
+                .plays_g
+                .iter()
+                .zip(PLAY_RADII_G)
+                .map(|(p, r)| (p - stress_g) / r)
+                .sum::<f64>()
                 / PLAY_RADII_G.len() as f64;
             e += self.effects.hysteresis_pct * mean;
         }
@@ -291,7 +309,8 @@ impl Finger {
         let fx = &self.effects;
         let mut e = fx.drift_pct_per_s * t_s;
         if fx.interference_pct != 0.0 {
-            e += fx.interference_pct * libm::sin(2.0 * core::f64::consts::PI * fx.interference_hz * t_s);
+            e += fx.interference_pct
+                * libm::sin(2.0 * core::f64::consts::PI * fx.interference_hz * t_s);
         }
         e
     }
@@ -299,14 +318,21 @@ impl Finger {
     /// Amplifier output of a taxel for strain `strain_pct` (before the envelope settling).
     fn detector_target_v(&self, taxel: &Taxel, strain_pct: f64) -> f64 {
         let g = &self.readout.geometry;
-        let vs = taxel.preamp_gain * self.readout.node.sensed_amplitude_v(g.capacitance_f(strain_pct));
+        let vs = taxel.preamp_gain
+            * self
+                .readout
+                .node
+                .sensed_amplitude_v(g.capacitance_f(strain_pct));
         vs - f64::from(taxel.amplifier.diode_drop_v)
     }
 
     fn convert(&self, taxel_index: usize, detector_v: f64) -> AdcCode {
-        let Some(t) = self.taxels.get(taxel_index) else { return AdcCode(0) };
+        let Some(t) = self.taxels.get(taxel_index) else {
+            return AdcCode(0);
+        };
         let amp = &t.amplifier;
-        let out = -amp.rpf_ohm * (amp.offset_supply_v / amp.rp1_ohm + detector_v as f32 / amp.r1_ohm);
+        let out =
+            -amp.rpf_ohm * (amp.offset_supply_v / amp.rp1_ohm + detector_v as f32 / amp.r1_ohm);
         self.readout.adc.code(out)
     }
 
@@ -331,7 +357,13 @@ impl Finger {
 
     /// One step of the multiplexed scan at time `t_s`: the detector has dwelt on `taxel`
     /// (after `previous`), with the probe carrying `probe_stress_g`.
-    pub fn sample_scan(&mut self, taxel: TaxelId, previous: TaxelId, probe_stress_g: f64, t_s: f64) -> AdcCode {
+    pub fn sample_scan(
+        &mut self,
+        taxel: TaxelId,
+        previous: TaxelId,
+        probe_stress_g: f64,
+        t_s: f64,
+    ) -> AdcCode {
         let i = taxel.index();
         let strain = if taxel == self.probe {
             self.probe_sensor_strain_pct(probe_stress_g, t_s)
@@ -390,29 +422,54 @@ mod tests {
     use super::*;
 
     fn finger(effects: Effects) -> Finger {
-        Finger::new(3, TaxelId::new(3, 2).unwrap_or_default(), effects, ReadoutParams::default())
+        Finger::new(
+            3,
+            TaxelId::new(3, 2).unwrap_or_default(),
+            effects,
+            ReadoutParams::default(),
+        )
     }
 
     #[test]
     fn read_out_chain_recovers_strain_within_a_converter_step() {
-        let mut f = Finger { readout: ReadoutParams { noise_pct: 0.0, ..Default::default() }, ..finger(Effects::MEMO) };
+        let mut f = Finger {
+            readout: ReadoutParams {
+                noise_pct: 0.0,
+                ..Default::default()
+            },
+            ..finger(Effects::MEMO)
+        };
         let cal = f.rest_calibration(4);
         let probe = f.probe.index();
         for stress in [0.0, 10.0, 50.0, 100.0] {
-            let truth = f.probe_taxel().element.strain_pct(&f.probe_taxel().state, stress);
+            let truth = f
+                .probe_taxel()
+                .element
+                .strain_pct(&f.probe_taxel().state, stress);
             let code = f.sample_probe_channel(stress, 0.0);
             let got = code_to_strain_pct(&f.readout.adc, &cal[probe], code);
             // One 12-bit code is 4.9 mV, about 0.012 % strain through the 8.5× stage; the
             // residual eq. 2 nonlinearity after the gain calibration is below 0.01 % at 20 %.
-            assert!((f64::from(got) - truth).abs() < 0.025, "{stress} g: {got} vs {truth}");
+            assert!(
+                (f64::from(got) - truth).abs() < 0.025,
+                "{stress} g: {got} vs {truth}"
+            );
         }
     }
 
     #[test]
     fn a_short_dwell_reads_a_blend_of_the_previous_taxel() {
-        let mut quick = ReadoutParams { noise_pct: 0.0, ..Default::default() };
+        let mut quick = ReadoutParams {
+            noise_pct: 0.0,
+            ..Default::default()
+        };
         quick.scan.dwell_s = quick.scan.envelope_tau_s; // one τ: 37 % of the previous taxel
-        let mut f = Finger::new(3, TaxelId::new(3, 2).unwrap_or_default(), Effects::MEMO, quick);
+        let mut f = Finger::new(
+            3,
+            TaxelId::new(3, 2).unwrap_or_default(),
+            Effects::MEMO,
+            quick,
+        );
         let cal = f.rest_calibration(1);
         let probe = f.probe;
         let next = TaxelId::from_index(probe.index() + 1);
@@ -420,7 +477,10 @@ mod tests {
         let _ = f.sample_scan(probe, TaxelId::from_index(probe.index() - 1), 80.0, 0.0);
         let code = f.sample_scan(next, probe, 0.0, 0.0);
         let blended = code_to_strain_pct(&f.readout.adc, &cal[next.index()], code);
-        assert!(blended > 3.0, "a one-τ dwell should carry the 80 g taxel over: {blended}");
+        assert!(
+            blended > 3.0,
+            "a one-τ dwell should carry the 80 g taxel over: {blended}"
+        );
         // With the design dwell (10 τ) the carry-over is below a converter step.
         let mut g = finger(Effects::MEMO);
         g.readout.noise_pct = 0.0;
@@ -435,7 +495,10 @@ mod tests {
     fn hysteresis_separates_loading_from_unloading() {
         // The hysteresis part is the difference from the same history without the effect.
         let run = |amplitude: f64| {
-            let mut f = finger(Effects { hysteresis_pct: amplitude, ..Effects::MEMO });
+            let mut f = finger(Effects {
+                hysteresis_pct: amplitude,
+                ..Effects::MEMO
+            });
             // Up to 40 g, down to 30 g: the plays of radius 2 and 5 g sit at their upper edge
             // (+1 each), the 10 g one on the load (0) → +2/3 of the amplitude.
             for s in (0..=40).chain((30..40).rev()) {

@@ -16,7 +16,11 @@ pub fn segments(ticks: &[TickRecord]) -> Vec<Segment> {
     let mut start = 0;
     for i in 1..=ticks.len() {
         if i == ticks.len() || ticks[i].command_g != ticks[start].command_g {
-            out.push(Segment { start, end: i, command_g: ticks[start].command_g });
+            out.push(Segment {
+                start,
+                end: i,
+                command_g: ticks[start].command_g,
+            });
             start = i;
         }
     }
@@ -27,7 +31,9 @@ pub fn segments(ticks: &[TickRecord]) -> Vec<Segment> {
 /// the command for good; `None` if it never does.
 pub fn settling_time_s(ticks: &[TickRecord], seg: &Segment, band_g: f32) -> Option<f64> {
     let slice = &ticks[seg.start..seg.end];
-    let last_out = slice.iter().rposition(|r| (r.true_force_g - seg.command_g).abs() > band_g);
+    let last_out = slice
+        .iter()
+        .rposition(|r| (r.true_force_g - seg.command_g).abs() > band_g);
     match last_out {
         None => Some(0.0),
         Some(i) if i + 1 < slice.len() => Some((i + 1) as f64 * crate::rig::TICK_S),
@@ -55,7 +61,10 @@ pub fn hold_quality(ticks: &[TickRecord], settle_s: f64) -> Vec<(f32, f64, f32)>
         .map(|s| {
             let held = &ticks[s.start + skip..s.end];
             let lost = held.iter().filter(|r| !r.in_contact).count() as f64 / held.len() as f64;
-            let worst = held.iter().map(|r| (r.true_force_g - s.command_g).abs()).fold(0.0, f32::max);
+            let worst = held
+                .iter()
+                .map(|r| (r.true_force_g - s.command_g).abs())
+                .fold(0.0, f32::max);
             (s.command_g, lost, worst)
         })
         .collect()
@@ -72,10 +81,19 @@ pub fn static_linearity(ticks: &[TickRecord], slew_g_per_s: f32) -> Vec<(f32, f6
         .filter(|(_, s)| s.command_g > 0.0)
         .filter_map(|(i, s)| {
             let before = segs.get(i.checked_sub(1)?)?;
-            let offset = mean(ticks[before.end.saturating_sub(10)..before.end].iter().map(|r| f64::from(r.strain_pct)));
+            let offset = mean(
+                ticks[before.end.saturating_sub(10)..before.end]
+                    .iter()
+                    .map(|r| f64::from(r.strain_pct)),
+            );
             let ramp = (s.command_g / slew_g_per_s / crate::rig::TICK_S as f32).ceil() as usize;
             let at = s.start + ramp + 100;
-            let reading = mean(ticks.get(at..at + 10)?.iter().map(|r| f64::from(r.strain_pct)));
+            let reading = mean(
+                ticks
+                    .get(at..at + 10)?
+                    .iter()
+                    .map(|r| f64::from(r.strain_pct)),
+            );
             Some((s.command_g, reading - offset))
         })
         .collect()
@@ -91,15 +109,27 @@ pub fn residual_deformation(ticks: &[TickRecord]) -> Vec<(f32, f64)> {
         .filter_map(|(i, s)| {
             let before = segs.get(i.checked_sub(1)?)?;
             let after = segs.get(i + 1)?;
-            let b = mean(ticks[before.end.saturating_sub(200)..before.end].iter().map(|r| f64::from(r.strain_pct)));
-            let a = mean(ticks[after.end.saturating_sub(200)..after.end].iter().map(|r| f64::from(r.strain_pct)));
+            let b = mean(
+                ticks[before.end.saturating_sub(200)..before.end]
+                    .iter()
+                    .map(|r| f64::from(r.strain_pct)),
+            );
+            let a = mean(
+                ticks[after.end.saturating_sub(200)..after.end]
+                    .iter()
+                    .map(|r| f64::from(r.strain_pct)),
+            );
             Some((s.command_g, a - b))
         })
         .collect()
 }
 
 /// RMS of (a − b) over the ticks where `keep` holds.
-pub fn rms(ticks: &[TickRecord], a: impl Fn(&TickRecord) -> f64, b: impl Fn(&TickRecord) -> f64) -> f64 {
+pub fn rms(
+    ticks: &[TickRecord],
+    a: impl Fn(&TickRecord) -> f64,
+    b: impl Fn(&TickRecord) -> f64,
+) -> f64 {
     let n = ticks.len().max(1) as f64;
     (ticks.iter().map(|r| (a(r) - b(r)).powi(2)).sum::<f64>() / n).sqrt()
 }
@@ -115,8 +145,17 @@ pub fn mean(xs: impl Iterator<Item = f64>) -> f64 {
 
 /// Closed-loop magnitude (true force over command) at `hz`: a stepped sine of `amplitude_g`
 /// about `offset_g` on the rig, lock-in over whole periods after a settling second.
-pub fn closed_loop_gain(config: crate::rig::RigConfig, offset_g: f64, amplitude_g: f64, hz: f64) -> Result<f64, crate::rig::RigError> {
-    let mut rig = crate::rig::Rig::new(crate::rig::RigConfig { scan_array: false, command_slew_g_per_s: f32::INFINITY, ..config })?;
+pub fn closed_loop_gain(
+    config: crate::rig::RigConfig,
+    offset_g: f64,
+    amplitude_g: f64,
+    hz: f64,
+) -> Result<f64, crate::rig::RigError> {
+    let mut rig = crate::rig::Rig::new(crate::rig::RigConfig {
+        scan_array: false,
+        command_slew_g_per_s: f32::INFINITY,
+        ..config
+    })?;
     let w = 2.0 * core::f64::consts::PI * hz;
     let ramp = 1000;
     for k in 0..ramp {
@@ -125,7 +164,10 @@ pub fn closed_loop_gain(config: crate::rig::RigConfig, offset_g: f64, amplitude_
     let periods = (2.0 * hz).ceil().max(4.0);
     let n_settle = 1000;
     let n = (periods / hz / crate::rig::TICK_S).round() as usize;
-    let (mut acc_f, mut acc_c) = (num_complex::Complex64::new(0.0, 0.0), num_complex::Complex64::new(0.0, 0.0));
+    let (mut acc_f, mut acc_c) = (
+        num_complex::Complex64::new(0.0, 0.0),
+        num_complex::Complex64::new(0.0, 0.0),
+    );
     for k in 0..(n_settle + n) {
         let t = rig.time_s();
         let c = offset_g + amplitude_g * (w * t).sin();

@@ -28,10 +28,16 @@ pub struct Record {
 
 impl Record {
     pub fn meta(&self, key: &str) -> Option<&str> {
-        self.meta.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+        self.meta
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
     }
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.extra.iter().find(|(k, _)| k == name).map(|(_, v)| v.as_slice())
+        self.extra
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_slice())
     }
     pub fn len(&self) -> usize {
         self.t_s.len()
@@ -87,7 +93,8 @@ pub fn read_record(path: &Path) -> Result<Record, RecordError> {
         column,
         message,
     };
-    let file = std::fs::File::open(path).map_err(|e| err(None, None, format!("cannot open: {e}")))?;
+    let file =
+        std::fs::File::open(path).map_err(|e| err(None, None, format!("cannot open: {e}")))?;
     parse_record(std::io::BufReader::new(file), path)
 }
 
@@ -120,7 +127,14 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
             let names: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
             for (slot, want) in index.iter_mut().zip(REQUIRED) {
                 *slot = names.iter().position(|c| c == want).ok_or_else(|| {
-                    err(Some(n), Some(want.to_string()), format!("header lacks the required column (found: {})", names.join(",")))
+                    err(
+                        Some(n),
+                        Some(want.to_string()),
+                        format!(
+                            "header lacks the required column (found: {})",
+                            names.join(",")
+                        ),
+                    )
                 })?;
             }
             rec.extra = names
@@ -132,20 +146,38 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
             continue;
         };
         if cells.len() != names.len() {
-            return Err(err(Some(n), None, format!("{} cells, the header has {}", cells.len(), names.len())));
+            return Err(err(
+                Some(n),
+                None,
+                format!("{} cells, the header has {}", cells.len(), names.len()),
+            ));
         }
         let mut values = Vec::with_capacity(cells.len());
         for (cell, name) in cells.iter().zip(names) {
-            let v: f64 = cell.parse().map_err(|_| err(Some(n), Some(name.clone()), format!("'{cell}' is not a number")))?;
+            let v: f64 = cell.parse().map_err(|_| {
+                err(
+                    Some(n),
+                    Some(name.clone()),
+                    format!("'{cell}' is not a number"),
+                )
+            })?;
             if !v.is_finite() {
-                return Err(err(Some(n), Some(name.clone()), format!("'{cell}' is not finite")));
+                return Err(err(
+                    Some(n),
+                    Some(name.clone()),
+                    format!("'{cell}' is not finite"),
+                ));
             }
             values.push(v);
         }
         let t = values[index[0]];
         if let Some(&last) = rec.t_s.last() {
             if t <= last {
-                return Err(err(Some(n), Some("t_s".into()), format!("time {t} does not increase (previous {last})")));
+                return Err(err(
+                    Some(n),
+                    Some("t_s".into()),
+                    format!("time {t} does not increase (previous {last})"),
+                ));
             }
         }
         rec.t_s.push(t);
@@ -161,10 +193,18 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         }
     }
     if header.is_none() {
-        return Err(err(None, None, "empty: no header line t_s,force_g,strain_pct".into()));
+        return Err(err(
+            None,
+            None,
+            "empty: no header line t_s,force_g,strain_pct".into(),
+        ));
     }
     if rec.len() < 2 {
-        return Err(err(None, None, format!("{} data rows; a record needs at least two", rec.len())));
+        return Err(err(
+            None,
+            None,
+            format!("{} data rows; a record needs at least two", rec.len()),
+        ));
     }
     let step = rec.sample_period_s().unwrap_or(0.0);
     // The first step that strays from the median by more than 1 % is uneven sampling.
@@ -179,7 +219,10 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         return Err(err(
             None,
             Some("t_s".into()),
-            format!("uneven sampling at data row {line_of_row}: step {:.6} s vs median {step:.6} s", rec.t_s[line_of_row - 1] - rec.t_s[line_of_row - 2]),
+            format!(
+                "uneven sampling at data row {line_of_row}: step {:.6} s vs median {step:.6} s",
+                rec.t_s[line_of_row - 1] - rec.t_s[line_of_row - 2]
+            ),
         ));
     }
     Ok(rec)
@@ -187,12 +230,20 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
 
 /// Writes ticks (decimated to `record_hz`) as a record with the extra columns the simulator
 /// knows: command, adjusted command, the on-chip estimate, and the true contact force.
-pub fn write_record(path: &Path, meta: &[(String, String)], ticks: &[TickRecord], every: usize) -> std::io::Result<()> {
+pub fn write_record(
+    path: &Path,
+    meta: &[(String, String)],
+    ticks: &[TickRecord],
+    every: usize,
+) -> std::io::Result<()> {
     let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
     for (k, v) in meta {
         writeln!(w, "# {k}={v}")?;
     }
-    writeln!(w, "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g,true_force_g,contact,faults")?;
+    writeln!(
+        w,
+        "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g,true_force_g,contact,faults"
+    )?;
     for r in ticks.iter().skip(every.max(1) - 1).step_by(every.max(1)) {
         writeln!(
             w,
@@ -212,7 +263,11 @@ pub fn write_record(path: &Path, meta: &[(String, String)], ticks: &[TickRecord]
 }
 
 /// Writes whole 8×8 frames: `t_s,r0c0,…,r7c7` (strain in percent).
-pub fn write_frames(path: &Path, meta: &[(String, String)], frames: &[(f64, StrainGrid)]) -> std::io::Result<()> {
+pub fn write_frames(
+    path: &Path,
+    meta: &[(String, String)],
+    frames: &[(f64, StrainGrid)],
+) -> std::io::Result<()> {
     let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
     for (k, v) in meta {
         writeln!(w, "# {k}={v}")?;
@@ -257,7 +312,10 @@ mod tests {
     fn errors_name_the_line_and_column() {
         let e = parse("t_s,force_g,strain_pct\n0.0,1.0,0.5\n0.005,abc,0.6\n").unwrap_err();
         assert_eq!((e.line, e.column.as_deref()), (Some(3), Some("force_g")));
-        assert_eq!(e.to_string(), "mem.csv:3: column 'force_g': 'abc' is not a number");
+        assert_eq!(
+            e.to_string(),
+            "mem.csv:3: column 'force_g': 'abc' is not a number"
+        );
         let e = parse("t_s,force_g,strain_pct\n0.0,1.0,NaN\n0.005,1,1\n").unwrap_err();
         assert_eq!((e.line, e.column.as_deref()), (Some(2), Some("strain_pct")));
         let e = parse("t_s,force_g\n0.0,1.0\n").unwrap_err();
@@ -268,7 +326,8 @@ mod tests {
         assert_eq!(e.line, Some(3));
         let e = parse("# only=comments\n").unwrap_err();
         assert!(e.message.contains("empty"));
-        let e = parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.02,1,1\n0.05,1,1\n").unwrap_err();
+        let e =
+            parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.02,1,1\n0.05,1,1\n").unwrap_err();
         assert!(e.message.contains("uneven sampling"), "{e}");
     }
 }

@@ -58,7 +58,10 @@ impl Default for RigConfig {
     fn default() -> Self {
         Self {
             seed: 1,
-            law: ForceLawConfig { ke: SIM_ERROR_GAIN, ..ForceLawConfig::MEMO },
+            law: ForceLawConfig {
+                ke: SIM_ERROR_GAIN,
+                ..ForceLawConfig::MEMO
+            },
             command_slew_g_per_s: tactile_core::profile::STEP_SLEW_G_PER_S,
             filter: LowpassNotchConfig::MEMO,
             gauge: GaugeConfig::MEMO,
@@ -133,16 +136,25 @@ pub struct Rig {
 impl Rig {
     pub fn new(config: RigConfig) -> Result<Self, RigError> {
         let filter = config.filter.discretize().map_err(RigError::Filter)?;
-        let estimator = InverseEstimator::new(config.estimator.inverse(TICK_S).map_err(RigError::Estimator)?);
+        let estimator = InverseEstimator::new(
+            config
+                .estimator
+                .inverse(TICK_S)
+                .map_err(RigError::Estimator)?,
+        );
         let mut finger = Finger::new(config.seed, config.probe, config.effects, config.readout);
         let calibration = finger.rest_calibration(16);
-        let scan_steps_per_tick = libm::round(TICK_S / f64::from(config.readout.scan.dwell_s)).max(1.0) as usize;
+        let scan_steps_per_tick =
+            libm::round(TICK_S / f64::from(config.readout.scan.dwell_s)).max(1.0) as usize;
         Ok(Self {
             law: ForceLaw::new(config.law),
             slew: SlewLimiter::new(config.command_slew_g_per_s, config.law.dt_s),
             filter,
             filter_state: LowpassNotchState::default(),
-            plant: ApplicatorState { stuck: true, ..Default::default() },
+            plant: ApplicatorState {
+                stuck: true,
+                ..Default::default()
+            },
             lumped: Lumped::new(&config.applicator, TICK_S / SUBSTEPS as f64),
             finger,
             calibration,
@@ -162,11 +174,19 @@ impl Rig {
     }
 
     fn contact(&self) -> Contact {
-        Contact::new(&self.config.applicator, self.finger.probe_taxel().element.g1, self.finger.probe_rest_strain_pct())
+        Contact::new(
+            &self.config.applicator,
+            self.finger.probe_taxel().element.g1,
+            self.finger.probe_rest_strain_pct(),
+        )
     }
 
     /// One control tick with command `command_g`; `on_frame` receives each completed 8×8 scan.
-    pub fn tick(&mut self, command_g: f32, mut on_frame: impl FnMut(f64, &StrainGrid)) -> TickRecord {
+    pub fn tick(
+        &mut self,
+        command_g: f32,
+        mut on_frame: impl FnMut(f64, &StrainGrid),
+    ) -> TickRecord {
         let t_s = self.time_s();
         let mut faults = FaultFlags::NONE;
         // Control: A1 on the gauge reading of the last tick, then the filter, then the DAC.
@@ -202,9 +222,17 @@ impl Rig {
         for k in 0..SUBSTEPS {
             applicator::step_lumped(&self.lumped, &mut self.plant, &contact, drive_v);
             stress_sum += contact.force_g(self.plant.tip_m, self.plant.tip_m_per_s);
-            if let Some(slot) = k.checked_sub(SUBSTEPS - SAMPLES_PER_TICK).and_then(|i| samples.get_mut(i)) {
-                let force = self.plant.gauge_force_g(&p) + self.config.gauge_noise_g * self.gauge_noise.gaussian();
-                *slot = self.config.gauge.adc.code(self.config.gauge.volts(force as f32));
+            if let Some(slot) = k
+                .checked_sub(SUBSTEPS - SAMPLES_PER_TICK)
+                .and_then(|i| samples.get_mut(i))
+            {
+                let force = self.plant.gauge_force_g(&p)
+                    + self.config.gauge_noise_g * self.gauge_noise.gaussian();
+                *slot = self
+                    .config
+                    .gauge
+                    .adc
+                    .code(self.config.gauge.volts(force as f32));
             }
         }
         self.last_gauge = self.config.gauge.average_force(&samples);
@@ -217,7 +245,10 @@ impl Rig {
         let probe = self.config.probe.index();
         let code = self.finger.sample_probe_channel(true_force, t_end);
         let adc = self.config.readout.adc;
-        let strain = self.calibration.get(probe).map_or(f32::NAN, |cal| code_to_strain_pct(&adc, cal, code));
+        let strain = self
+            .calibration
+            .get(probe)
+            .map_or(f32::NAN, |cal| code_to_strain_pct(&adc, cal, code));
         let estimate = self.estimator.force_g(strain);
 
         if self.config.scan_array {
@@ -225,9 +256,18 @@ impl Rig {
                 let sampled = self.scan.selected();
                 let previous = TaxelId::from_index(sampled.index() + TAXELS - 1);
                 let step = self.scan.advance();
-                let code = self.finger.sample_scan(sampled, previous, true_force, t_end);
-                let strain = self.calibration.get(sampled.index()).map_or(f32::NAN, |c| code_to_strain_pct(&adc, c, code));
-                if let Some(cell) = self.frame.get_mut(sampled.row()).and_then(|r| r.get_mut(sampled.col())) {
+                let code = self
+                    .finger
+                    .sample_scan(sampled, previous, true_force, t_end);
+                let strain = self
+                    .calibration
+                    .get(sampled.index())
+                    .map_or(f32::NAN, |c| code_to_strain_pct(&adc, c, code));
+                if let Some(cell) = self
+                    .frame
+                    .get_mut(sampled.row())
+                    .and_then(|r| r.get_mut(sampled.col()))
+                {
                     *cell = strain;
                 }
                 if step.frame_complete {
@@ -245,7 +285,9 @@ impl Rig {
             command_g,
             sensed_g: match self.last_gauge {
                 Ok(f) | Err(GaugeFault::OutOfRange { force_g: f }) => f,
-                Err(GaugeFault::AtRail { code }) => self.config.gauge.force_g(self.config.gauge.adc.volts(code)),
+                Err(GaugeFault::AtRail { code }) => {
+                    self.config.gauge.force_g(self.config.gauge.adc.volts(code))
+                }
             },
             adjusted_g: adjusted,
             strain_pct: strain,

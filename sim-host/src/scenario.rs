@@ -35,7 +35,12 @@ pub struct ScenarioOptions {
 
 impl Default for ScenarioOptions {
     fn default() -> Self {
-        Self { load_g: 50.0, protocol_seed: 1989, fixed_gains: false, duration_s: 100.0 }
+        Self {
+            load_g: 50.0,
+            protocol_seed: 1989,
+            fixed_gains: false,
+            duration_s: 100.0,
+        }
     }
 }
 
@@ -50,7 +55,11 @@ impl core::fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             ScenarioError::Unknown(name) => {
-                write!(f, "unknown scenario '{name}'; valid scenarios: {}", SCENARIOS.join(", "))
+                write!(
+                    f,
+                    "unknown scenario '{name}'; valid scenarios: {}",
+                    SCENARIOS.join(", ")
+                )
             }
             ScenarioError::Rig(e) => write!(f, "{e}"),
         }
@@ -63,14 +72,37 @@ impl std::error::Error for ScenarioError {}
 pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioError> {
     Ok(match name {
         "force-steps" => Protocol::FORCE_STEPS_MEMO,
-        "step" => Protocol::Step { load_g: o.load_g, lead_s: 2.0, on_s: 50.0, off_s: 25.0 },
+        "step" => Protocol::Step {
+            load_g: o.load_g,
+            lead_s: 2.0,
+            on_s: 50.0,
+            off_s: 25.0,
+        },
         "step-loads" => Protocol::StepLoads,
         "static-linearity" => Protocol::StaticLinearity { hold_s: 0.5 },
         "permanent-deformation" => Protocol::PermanentDeformation,
-        "repeated-steps" => Protocol::RepeatedSteps { load_g: 20.0, on_s: 10.0, off_s: 5.0, count: 6 },
-        "sweep" => Protocol::Sweep { offset_g: 40.0, amplitude_g: 10.0, f0_hz: 1.0, f1_hz: 54.0, duration_s: 30.0 },
+        "repeated-steps" => Protocol::RepeatedSteps {
+            load_g: 20.0,
+            on_s: 10.0,
+            off_s: 5.0,
+            count: 6,
+        },
+        "sweep" => Protocol::Sweep {
+            offset_g: 40.0,
+            amplitude_g: 10.0,
+            f0_hz: 1.0,
+            f1_hz: 54.0,
+            duration_s: 30.0,
+        },
         "pseudo-random" => match Protocol::PSEUDO_RANDOM_MEMO {
-            Protocol::PseudoRandom { min_g, max_g, max_change_g, dwell_min_s, dwell_max_s, .. } => Protocol::PseudoRandom {
+            Protocol::PseudoRandom {
+                min_g,
+                max_g,
+                max_change_g,
+                dwell_min_s,
+                dwell_max_s,
+                ..
+            } => Protocol::PseudoRandom {
                 seed: o.protocol_seed,
                 min_g,
                 max_g,
@@ -81,7 +113,12 @@ pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioErr
             },
             other => other,
         },
-        "sines" => Protocol::Sines { seed: o.protocol_seed, offset_g: 25.0, amplitude_g: 4.0, duration_s: o.duration_s },
+        "sines" => Protocol::Sines {
+            seed: o.protocol_seed,
+            offset_g: 25.0,
+            amplitude_g: 4.0,
+            duration_s: o.duration_s,
+        },
         "low-force" => Protocol::LowForce { hold_s: 3.0 },
         other => return Err(ScenarioError::Unknown(other.to_string())),
     })
@@ -110,7 +147,11 @@ pub fn run_protocol(
     let mut rig = Rig::new(config).map_err(ScenarioError::Rig)?;
     let mut source = CommandSource::new(protocol);
     let n = (f64::from(protocol.duration_s()) / crate::rig::TICK_S).round() as usize;
-    let mut run = Run { name: name.to_string(), ticks: Vec::with_capacity(n), frames: Vec::new() };
+    let mut run = Run {
+        name: name.to_string(),
+        ticks: Vec::with_capacity(n),
+        frames: Vec::new(),
+    };
     for k in 0..n {
         let command = source.command_g(rig.time_s() as f32);
         let frames = &mut run.frames;
@@ -125,7 +166,12 @@ pub fn run_protocol(
 }
 
 /// Runs a named scenario.
-pub fn run_named(name: &str, options: &ScenarioOptions, config: RigConfig, progress: impl FnMut(f64)) -> Result<Run, ScenarioError> {
+pub fn run_named(
+    name: &str,
+    options: &ScenarioOptions,
+    config: RigConfig,
+    progress: impl FnMut(f64),
+) -> Result<Run, ScenarioError> {
     let p = protocol(name, options)?;
     run_protocol(name, p, config, options.fixed_gains, progress)
 }

@@ -17,7 +17,11 @@ use sim_host::rig::RigConfig;
 use sim_host::scenario::{ScenarioOptions, SCENARIOS};
 
 #[derive(Parser)]
-#[command(name = "tactile", version, about = "Force applicator and tactile finger after UCB/ERL M89/138, on the simulator")]
+#[command(
+    name = "tactile",
+    version,
+    about = "Force applicator and tactile finger after UCB/ERL M89/138, on the simulator"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -79,26 +83,50 @@ fn main() -> ExitCode {
             print!("{}", cli::listing());
             ExitCode::SUCCESS
         }
-        Command::Experiment { name, out, seed, load, fixed_gains, duration, protocol_seed, record_hz, effects, no_plot } => {
+        Command::Experiment {
+            name,
+            out,
+            seed,
+            load,
+            fixed_gains,
+            duration,
+            protocol_seed,
+            record_hz,
+            effects,
+            no_plot,
+        } => {
             if !SCENARIOS.contains(&name.as_str()) {
-                return usage_error(&format!("unknown scenario '{name}'; valid scenarios: {}", SCENARIOS.join(", ")));
+                return usage_error(&format!(
+                    "unknown scenario '{name}'; valid scenarios: {}",
+                    SCENARIOS.join(", ")
+                ));
             }
             if !(record_hz > 0.0 && record_hz <= 1000.0) {
                 return usage_error(&format!("--record-hz {record_hz}: must be in (0, 1000]"));
             }
             if !(load.is_finite() && (0.0..=120.0).contains(&load)) {
-                return usage_error(&format!("--load {load}: the applicator's range is 0 to 120 g"));
+                return usage_error(&format!(
+                    "--load {load}: the applicator's range is 0 to 120 g"
+                ));
             }
             if !(duration.is_finite() && duration > 0.0 && duration <= 3600.0) {
                 return usage_error(&format!("--duration {duration}: must be in (0, 3600] s"));
             }
-            let mut config = RigConfig { seed, ..Default::default() };
+            let mut config = RigConfig {
+                seed,
+                ..Default::default()
+            };
             for spec in &effects {
                 if let Err(e) = cli::apply_effect(&mut config.effects, spec) {
                     return usage_error(&e);
                 }
             }
-            let options = ScenarioOptions { load_g: load, protocol_seed, fixed_gains, duration_s: duration };
+            let options = ScenarioOptions {
+                load_g: load,
+                protocol_seed,
+                fixed_gains,
+                duration_s: duration,
+            };
             match cli::experiment(&name, &options, config, &out, record_hz, !no_plot) {
                 Ok(o) => {
                     print!("{}", o.summary);
