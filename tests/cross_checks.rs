@@ -23,10 +23,15 @@ fn filter_time_domain_matches_its_frequency_response() {
         let omega_t = w * config.sample_period_s;
         let mut state = LowpassNotchState::default();
         // Ten seconds: an integer number of periods for every test frequency.
-        let y: Vec<f64> = (0..10_000).map(|k| f64::from(filter.update(&mut state, (omega_t * k as f64).sin() as f32))).collect();
+        let y: Vec<f64> = (0..10_000)
+            .map(|k| f64::from(filter.update(&mut state, (omega_t * k as f64).sin() as f32)))
+            .collect();
         let (amp, _) = lock_in(omega_t, &y, 2000);
         let predicted = magnitude(filter.response(w, config.sample_period_s));
-        assert!((amp - predicted).abs() < 2e-3 * predicted.max(0.01), "{hz} Hz: {amp} vs {predicted}");
+        assert!(
+            (amp - predicted).abs() < 2e-3 * predicted.max(0.01),
+            "{hz} Hz: {amp} vs {predicted}"
+        );
     }
 }
 
@@ -43,11 +48,16 @@ fn discrete_second_order_matches_the_analog_transfer_function_at_low_frequency()
         let n = (periods / hz / dt).round() as usize;
         let settle = (30.0 / dt) as usize;
         let mut state = Discrete2State::default();
-        let y: Vec<f64> = (0..settle + n).map(|k| fwd.update(&mut state, (omega_t * k as f64).sin())).collect();
+        let y: Vec<f64> = (0..settle + n)
+            .map(|k| fwd.update(&mut state, (omega_t * k as f64).sin()))
+            .collect();
         let (amp, _) = lock_in(omega_t, &y[settle..], 0);
         let (re, im) = so.compliance().eval((0.0, w));
         let analog = (re * re + im * im).sqrt();
-        assert!((amp - analog).abs() < 2e-3 * analog, "{hz} Hz: {amp} vs {analog}");
+        assert!(
+            (amp - analog).abs() < 2e-3 * analog,
+            "{hz} Hz: {amp} vs {analog}"
+        );
     }
 }
 
@@ -55,7 +65,13 @@ fn discrete_second_order_matches_the_analog_transfer_function_at_low_frequency()
 fn maxwell_kelvin_forward_through_its_mapping_equals_the_structural_sum() {
     // ε = σ/G₁ + ε_m + ε_k integrated structurally (trapezoid, as Tustin does) against the
     // mapped second-order model, f64 on both sides.
-    let mk = MaxwellKelvin { g1: 3.6, n1: 5770.0, alpha: 4.0, n2: 500.0, g2: 47.0 };
+    let mk = MaxwellKelvin {
+        g1: 3.6,
+        n1: 5770.0,
+        alpha: 4.0,
+        n2: 500.0,
+        g2: 47.0,
+    };
     let dt = 0.01;
     let fwd = mk.forward::<f64>(dt).unwrap();
     let mut state = Discrete2State::default();
@@ -65,7 +81,10 @@ fn maxwell_kelvin_forward_through_its_mapping_equals_the_structural_sum() {
         let t = k as f64 * dt;
         let sigma = 30.0 + 10.0 * (0.3 * t).sin() + if t > 50.0 { 15.0 } else { 0.0 };
         // Trapezoidal rule on x' = (σ − c x)/N, solved for the new x.
-        let step = |x: f64, c: f64, n: f64| (x * (1.0 - c * dt / (2.0 * n)) + dt / (2.0 * n) * (sigma + prev_sigma)) / (1.0 + c * dt / (2.0 * n));
+        let step = |x: f64, c: f64, n: f64| {
+            (x * (1.0 - c * dt / (2.0 * n)) + dt / (2.0 * n) * (sigma + prev_sigma))
+                / (1.0 + c * dt / (2.0 * n))
+        };
         if k > 0 {
             em = step(em, mk.alpha, mk.n1);
             ek = step(ek, mk.g2, mk.n2);
