@@ -29,7 +29,9 @@ step "core library for the Cortex-M4F (thumbv7em-none-eabihf)"
 cargo core-thumb
 
 step "host tests of the whole workspace (cargo test)"
-cargo test --release
-
-echo
-echo "all tests passed"
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+cargo test --release 2>&1 | tee "$log"
+# One closing line for the whole run, summed over every test binary.
+awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
+     END { printf "\n%d passed, %d failed\n", p, f }' "$log"
