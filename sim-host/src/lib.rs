@@ -1,16 +1,14 @@
 //! sim-host: the force applicator, the Maxwell–Kelvin finger and the 8×8 array simulated and
 //! closed around the core library's control and estimation code, with the memo's experiments.
 //!
-//! The plant modules (`applicator`, `finger`, `noise`) use only `core` and `libm`, so the
-//! firmware-in-the-loop build can run the same physics without `std`.
+//! The plant and the rig live in `tactile-plant` (`sim-host/plant`, no `std`), re-exported here,
+//! so the firmware-in-the-loop build runs the same physics.
 
 pub mod analysis;
-pub mod applicator;
 pub mod cli;
-pub mod finger;
 pub mod metrics;
-pub mod noise;
 pub mod plot;
 pub mod record;
-pub mod rig;
 pub mod scenario;
+
+pub use tactile_plant::{applicator, finger, noise, rig};

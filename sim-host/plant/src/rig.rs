@@ -110,7 +110,7 @@ impl core::fmt::Display for RigError {
     }
 }
 
-impl std::error::Error for RigError {}
+impl core::error::Error for RigError {}
 
 /// The closed-loop rig.
 pub struct Rig {
