@@ -64,6 +64,9 @@ pub enum Protocol {
         amplitude_g: f32,
         duration_s: f32,
     },
+    /// A bench record like `../shared/data`'s: 80 s of the memo's sum of sinusoids about
+    /// 25 g, 80 s of pseudo-random steps in 40–60 g, 20 s at rest.
+    BenchRecord { seed: u64 },
     /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
     /// each applied from rest (1 s at zero) and held `hold_s`.
     LowForce { hold_s: f32 },
@@ -81,6 +84,8 @@ impl Protocol {
     pub fn slew_limit_g_per_s(&self) -> f32 {
         match self {
             Protocol::Sweep { .. } | Protocol::Sines { .. } => f32::INFINITY,
+            // The sinusoids pass; the pseudo-random steps are slewed like any step.
+            Protocol::BenchRecord { .. } => STEP_SLEW_G_PER_S,
             _ => STEP_SLEW_G_PER_S,
         }
     }
@@ -134,6 +139,7 @@ impl Protocol {
                 duration_s
             }
             Protocol::LowForce { hold_s } => LOW_FORCE_G.len() as f32 * (1.0 + hold_s),
+            Protocol::BenchRecord { .. } => 180.0,
         }
     }
 }
@@ -151,7 +157,9 @@ pub struct CommandSource {
 impl CommandSource {
     pub fn new(protocol: Protocol) -> Self {
         let seed = match protocol {
-            Protocol::PseudoRandom { seed, .. } | Protocol::Sines { seed, .. } => seed,
+            Protocol::PseudoRandom { seed, .. }
+            | Protocol::Sines { seed, .. }
+            | Protocol::BenchRecord { seed } => seed,
             _ => 0,
         };
         let mut rng = Xoshiro128PlusPlus::seed_from_u64(seed);
@@ -161,13 +169,20 @@ impl CommandSource {
         }
         let level_g = match protocol {
             Protocol::PseudoRandom { min_g, max_g, .. } => 0.5 * (min_g + max_g),
+            Protocol::BenchRecord { .. } => 50.0,
             _ => 0.0,
+        };
+        // The bench record's steps start after its 80 s of sinusoids.
+        let next_change_s = if matches!(protocol, Protocol::BenchRecord { .. }) {
+            80.0
+        } else {
+            0.0
         };
         Self {
             protocol,
             rng,
             level_g,
-            next_change_s: 0.0,
+            next_change_s,
             phases_rad,
         }
     }
@@ -285,12 +300,22 @@ impl CommandSource {
                 offset_g,
                 amplitude_g,
                 ..
-            } => {
-                let mut f = offset_g;
-                for (hz, phase) in SINES_HZ.iter().zip(self.phases_rad.iter()) {
-                    f += amplitude_g * libm::sinf(2.0 * core::f32::consts::PI * hz * t_s + phase);
+            } => self.sines(offset_g, amplitude_g, t_s),
+            Protocol::BenchRecord { .. } => {
+                if t_s < 80.0 {
+                    // Fade the excitation in over 2 s so the record starts at rest.
+                    let ramp = (t_s / 2.0).min(1.0);
+                    ramp * self.sines(25.0, 4.0, t_s)
+                } else if t_s < 160.0 {
+                    while t_s >= self.next_change_s {
+                        let change = (2.0 * unit(&mut self.rng) - 1.0) * 20.0;
+                        self.level_g = reflect(self.level_g + change, 40.0, 60.0);
+                        self.next_change_s += 2.0 + 6.0 * unit(&mut self.rng);
+                    }
+                    self.level_g
+                } else {
+                    0.0
                 }
-                f.max(0.0)
             }
             Protocol::LowForce { hold_s } => {
                 let period = 1.0 + hold_s;
@@ -302,6 +327,16 @@ impl CommandSource {
                 }
             }
         }
+    }
+}
+
+impl CommandSource {
+    fn sines(&self, offset_g: f32, amplitude_g: f32, t_s: f32) -> f32 {
+        let mut f = offset_g;
+        for (hz, phase) in SINES_HZ.iter().zip(self.phases_rad.iter()) {
+            f += amplitude_g * libm::sinf(2.0 * core::f32::consts::PI * hz * t_s + phase);
+        }
+        f.max(0.0)
     }
 }
 

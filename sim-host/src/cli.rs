@@ -75,7 +75,12 @@ pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
             }
             effects.delay_s = v;
         }
-        "slow-relaxation" => effects.slow_relaxation = v,
+        "slow-relaxation" => {
+            effects.slow_relaxation = v;
+            if let Some(tau) = hz {
+                effects.slow_relaxation_tau_s = number(tau)?.max(1.0);
+            }
+        }
         other => {
             return Err(format!(
                 "unknown effect '{other}'; valid effects: {}",

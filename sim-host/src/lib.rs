@@ -6,9 +6,12 @@
 
 pub mod analysis;
 pub mod cli;
+pub mod diagnose;
+pub mod fit;
 pub mod metrics;
 pub mod plot;
 pub mod record;
+pub mod report;
 pub mod scenario;
 
 pub use tactile_plant::{applicator, finger, noise, rig};

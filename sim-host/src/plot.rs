@@ -10,7 +10,8 @@ use crate::rig::TickRecord;
 
 static FONT: Once = Once::new();
 
-fn register_font() {
+/// Makes the compiled-in font available to every plot.
+pub fn register_font_once() {
     FONT.call_once(|| {
         // The font is compiled in, so plots render the same on a machine without fonts.
         let _ = plotters::style::register_font(
@@ -79,7 +80,7 @@ pub fn plot_run(
     title: &str,
     ticks: &[TickRecord],
 ) -> Result<(), Box<dyn std::error::Error>> {
-    register_font();
+    register_font_once();
     let every = (ticks.len() / 4000).max(1);
     let pick = |f: &dyn Fn(&TickRecord) -> f32| -> Vec<(f64, f64)> {
         ticks

@@ -7,7 +7,7 @@ use crate::finger::StrainGrid;
 use crate::rig::{Rig, RigConfig, RigError, TickRecord};
 
 /// The named scenarios, in the order `tactile` lists them.
-pub const SCENARIOS: [&str; 10] = [
+pub const SCENARIOS: [&str; 11] = [
     "force-steps",
     "step",
     "step-loads",
@@ -18,6 +18,7 @@ pub const SCENARIOS: [&str; 10] = [
     "pseudo-random",
     "sines",
     "low-force",
+    "bench-record",
 ];
 
 /// Options a scenario takes from the command line.
@@ -120,6 +121,9 @@ pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioErr
             duration_s: o.duration_s,
         },
         "low-force" => Protocol::LowForce { hold_s: 3.0 },
+        "bench-record" => Protocol::BenchRecord {
+            seed: o.protocol_seed,
+        },
         other => return Err(ScenarioError::Unknown(other.to_string())),
     })
 }

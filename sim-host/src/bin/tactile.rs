@@ -62,6 +62,26 @@ enum Command {
         #[arg(long)]
         no_plot: bool,
     },
+    /// Fit one of the memo's models to a record (t_s,force_g,strain_pct).
+    Fit {
+        file: PathBuf,
+        /// elastic, maxwell-kelvin, mk-alpha or second-order.
+        #[arg(long, default_value = "mk-alpha")]
+        model: String,
+        /// Write the fit as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Find what a linear Maxwell–Kelvin model misses in a record, add it, report before/after.
+    Diagnose {
+        file: PathBuf,
+        /// Write the diagnosis as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write plots and a report into this folder.
+        #[arg(long)]
+        report: Option<PathBuf>,
+    },
     /// The main job without a board: the memo's experiment set, plots and a report.
     Demo {
         #[arg(long, default_value = "out/demo")]
@@ -140,6 +160,80 @@ fn main() -> ExitCode {
                     ExitCode::from(1)
                 }
             }
+        }
+        Command::Fit { file, model, json } => {
+            let base = match sim_host::fit::Base::parse(&model) {
+                Ok(b) => b,
+                Err(e) => return usage_error(&e),
+            };
+            let record = match sim_host::record::read_record(&file) {
+                Ok(r) => r,
+                Err(e) => {
+                    eprintln!("tactile: {e}");
+                    return ExitCode::from(1);
+                }
+            };
+            let series = sim_host::fit::Series::from_record(&record);
+            let start = std::time::Instant::now();
+            let Some(fit) = sim_host::fit::fit(&sim_host::fit::ModelSpec::new(base), &series, &[])
+            else {
+                eprintln!(
+                    "tactile: no start of the {model} fit converged on {}",
+                    file.display()
+                );
+                return ExitCode::from(1);
+            };
+            print!("{}", sim_host::fit::describe(&fit));
+            println!(
+                "  ({} evaluations, {:.2} s)",
+                fit.evaluations,
+                start.elapsed().as_secs_f64()
+            );
+            if let Some(path) = json {
+                let text = serde_json::to_string_pretty(&fit).unwrap_or_default();
+                if let Err(e) = std::fs::write(&path, text) {
+                    eprintln!("tactile: {}: {e}", path.display());
+                    return ExitCode::from(1);
+                }
+            }
+            ExitCode::SUCCESS
+        }
+        Command::Diagnose { file, json, report } => {
+            let record = match sim_host::record::read_record(&file) {
+                Ok(r) => r,
+                Err(e) => {
+                    eprintln!("tactile: {e}");
+                    return ExitCode::from(1);
+                }
+            };
+            let series = sim_host::fit::Series::from_record(&record);
+            let start = std::time::Instant::now();
+            let Some(d) = sim_host::diagnose::diagnose(&series) else {
+                eprintln!(
+                    "tactile: the baseline fit did not converge on {}",
+                    file.display()
+                );
+                return ExitCode::from(1);
+            };
+            print!("{}", d.summary);
+            println!("  ({:.1} s)", start.elapsed().as_secs_f64());
+            if let Some(path) = json {
+                let text = serde_json::to_string_pretty(&d).unwrap_or_default();
+                if let Err(e) = std::fs::write(&path, text) {
+                    eprintln!("tactile: {}: {e}", path.display());
+                    return ExitCode::from(1);
+                }
+            }
+            if let Some(dir) = report {
+                match sim_host::report::diagnosis_report(&dir, &file, &series, &d) {
+                    Ok(p) => println!("  report: {}", p.display()),
+                    Err(e) => {
+                        eprintln!("tactile: report {}: {e}", dir.display());
+                        return ExitCode::from(1);
+                    }
+                }
+            }
+            ExitCode::SUCCESS
         }
         Command::Demo { out, seed } => match cli::demo(&out, seed) {
             Ok(path) => {

@@ -1,0 +1,184 @@
+//! The diagnosis report: residual before and after, its autocorrelation with bounds, residual
+//! against load, and the candidates' table.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+
+use crate::diagnose::Diagnosis;
+use crate::fit::{Fit, Series};
+
+fn residual(fit: &Fit, data: &Series) -> Vec<f64> {
+    fit.model
+        .simulate(&fit.theta, data)
+        .map(|p| p.iter().zip(&data.strain).map(|(a, b)| a - b).collect())
+        .unwrap_or_default()
+}
+
+/// Writes `report.md`, `residual.png` and `diagnosis.json` into `dir`.
+pub fn diagnosis_report(
+    dir: &Path,
+    source: &Path,
+    data: &Series,
+    d: &Diagnosis,
+) -> Result<PathBuf, Box<dyn std::error::Error>> {
+    std::fs::create_dir_all(dir)?;
+    crate::plot::register_font_once();
+    let (Some(before), Some(after)) = (&d.baseline_fit, &d.final_fit) else {
+        return Err("diagnosis has no fits".into());
+    };
+    let r0 = residual(before, data);
+    let r1 = residual(after, data);
+    let png = dir.join("residual.png");
+    {
+        let root = BitMapBackend::new(&png, (1200, 1100)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let areas = root.split_evenly((3, 1));
+        // 1. Residual against time, before and after.
+        let every = (r0.len() / 4000).max(1);
+        let t = |i: usize| i as f64 * data.dt_s;
+        let (lo, hi) = r0
+            .iter()
+            .chain(&r1)
+            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+        let mut c = ChartBuilder::on(&areas[0])
+            .caption("residual (model − measured strain)", ("sans-serif", 20))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..t(r0.len()), lo..hi.max(lo + 1e-6))?;
+        c.configure_mesh()
+            .x_desc("time (s)")
+            .y_desc("strain (%)")
+            .draw()?;
+        c.draw_series(LineSeries::new(
+            r0.iter()
+                .enumerate()
+                .step_by(every)
+                .map(|(i, v)| (t(i), *v)),
+            RED,
+        ))?
+        .label("before")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RED));
+        c.draw_series(LineSeries::new(
+            r1.iter()
+                .enumerate()
+                .step_by(every)
+                .map(|(i, v)| (t(i), *v)),
+            BLUE,
+        ))?
+        .label("after")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE));
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+        // 2. Autocorrelation with bounds.
+        let b = d.residual_before.acf_bound;
+        let mut c = ChartBuilder::on(&areas[1])
+            .caption(
+                "residual autocorrelation (95 % bounds dashed)",
+                ("sans-serif", 20),
+            )
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..50.0 * data.dt_s, -0.2..1.0)?;
+        c.configure_mesh().x_desc("lag (s)").y_desc("rho").draw()?;
+        for (acf, color, name) in [
+            (&d.residual_before.acf, RED, "before"),
+            (&d.residual_after.acf, BLUE, "after"),
+        ] {
+            c.draw_series(LineSeries::new(
+                acf.iter()
+                    .enumerate()
+                    .map(|(k, v)| ((k + 1) as f64 * data.dt_s, *v)),
+                color,
+            ))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+        }
+        for s in [b, -b] {
+            c.draw_series(DashedLineSeries::new(
+                vec![(0.0, s), (50.0 * data.dt_s, s)],
+                5,
+                5,
+                BLACK.into(),
+            ))?;
+        }
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+        // 3. Residual against load.
+        let (flo, fhi) = data
+            .force
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+        let mut c = ChartBuilder::on(&areas[2])
+            .caption("residual against load", ("sans-serif", 20))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(flo..fhi.max(flo + 1e-6), lo..hi.max(lo + 1e-6))?;
+        c.configure_mesh()
+            .x_desc("force (g)")
+            .y_desc("strain (%)")
+            .draw()?;
+        c.draw_series(
+            data.force
+                .iter()
+                .zip(&r0)
+                .step_by(every * 2)
+                .map(|(f, r)| Circle::new((*f, *r), 1, RED.filled())),
+        )?;
+        c.draw_series(
+            data.force
+                .iter()
+                .zip(&r1)
+                .step_by(every * 2)
+                .map(|(f, r)| Circle::new((*f, *r), 1, BLUE.filled())),
+        )?;
+        root.present()?;
+    }
+    let mut md = String::new();
+    let _ = writeln!(md, "# Diagnosis of `{}`\n", source.display());
+    let _ = writeln!(
+        md,
+        "Verdict: **{}** (accepted, in order: {}).\n",
+        d.effect,
+        if d.effects.is_empty() {
+            "none".to_string()
+        } else {
+            d.effects.join(", ")
+        }
+    );
+    let _ = writeln!(md, "```text\n{}```\n", d.summary);
+    let _ = writeln!(md, "| candidate | round | held-out RMS_n (g) | Ljung–Box / 5 % level | accepted |\n|---|---|---|---|---|");
+    for c in &d.candidates {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.3} | {:.1} | {} |",
+            c.effect,
+            c.round,
+            c.held_out_rms_g,
+            c.ljung_box_ratio,
+            if c.accepted { "yes" } else { "" }
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\n![residual, autocorrelation, residual against load](residual.png)\n"
+    );
+    let _ = writeln!(
+        md,
+        "Before: {}\n\nAfter: {}",
+        crate::fit::describe(before).replace('\n', "  \n"),
+        crate::fit::describe(after).replace('\n', "  \n")
+    );
+    std::fs::write(dir.join("diagnosis.json"), serde_json::to_string_pretty(d)?)?;
+    let path = dir.join("report.md");
+    std::fs::write(&path, md)?;
+    Ok(path)
+}

@@ -1,0 +1,145 @@
+//! The diagnosis names the effect a record contains (issue: "Done means").
+//!
+//! Records are simulated bench records (80 s of the memo's sinusoids, 80 s of pseudo-random
+//! steps, 20 s rest) of a finger that is linear Maxwell–Kelvin with α unless an effect is
+//! switched on; each effect at a strength that roughly doubles the baseline's held-out error,
+//! with seeds and strengths varied so the tests exercise the method, not one record.
+
+use std::path::Path;
+
+use sim_host::cli::apply_effect;
+use sim_host::diagnose::{diagnose, Diagnosis};
+use sim_host::fit::Series;
+use sim_host::record::{parse_record, read_record, write_record};
+use sim_host::rig::RigConfig;
+use sim_host::scenario::{run_named, ScenarioOptions};
+
+fn bench_record(effects: &[&str], seed: u64) -> Series {
+    let mut config = RigConfig {
+        seed,
+        scan_array: false,
+        ..Default::default()
+    };
+    apply_effect(&mut config.effects, "stiffening=0").unwrap();
+    for e in effects {
+        apply_effect(&mut config.effects, e).unwrap();
+    }
+    let options = ScenarioOptions {
+        protocol_seed: seed * 7 + 3,
+        ..Default::default()
+    };
+    let run = run_named("bench-record", &options, config, |_| {}).unwrap();
+    // Through the record format, as a user's file would come.
+    let path = std::env::temp_dir().join(format!(
+        "diagnose_test_{seed}_{}.csv",
+        effects.join("_").replace(['=', '@', '.'], "-")
+    ));
+    write_record(
+        &path,
+        &[("sample_rate_hz".into(), "200".into())],
+        &run.ticks,
+        5,
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let _ = std::fs::remove_file(&path);
+    Series::from_record(&parse_record(text.as_bytes(), &path).unwrap())
+}
+
+fn check(d: &Diagnosis, expected: &str) {
+    assert_eq!(d.effect, expected, "{}", d.summary);
+    if expected != "none" {
+        assert!(
+            d.after.held_out_rms_g < d.before.held_out_rms_g,
+            "{}",
+            d.summary
+        );
+        assert!(d
+            .candidates
+            .iter()
+            .any(|c| c.accepted && c.effect == expected));
+    } else {
+        assert!(d.effects.is_empty(), "{}", d.summary);
+    }
+}
+
+#[test]
+fn a_linear_finger_gets_none() {
+    for seed in [11, 12] {
+        check(&diagnose(&bench_record(&[], seed)).unwrap(), "none");
+    }
+}
+
+#[test]
+fn load_dependent_stiffness_is_found() {
+    for (strength, seed) in [("stiffening=0.1", 21), ("stiffening=0.15", 22)] {
+        check(
+            &diagnose(&bench_record(&[strength], seed)).unwrap(),
+            "load_dependent_stiffness",
+        );
+    }
+}
+
+#[test]
+fn hysteresis_is_found() {
+    for (strength, seed) in [("hysteresis=0.2", 31), ("hysteresis=0.25", 32)] {
+        check(
+            &diagnose(&bench_record(&[strength], seed)).unwrap(),
+            "hysteresis",
+        );
+    }
+}
+
+#[test]
+fn baseline_drift_is_found() {
+    for (strength, seed) in [("drift=0.015", 41), ("drift=0.02", 42)] {
+        check(
+            &diagnose(&bench_record(&[strength], seed)).unwrap(),
+            "baseline_drift",
+        );
+    }
+}
+
+#[test]
+fn periodic_interference_is_found_at_its_frequency() {
+    for (strength, seed, hz) in [
+        ("interference=0.11@7.3", 51, 7.3),
+        ("interference=0.1@3.1", 52, 3.1),
+    ] {
+        let d = diagnose(&bench_record(&[strength], seed)).unwrap();
+        check(&d, "periodic_interference");
+        let notch = d.force_estimate.estimator_config["notch_hz"]
+            .as_f64()
+            .unwrap();
+        assert!((notch - hz).abs() < 0.05, "notch at {notch} Hz for {hz} Hz");
+    }
+}
+
+#[test]
+fn time_delay_is_found_and_measured() {
+    for (strength, seed, delay) in [("delay=0.005", 61, 0.005), ("delay=0.008", 62, 0.008)] {
+        let d = diagnose(&bench_record(&[strength], seed)).unwrap();
+        check(&d, "time_delay");
+        let fitted = d.force_estimate.estimator_config["delay_s"]
+            .as_f64()
+            .unwrap();
+        assert!(
+            (fitted - delay).abs() < 0.0015,
+            "fitted {fitted} s for {delay} s"
+        );
+    }
+}
+
+#[test]
+fn the_shared_examples_get_their_labels() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    let labels: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("labels.json")).unwrap()).unwrap();
+    for entry in labels.as_array().unwrap() {
+        let file = entry["file"].as_str().unwrap();
+        let expected = entry["effect"].as_str().unwrap();
+        let record = read_record(&dir.join(file)).unwrap();
+        let d = diagnose(&Series::from_record(&record)).unwrap();
+        check(&d, expected);
+    }
+}
