@@ -577,6 +577,31 @@ impl Series {
             ),
         }
     }
+    /// A whole record fitted without a held-out part (the memo's own procedure for its tables).
+    pub fn whole(dt_s: f64, force: Vec<f64>, strain: Vec<f64>) -> Self {
+        let n = force.len();
+        Self {
+            dt_s,
+            force,
+            strain,
+            in_fit: vec![true; n],
+            held_out_description: "none (the whole record is fitted, as in the memo)".into(),
+        }
+    }
+
+    /// Predicted-strain RMS_n (g) of `spec` with parameters `theta` on this series, normalized
+    /// by `g1`.
+    pub fn rms_n_g(&self, spec: &ModelSpec, theta: &[f64], g1: f64) -> Option<f64> {
+        let p = spec.simulate(theta, self)?;
+        let ms = p
+            .iter()
+            .zip(&self.strain)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            / p.len().max(1) as f64;
+        Some(g1 * ms.sqrt())
+    }
+
     fn secant_g_per_pct(&self) -> f64 {
         let (f, e): (f64, f64) = self
             .force

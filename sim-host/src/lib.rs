@@ -13,5 +13,6 @@ pub mod plot;
 pub mod record;
 pub mod report;
 pub mod scenario;
+pub mod tables;
 
 pub use tactile_plant::{applicator, finger, noise, rig};

@@ -82,6 +82,13 @@ enum Command {
         #[arg(long)]
         report: Option<PathBuf>,
     },
+    /// Reproduce the memo's Tables I–IV on the simulator, beside the memo's numbers.
+    Tables {
+        #[arg(long, default_value = "out/tables")]
+        out: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// The main job without a board: the memo's experiment set, plots and a report.
     Demo {
         #[arg(long, default_value = "out/demo")]
@@ -235,6 +242,34 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
+        Command::Tables { out, seed } => match sim_host::tables::reproduce(seed) {
+            Ok(t) => {
+                let text = sim_host::tables::render(&t);
+                print!("{text}");
+                let written = std::fs::create_dir_all(&out)
+                    .and_then(|_| std::fs::write(out.join("tables.md"), &text))
+                    .and_then(|_| {
+                        std::fs::write(
+                            out.join("tables.json"),
+                            serde_json::to_string_pretty(&t).unwrap_or_default(),
+                        )
+                    });
+                match written {
+                    Ok(()) => {
+                        println!("wrote {}", out.join("tables.md").display());
+                        ExitCode::SUCCESS
+                    }
+                    Err(e) => {
+                        eprintln!("tactile: {}: {e}", out.display());
+                        ExitCode::from(1)
+                    }
+                }
+            }
+            Err(e) => {
+                eprintln!("tactile: {e}");
+                ExitCode::from(1)
+            }
+        },
         Command::Demo { out, seed } => match cli::demo(&out, seed) {
             Ok(path) => {
                 println!("report: {}", path.display());
