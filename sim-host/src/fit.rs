@@ -932,9 +932,9 @@ mod tests {
         let force: Vec<f64> = (0..n)
             .map(|i| {
                 let t = i as f64 * dt;
-                25.0 + 8.0 * (0.23 * 6.283 * t).sin()
-                    + 6.0 * (0.062 * 6.283 * t).sin()
-                    + 4.0 * (1.9 * 6.283 * t).sin()
+                25.0 + 8.0 * (0.23 * std::f64::consts::TAU * t).sin()
+                    + 6.0 * (0.062 * std::f64::consts::TAU * t).sin()
+                    + 4.0 * (1.9 * std::f64::consts::TAU * t).sin()
             })
             .collect();
         let model = mk.forward::<f64>(dt).unwrap();
