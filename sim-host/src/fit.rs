@@ -285,10 +285,11 @@ impl ModelSpec {
                 .iter()
                 .map(|m| vec![ln(m.g1), ln(m.n1), ln(m.n2), ln(m.g2)])
                 .collect(),
-            Base::MkAlpha => mk_rows
-                .iter()
-                .map(|m| vec![ln(m.g1), ln(m.n1), ln(m.n2), ln(m.g2), ln(5.0)])
-                .collect(),
+            // Table I's 30 g row, and (below) the two best points of the data-driven grid.
+            Base::MkAlpha => {
+                let m = MaxwellKelvin::TABLE_I_30G;
+                vec![vec![ln(m.g1), ln(m.n1), ln(m.n2), ln(m.g2), ln(5.0)]]
+            }
             Base::SecondOrder => {
                 let m = SecondOrder::MEMO_FIT;
                 let mk = MaxwellKelvin {
