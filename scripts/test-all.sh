@@ -28,6 +28,22 @@ cargo clippy --all-targets -- -D warnings
 step "core library for the Cortex-M4F (thumbv7em-none-eabihf)"
 cargo core-thumb
 
+step "QEMU for the firmware-in-the-loop test (qemu-system-arm)"
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+    echo "installing qemu-system-arm"
+    sudo=""
+    if [ "$(id -u)" != 0 ] && command -v sudo >/dev/null 2>&1; then sudo=sudo; fi
+    $sudo apt-get update
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y qemu-system-arm
+fi
+qemu-system-arm --version | sed -n 1p
+
+step "firmware in the loop: QEMU netduinoplus2 against the host simulator"
+cargo test --release -p tactile-decode --test qemu_fil -- --ignored --nocapture
+
+step "STM32F407G-DISC1 firmware: build and ELF checks"
+cargo test --release -p tactile-decode --test f407_elf -- --ignored --nocapture
+
 step "host tests of the whole workspace (cargo test)"
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT

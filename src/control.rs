@@ -111,7 +111,7 @@ impl ForceLaw {
         let derivative = c.kd_s * (error_g - self.previous_error_g) / c.dt_s;
         self.previous_error_g = error_g;
         let raw = command_g + c.gain_scale(command_g) * (c.kp * error_g + derivative);
-        let force_g = raw.clamp(c.adjusted_min_g, c.adjusted_max_g);
+        let force_g = crate::limit(raw, c.adjusted_min_g, c.adjusted_max_g);
         Adjusted {
             force_g,
             saturated: force_g != raw,
@@ -143,13 +143,21 @@ impl SlewLimiter {
         }
     }
 
+    /// Restarts the ramp from `value_g` (where the force actually is); returns it.
+    pub fn update_from(&mut self, value_g: f32) -> f32 {
+        if value_g.is_finite() {
+            self.last_g = value_g;
+        }
+        self.last_g
+    }
+
     /// The next command, moved toward `target_g` by at most one step of the rate; a
     /// non-finite target holds the last command.
     #[inline]
     pub fn update(&mut self, target_g: f32) -> f32 {
         if target_g.is_finite() {
             let step = self.max_rate_g_per_s * self.dt_s;
-            self.last_g += (target_g - self.last_g).clamp(-step, step);
+            self.last_g += crate::limit(target_g - self.last_g, -step, step);
         }
         self.last_g
     }

@@ -10,6 +10,7 @@
 //! - [`viscoelastic`]: elastic, Maxwell–Kelvin, modified Maxwell–Kelvin and second-order
 //!   models, forward (strain from stress) and inverse (stress from strain).
 //! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
+//! - [`supervisor`]: the force loop (command check, slew, A1, filter, DAC) and its fault table.
 //! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
 //!
 //! Units: force in grams-force (`_g`), strain in percent deflection (`_pct`), time in seconds
@@ -30,6 +31,15 @@ pub mod control;
 pub mod filter;
 pub mod gauge;
 pub mod profile;
+pub mod supervisor;
 pub mod tactile;
 pub mod telemetry;
 pub mod viscoelastic;
+
+/// `x` limited to `[lo, hi]` without a panic path: `f32::clamp` asserts `lo <= hi` and its panic
+/// message pulls about 15 KB of float formatting into the firmware. NaN passes through as NaN
+/// only if both bounds are NaN; callers give finite bounds.
+#[inline]
+pub(crate) fn limit(x: f32, lo: f32, hi: f32) -> f32 {
+    x.max(lo).min(hi)
+}

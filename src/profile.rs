@@ -354,7 +354,7 @@ fn reflect(x: f32, lo: f32, hi: f32) -> f32 {
     } else {
         x
     };
-    r.clamp(lo, hi)
+    crate::limit(r, lo, hi)
 }
 
 #[cfg(test)]

@@ -27,9 +27,48 @@ impl FaultFlags {
     pub const TAXEL_AT_RAIL: u16 = 1 << 6;
     /// Frames were dropped since the last frame that got through.
     pub const FRAMES_DROPPED: u16 = 1 << 7;
+    /// The gauge reading has not changed for a stated time while the command did.
+    pub const GAUGE_STUCK: u16 = 1 << 8;
+    /// The gauge reading changed faster in one tick than the applicator can.
+    pub const FORCE_SLEW: u16 = 1 << 9;
+    /// The command was outside the applicator's range and was clamped.
+    pub const COMMAND_CLAMPED: u16 = 1 << 10;
+    /// A fault is latched: the actuator is held at zero until the fault is cleared.
+    pub const LATCHED: u16 = 1 << 11;
+    /// Contact was lost and the probe is re-approaching at a bounded force.
+    pub const APPROACHING: u16 = 1 << 12;
 
+    /// Names of the set flags, for logs and reports.
+    pub fn names(self) -> impl Iterator<Item = &'static str> {
+        const NAMES: [&str; 13] = [
+            "gauge_at_rail",
+            "gauge_out_of_range",
+            "actuator_saturated",
+            "invalid_input",
+            "deadline_overrun",
+            "contact_lost",
+            "taxel_at_rail",
+            "frames_dropped",
+            "gauge_stuck",
+            "force_slew",
+            "command_clamped",
+            "latched",
+            "approaching",
+        ];
+        NAMES
+            .into_iter()
+            .enumerate()
+            .filter(move |(i, _)| self.0 & (1 << i) != 0)
+            .map(|(_, n)| n)
+    }
+
+    /// True when any of the bits of `flag` is set.
     pub const fn contains(self, flag: u16) -> bool {
         self.0 & flag != 0
+    }
+    /// True when every bit of `flags` is set.
+    pub const fn contains_all(self, flags: u16) -> bool {
+        self.0 & flags == flags
     }
     pub fn insert(&mut self, flag: u16) {
         self.0 |= flag;

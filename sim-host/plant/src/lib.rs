@@ -9,5 +9,6 @@
 
 pub mod applicator;
 pub mod finger;
+pub mod hardware;
 pub mod noise;
 pub mod rig;

@@ -3,9 +3,10 @@
 //! and finger. The plant is integrated at 10 kHz (ten RK4 steps per 1 ms control tick; the
 //! applicator tests check the step size).
 
-use tactile_core::control::{ActuatorConfig, ForceLaw, ForceLawConfig, SlewLimiter};
-use tactile_core::filter::{LowpassNotch, LowpassNotchConfig, LowpassNotchState};
+use tactile_core::control::{ActuatorConfig, ForceLawConfig};
+use tactile_core::filter::LowpassNotchConfig;
 use tactile_core::gauge::{AdcCode, GaugeConfig, GaugeFault, SAMPLES_PER_TICK};
+use tactile_core::supervisor::{ForceLoop, ForceLoopConfig, SupervisorConfig};
 use tactile_core::tactile::{ScanSequencer, TaxelCalibration, TaxelId, TAXELS};
 use tactile_core::telemetry::FaultFlags;
 use tactile_core::viscoelastic::{InverseEstimator, ModelError, SecondOrder};
@@ -40,6 +41,68 @@ pub struct RigConfig {
     pub estimator: SecondOrder,
     /// Run the 8×8 scan (off for speed when only the probed element matters).
     pub scan_array: bool,
+    /// The force loop's fault thresholds.
+    pub supervisor: SupervisorConfig,
+    /// A fault to inject, and when.
+    pub fault: Option<FaultInjection>,
+}
+
+/// Faults the simulator can inject into the rig.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum InjectedFault {
+    /// The gauge's converter reads its lower rail (a broken wire).
+    GaugeDisconnected,
+    /// The gauge's converter reads its upper rail.
+    GaugeSaturated,
+    /// The gauge's converter repeats the codes it had.
+    GaugeStuck,
+    /// One tick of a spike of this many grams on the gauge.
+    ForceSpike { g: f32 },
+    /// The finger surface drops away by this much strain (infinite: the finger is removed).
+    ContactLost { strain_pct: f64 },
+    /// One tick of a NaN command.
+    CommandNan,
+    /// The control task misses one deadline.
+    DeadlineOverrun,
+    /// A taxel reads its converter's rail from then on.
+    TaxelOpen { index: usize },
+}
+
+impl InjectedFault {
+    /// The names `tactile experiment --fault` takes.
+    pub const NAMES: [&'static str; 8] = [
+        "gauge-disconnected",
+        "gauge-saturated",
+        "gauge-stuck",
+        "force-spike",
+        "contact-lost",
+        "command-nan",
+        "deadline-overrun",
+        "taxel-open",
+    ];
+
+    pub fn parse(name: &str) -> Option<InjectedFault> {
+        Some(match name {
+            "gauge-disconnected" => InjectedFault::GaugeDisconnected,
+            "gauge-saturated" => InjectedFault::GaugeSaturated,
+            "gauge-stuck" => InjectedFault::GaugeStuck,
+            "force-spike" => InjectedFault::ForceSpike { g: 80.0 },
+            "contact-lost" => InjectedFault::ContactLost {
+                strain_pct: f64::INFINITY,
+            },
+            "command-nan" => InjectedFault::CommandNan,
+            "deadline-overrun" => InjectedFault::DeadlineOverrun,
+            "taxel-open" => InjectedFault::TaxelOpen { index: 3 * 8 + 3 },
+            _ => return None,
+        })
+    }
+}
+
+/// A fault and the time it starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaultInjection {
+    pub fault: InjectedFault,
+    pub at_s: f64,
 }
 
 /// The error gain K_e the simulated rig runs with.
@@ -73,6 +136,8 @@ impl Default for RigConfig {
             probe: TaxelId::from_index(3 * 8 + 2),
             estimator: SecondOrder::MEMO_FIT,
             scan_array: true,
+            supervisor: SupervisorConfig::DESIGN,
+            fault: None,
         }
     }
 }
@@ -92,12 +157,16 @@ pub struct TickRecord {
     pub true_force_g: f32,
     pub in_contact: bool,
     pub faults: FaultFlags,
+    /// The code written to the actuator's DAC.
+    pub dac_code: u16,
 }
 
 /// Why a rig could not be built.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RigError {
     Filter(tactile_core::filter::FilterError),
+    /// A taxel index outside the array.
+    Taxel(usize),
     Estimator(ModelError),
 }
 
@@ -105,6 +174,7 @@ impl core::fmt::Display for RigError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             RigError::Filter(e) => write!(f, "lowpass-notch filter configuration refused: {e:?}"),
+            RigError::Taxel(i) => write!(f, "taxel {i} is outside the 8×8 array"),
             RigError::Estimator(e) => write!(f, "estimator model refused: {e:?}"),
         }
     }
@@ -115,10 +185,9 @@ impl core::error::Error for RigError {}
 /// The closed-loop rig.
 pub struct Rig {
     pub config: RigConfig,
-    law: ForceLaw,
-    slew: SlewLimiter,
-    filter: LowpassNotch,
-    filter_state: LowpassNotchState,
+    force_loop: ForceLoop,
+    /// Gauge codes of the last tick (what a stuck converter repeats).
+    last_samples: [AdcCode; SAMPLES_PER_TICK],
     pub plant: ApplicatorState,
     lumped: Lumped,
     pub finger: Finger,
@@ -135,7 +204,23 @@ pub struct Rig {
 
 impl Rig {
     pub fn new(config: RigConfig) -> Result<Self, RigError> {
-        let filter = config.filter.discretize().map_err(RigError::Filter)?;
+        let force_loop = ForceLoop::new(ForceLoopConfig {
+            law: config.law,
+            filter: config.filter,
+            actuator: config.actuator,
+            supervisor: config.supervisor,
+            slew_g_per_s: config.command_slew_g_per_s,
+        })
+        .map_err(RigError::Filter)?;
+        if let Some(FaultInjection {
+            fault: InjectedFault::TaxelOpen { index },
+            ..
+        }) = config.fault
+        {
+            if index >= TAXELS {
+                return Err(RigError::Taxel(index));
+            }
+        }
         let estimator = InverseEstimator::new(
             config
                 .estimator
@@ -147,10 +232,8 @@ impl Rig {
         let scan_steps_per_tick =
             libm::round(TICK_S / f64::from(config.readout.scan.dwell_s)).max(1.0) as usize;
         Ok(Self {
-            law: ForceLaw::new(config.law),
-            slew: SlewLimiter::new(config.command_slew_g_per_s, config.law.dt_s),
-            filter,
-            filter_state: LowpassNotchState::default(),
+            force_loop,
+            last_samples: [AdcCode(2048); SAMPLES_PER_TICK],
             plant: ApplicatorState {
                 stuck: true,
                 ..Default::default()
@@ -188,35 +271,30 @@ impl Rig {
         mut on_frame: impl FnMut(f64, &StrainGrid),
     ) -> TickRecord {
         let t_s = self.time_s();
-        let mut faults = FaultFlags::NONE;
-        // Control: A1 on the gauge reading of the last tick, then the filter, then the DAC.
-        let shaped_g = self.slew.update(command_g);
-        let adjusted = match self.last_gauge {
-            Ok(sensed) => {
-                let a = self.law.update(shaped_g, sensed);
-                if a.saturated {
-                    faults.insert(FaultFlags::ACTUATOR_SATURATED);
-                }
-                if a.invalid_input {
-                    faults.insert(FaultFlags::INVALID_INPUT);
-                }
-                a.force_g
-            }
-            Err(fault) => {
-                faults.insert(match fault {
-                    GaugeFault::AtRail { .. } => FaultFlags::GAUGE_AT_RAIL,
-                    GaugeFault::OutOfRange { .. } => FaultFlags::GAUGE_OUT_OF_RANGE,
-                });
-                0.0
-            }
+        let fault_now = self.config.fault.filter(|f| t_s >= f.at_s).map(|f| f.fault);
+        let first_fault_tick = self
+            .config
+            .fault
+            .is_some_and(|f| t_s >= f.at_s && t_s - f.at_s < TICK_S);
+        let command_in = if fault_now == Some(InjectedFault::CommandNan) && first_fault_tick {
+            f32::NAN
+        } else {
+            command_g
         };
-        let filtered = self.filter.update(&mut self.filter_state, adjusted);
+        let overrun = fault_now == Some(InjectedFault::DeadlineOverrun) && first_fault_tick;
+        // Control: the core's force loop on the gauge reading of the last tick.
+        let out = self.force_loop.tick(command_in, self.last_gauge, overrun);
+        let mut faults = out.faults;
+        let adjusted = out.adjusted_g;
         let actuator = &self.config.actuator;
-        let drive_v = f64::from(actuator.dac.volts(actuator.code(filtered)));
+        let drive_v = f64::from(actuator.dac.volts(out.dac_code));
 
         // Plant: ten RK4 steps; the gauge is sampled eight times within the tick.
         let p = self.config.applicator;
-        let contact = self.contact();
+        let mut contact = self.contact();
+        if let Some(InjectedFault::ContactLost { strain_pct }) = fault_now {
+            contact.rest_strain_pct += strain_pct;
+        }
         let mut samples = [AdcCode(0); SAMPLES_PER_TICK];
         let mut stress_sum = 0.0;
         for k in 0..SUBSTEPS {
@@ -235,6 +313,21 @@ impl Rig {
                     .code(self.config.gauge.volts(force as f32));
             }
         }
+        match fault_now {
+            Some(InjectedFault::GaugeDisconnected) => samples = [AdcCode(0); SAMPLES_PER_TICK],
+            Some(InjectedFault::GaugeSaturated) => {
+                samples = [self.config.gauge.adc.code(f32::MAX); SAMPLES_PER_TICK]
+            }
+            Some(InjectedFault::GaugeStuck) => samples = self.last_samples,
+            Some(InjectedFault::ForceSpike { g }) if first_fault_tick => {
+                for s in samples.iter_mut() {
+                    let v = self.config.gauge.adc.volts(*s) + g / self.config.gauge.grams_per_volt;
+                    *s = self.config.gauge.adc.code(v);
+                }
+            }
+            _ => {}
+        }
+        self.last_samples = samples;
         self.last_gauge = self.config.gauge.average_force(&samples);
         let mean_stress = stress_sum / SUBSTEPS as f64;
         self.finger.tick(mean_stress, TICK_S);
@@ -256,13 +349,25 @@ impl Rig {
                 let sampled = self.scan.selected();
                 let previous = TaxelId::from_index(sampled.index() + TAXELS - 1);
                 let step = self.scan.advance();
-                let code = self
+                let mut code = self
                     .finger
                     .sample_scan(sampled, previous, true_force, t_end);
-                let strain = self
-                    .calibration
-                    .get(sampled.index())
-                    .map_or(f32::NAN, |c| code_to_strain_pct(&adc, c, code));
+                if fault_now
+                    == Some(InjectedFault::TaxelOpen {
+                        index: sampled.index(),
+                    })
+                {
+                    code = AdcCode(0);
+                }
+                // A taxel at a rail is open or shorted: marked bad (NaN) in the frame.
+                let strain = if adc.at_rail(code) {
+                    faults.insert(FaultFlags::TAXEL_AT_RAIL);
+                    f32::NAN
+                } else {
+                    self.calibration
+                        .get(sampled.index())
+                        .map_or(f32::NAN, |c| code_to_strain_pct(&adc, c, code))
+                };
                 if let Some(cell) = self
                     .frame
                     .get_mut(sampled.row())
@@ -276,9 +381,6 @@ impl Rig {
             }
         }
 
-        if shaped_g > 0.5 && true_force <= 0.0 {
-            faults.insert(FaultFlags::CONTACT_LOST);
-        }
         self.tick += 1;
         TickRecord {
             t_s: t_end,
@@ -295,6 +397,7 @@ impl Rig {
             true_force_g: true_force as f32,
             in_contact: true_force > 0.0,
             faults,
+            dac_code: out.dac_code.0,
         }
     }
 }

@@ -1,0 +1,54 @@
+//! What a firmware build runs with.
+
+use tactile_core::control::{ActuatorConfig, ForceLawConfig};
+use tactile_core::filter::{FilterError, LowpassNotchConfig};
+use tactile_core::gauge::{AdcScale, GaugeConfig};
+use tactile_core::supervisor::SupervisorConfig;
+use tactile_core::tactile::{ScanConfig, TaxelId};
+use tactile_core::viscoelastic::{ModelError, SecondOrder};
+
+/// Control period, s (memo: Δt = 1 ms). `f64` and spelled as the simulator's rig spells it, so
+/// command times match the simulator's to the bit.
+pub const CONTROL_PERIOD_S: f64 = 1e-3;
+
+/// Everything the task bodies are built from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirmwareConfig {
+    pub law: ForceLawConfig,
+    pub filter: LowpassNotchConfig,
+    pub gauge: GaugeConfig,
+    pub actuator: ActuatorConfig,
+    /// Converter of the taxel channels (offset/gain stage output, memo's ±10 V).
+    pub taxel_adc: AdcScale,
+    pub scan: ScanConfig,
+    /// The element under the probe, read on its own channel every control tick.
+    pub probe: TaxelId,
+    /// Model inverted on the chip to estimate force from strain.
+    pub estimator: SecondOrder,
+    /// The force loop's fault thresholds.
+    pub supervisor: SupervisorConfig,
+}
+
+impl FirmwareConfig {
+    /// A real board: the memo's law as built (K_e = 1; see the README's design decisions for
+    /// why the simulator runs K_e = 0.07), filter, gauge and actuator paths; element 4,2 under
+    /// the probe; the second-order fit of Table IV as the estimator.
+    pub const BOARD: FirmwareConfig = FirmwareConfig {
+        law: ForceLawConfig::MEMO,
+        filter: LowpassNotchConfig::MEMO,
+        gauge: GaugeConfig::MEMO,
+        actuator: ActuatorConfig::MEMO,
+        taxel_adc: AdcScale::BIPOLAR_10V_12BIT,
+        scan: ScanConfig::DESIGN,
+        probe: TaxelId::from_index(3 * 8 + 2),
+        estimator: SecondOrder::MEMO_FIT,
+        supervisor: SupervisorConfig::DESIGN,
+    };
+}
+
+/// Why the task bodies could not be built from a configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConfigError {
+    Filter(FilterError),
+    Estimator(ModelError),
+}

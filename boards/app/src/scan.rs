@@ -1,0 +1,236 @@
+//! The tactile scan: one multiplexer step per dwell, strain per taxel through its calibration,
+//! the inverse model per taxel at the frame rate, and the array's total force and centroid.
+//!
+//! Frame rate: the envelope detector's τ is 25 µs and each taxel dwells 10 τ = 250 µs, leaving
+//! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
+//! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
+
+use tactile_core::gauge::AdcScale;
+use tactile_core::tactile::{
+    ArrayFrame, ScanConfig, ScanSequencer, StrainForm, TaxelCalibration, TaxelId, COLS, ROWS,
+    TAXELS,
+};
+use tactile_core::telemetry::TaxelFrame;
+use tactile_core::viscoelastic::{InverseEstimator, SecondOrder};
+
+use crate::board::ScanIo;
+use crate::config::{ConfigError, FirmwareConfig};
+
+/// Array force below which the centroid is not defined (no contact), grams.
+pub const CONTACT_THRESHOLD_G: f32 = 0.5;
+
+/// Force over the whole array from one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ArrayEstimate {
+    /// Board tick of the frame it belongs to (same as its `TaxelFrame`).
+    pub tick: u32,
+    /// Sum of the per-taxel inverse-model forces over the good taxels, grams.
+    pub total_force_g: f32,
+    /// Force-weighted row and column (0..7); NaN below [`CONTACT_THRESHOLD_G`].
+    pub centroid_row: f32,
+    pub centroid_col: f32,
+    /// The probed element's force from the scan (frame rate), grams.
+    pub probe_force_g: f32,
+}
+
+/// A completed frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScanReport {
+    pub frame: TaxelFrame,
+    pub estimate: ArrayEstimate,
+}
+
+/// The scan task's state.
+#[derive(Clone, Debug)]
+pub struct Scanner {
+    sequencer: ScanSequencer,
+    calibration: [TaxelCalibration; TAXELS],
+    adc: AdcScale,
+    probe: TaxelId,
+    strain_pct: ArrayFrame<f32>,
+    force_g: ArrayFrame<f32>,
+    estimators: [InverseEstimator; TAXELS],
+    bad_taxels: u64,
+}
+
+impl Scanner {
+    /// A scanner with each taxel's rest calibration; the per-taxel inverse is discretized at
+    /// the frame period (each taxel is sampled once per frame).
+    pub fn new(
+        config: &FirmwareConfig,
+        calibration: [TaxelCalibration; TAXELS],
+    ) -> Result<Self, ConfigError> {
+        let model = Self::frame_model(&config.estimator, &config.scan)?;
+        Ok(Self {
+            sequencer: ScanSequencer::new(),
+            calibration,
+            adc: config.taxel_adc,
+            probe: config.probe,
+            strain_pct: ArrayFrame::default(),
+            force_g: ArrayFrame::default(),
+            estimators: [InverseEstimator::new(model); TAXELS],
+            bad_taxels: 0,
+        })
+    }
+
+    fn frame_model(
+        estimator: &SecondOrder,
+        scan: &ScanConfig,
+    ) -> Result<tactile_core::viscoelastic::Discrete2<f32>, ConfigError> {
+        estimator
+            .inverse(f64::from(scan.frame_period_s()))
+            .map_err(ConfigError::Estimator)
+    }
+
+    /// Selects the first taxel (call once before the first dwell).
+    pub fn start(&mut self, io: &mut impl ScanIo) {
+        io.select_taxel(self.sequencer.selected());
+    }
+
+    /// One scan step, after the dwell: converts the selected taxel, moves the multiplexer on,
+    /// and returns the frame when the last taxel of the array was sampled.
+    pub fn step(&mut self, io: &mut impl ScanIo, board_tick: u32) -> Option<ScanReport> {
+        let code = io.read_taxel();
+        let step = self.sequencer.advance();
+        io.select_taxel(step.next);
+        let taxel = step.sampled;
+        let bit = 1u64 << taxel.index();
+        // A taxel at a converter rail is open or shorted: marked, and left out of the sums.
+        if self.adc.at_rail(code) {
+            self.bad_taxels |= bit;
+        } else {
+            self.bad_taxels &= !bit;
+        }
+        let strain = self.calibration.get(taxel.index()).map_or(f32::NAN, |cal| {
+            cal.strain_pct(self.adc.volts(code), StrainForm::Exact)
+        });
+        self.strain_pct.set(taxel, strain);
+        let force = self
+            .estimators
+            .get_mut(taxel.index())
+            .map_or(0.0, |e| e.force_g(strain));
+        self.force_g.set(taxel, force);
+        step.frame_complete.then(|| self.report(board_tick))
+    }
+
+    fn report(&self, board_tick: u32) -> ScanReport {
+        let mut frame = TaxelFrame {
+            seq: 0,
+            tick: board_tick,
+            bad_taxels: self.bad_taxels,
+            ..Default::default()
+        };
+        let (mut total, mut row_moment, mut col_moment) = (0.0f32, 0.0f32, 0.0f32);
+        for (r, (cells, (strains, forces))) in frame
+            .strain_centi_pct
+            .iter_mut()
+            .zip(self.strain_pct.cells.iter().zip(self.force_g.cells.iter()))
+            .enumerate()
+        {
+            for (c, (cell, (&strain, &force))) in cells
+                .iter_mut()
+                .zip(strains.iter().zip(forces.iter()))
+                .enumerate()
+            {
+                *cell = TaxelFrame::quantize(strain);
+                if self.bad_taxels & (1u64 << (r * COLS + c)) == 0 && force.is_finite() {
+                    total += force;
+                    row_moment += force * r as f32;
+                    col_moment += force * c as f32;
+                }
+            }
+        }
+        let (centroid_row, centroid_col) = if total >= CONTACT_THRESHOLD_G {
+            (row_moment / total, col_moment / total)
+        } else {
+            (f32::NAN, f32::NAN)
+        };
+        ScanReport {
+            frame,
+            estimate: ArrayEstimate {
+                tick: board_tick,
+                total_force_g: total,
+                centroid_row,
+                centroid_col,
+                probe_force_g: self.force_g.get(self.probe).unwrap_or(0.0),
+            },
+        }
+    }
+
+    /// The latest strain of every taxel, percent.
+    pub fn strain_pct(&self) -> &[[f32; COLS]; ROWS] {
+        &self.strain_pct.cells
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tactile_core::gauge::AdcCode;
+
+    /// A fake multiplexer: per-taxel output volts, converted by the memo's converter.
+    struct Panel {
+        volts: [f32; TAXELS],
+        selected: TaxelId,
+        adc: AdcScale,
+    }
+
+    impl ScanIo for Panel {
+        fn select_taxel(&mut self, taxel: TaxelId) {
+            self.selected = taxel;
+        }
+        fn read_taxel(&mut self) -> AdcCode {
+            self.adc.code(self.volts[self.selected.index()])
+        }
+    }
+
+    fn calibration(rest_v: f32) -> [TaxelCalibration; TAXELS] {
+        [TaxelCalibration {
+            amplifier: tactile_core::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
+            rest_output_v: rest_v,
+            gain: 1.0,
+        }; TAXELS]
+    }
+
+    #[test]
+    fn one_pressed_taxel_puts_the_centroid_on_it_and_a_railed_one_is_left_out() {
+        let config = FirmwareConfig::BOARD;
+        // The rest output as the converter reads it, so unpressed taxels read zero strain.
+        let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
+        let mut scanner = Scanner::new(&config, calibration(rest_v)).unwrap();
+        let mut panel = Panel {
+            volts: [4.0; TAXELS],
+            selected: TaxelId::default(),
+            adc: config.taxel_adc,
+        };
+        // Taxel (5, 6) strained: more capacitance, larger V_s, the output stage moves up.
+        panel.volts[5 * 8 + 6] = 6.0;
+        // Taxel (0, 0) shorted to the negative rail.
+        panel.volts[0] = -12.0;
+        scanner.start(&mut panel);
+        let mut reports = Vec::new();
+        for k in 0..(TAXELS * 3) {
+            if let Some(r) = scanner.step(&mut panel, k as u32) {
+                reports.push(r);
+            }
+        }
+        assert_eq!(reports.len(), 3);
+        let last = reports[2];
+        assert_eq!(last.frame.bad_taxels, 1);
+        assert!(last.frame.strain_centi_pct[5][6] > 100, "{:?}", last.frame);
+        assert_eq!(last.frame.strain_centi_pct[1][1], 0);
+        let e = last.estimate;
+        assert!(e.total_force_g > CONTACT_THRESHOLD_G, "{e:?}");
+        assert!((e.centroid_row - 5.0).abs() < 1e-3 && (e.centroid_col - 6.0).abs() < 1e-3);
+        assert_eq!(e.tick, (TAXELS * 3 - 1) as u32);
+        // Nothing pressed: no centroid.
+        let mut quiet = Scanner::new(&config, calibration(rest_v)).unwrap();
+        panel.volts = [4.0; TAXELS];
+        quiet.start(&mut panel);
+        let r = (0..TAXELS)
+            .find_map(|k| quiet.step(&mut panel, k as u32))
+            .unwrap();
+        assert!(r.estimate.centroid_row.is_nan() && r.estimate.total_force_g.abs() < 0.5);
+    }
+}

@@ -1,0 +1,101 @@
+//! `tactile-decode --elf ELF --log LOG --out DIR`: a defmt log of the firmware (from a board
+//! or from QEMU) → one record per protocol run (`DIR/NAME.csv`, the format `tactile diagnose`
+//! reads), its 8×8 frames and the array estimates; a summary on stdout.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+const USAGE: &str = "usage: tactile-decode --elf FIRMWARE.elf --log DEFMT.log --out DIR";
+
+fn main() -> ExitCode {
+    let mut elf = None;
+    let mut log = None;
+    let mut out = None;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let slot = match a.as_str() {
+            "--elf" => &mut elf,
+            "--log" => &mut log,
+            "--out" => &mut out,
+            "-h" | "--help" => {
+                println!("{USAGE}");
+                return ExitCode::SUCCESS;
+            }
+            other => {
+                eprintln!("tactile-decode: unknown argument '{other}'\n{USAGE}");
+                return ExitCode::from(2);
+            }
+        };
+        match args.next() {
+            Some(v) => *slot = Some(PathBuf::from(v)),
+            None => {
+                eprintln!("tactile-decode: {a} needs a value\n{USAGE}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let (Some(elf), Some(log), Some(out)) = (elf, log, out) else {
+        eprintln!("tactile-decode: --elf, --log and --out are all required\n{USAGE}");
+        return ExitCode::from(2);
+    };
+    match run(&elf, &log, &out) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("tactile-decode: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(elf: &Path, log: &Path, out: &Path) -> Result<(), String> {
+    let read =
+        |p: &Path| std::fs::read(p).map_err(|e| format!("{}: cannot read: {e}", p.display()));
+    let session =
+        tactile_decode::decode(&read(elf)?, elf, &read(log)?, log).map_err(|e| e.to_string())?;
+    for e in &session.errors {
+        eprintln!("firmware error: {e}");
+    }
+    for n in &session.notes {
+        println!("{n}");
+    }
+    if session.runs.is_empty() {
+        return Err(format!("{}: no protocol run in the log", log.display()));
+    }
+    let meta = vec![
+        (
+            "source".to_string(),
+            format!("firmware defmt log {}", log.display()),
+        ),
+        ("elf".to_string(), elf.display().to_string()),
+    ];
+    for run in &session.runs {
+        let files = tactile_decode::write_run(out, run, &meta)
+            .map_err(|e| format!("{}: cannot write: {e}", out.display()))?;
+        println!(
+            "{}: {} control frames, {} taxel frames{} -> {}",
+            run.name,
+            run.ticks.len(),
+            run.frames.len(),
+            run.end
+                .map_or(String::from(" (no RunEnd: log cut short?)"), |e| format!(
+                    ", dropped {} control / {} taxel, {} overruns",
+                    e.control_frames_dropped, e.taxel_frames_dropped, e.overruns
+                )),
+            files
+                .first()
+                .map_or(String::new(), |f| f.display().to_string())
+        );
+    }
+    println!(
+        "sequence: {} control frames received, {} missing; {} taxel frames received, {} missing; {} trailing bytes",
+        session.control_seq.received(),
+        session.control_seq.missing(),
+        session.taxel_seq.received(),
+        session.taxel_seq.missing(),
+        session.trailing_bytes
+    );
+    if !session.errors.is_empty() {
+        return Err("the firmware reported errors (above)".into());
+    }
+    Ok(())
+}

@@ -1,0 +1,455 @@
+//! The firmware's defmt stream → the project's records.
+//!
+//! The firmware logs the core library's frames through their `defmt::Format` derives
+//! (`ControlFrame`, `TaxelFrame`) with board data riding along (`SimTruth` under QEMU,
+//! `ArrayEstimate`), plus run markers (`RunStart`, `RunEnd`) and, under QEMU, the measured
+//! `InstructionCounts`. The decoder reads the ELF's defmt table, splits the log at the rzCOBS
+//! frame delimiters, and parses each message's text back into those types by struct and field
+//! name, so a field the firmware stops sending is an error that names it.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use defmt_decoder::{DecodeError, Table};
+use sim_host::rig::TickRecord;
+use tactile_core::tactile::{COLS, ROWS};
+use tactile_core::telemetry::{ControlFrame, FaultFlags, SequenceCheck, TaxelFrame};
+use tactile_firmware::ArrayEstimate;
+
+pub mod text;
+
+use text::Fields;
+
+/// Control period of the firmware, s.
+pub const TICK_S: f64 = tactile_firmware::CONTROL_PERIOD_S;
+
+/// What went wrong, and where: the file, and the defmt frame (0-based, counted from the start
+/// of the log) when there is one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Error {
+    pub file: PathBuf,
+    pub frame: Option<usize>,
+    pub message: String,
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(n) = self.frame {
+            write!(f, ": frame {n}")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// One control tick as decoded, with the simulator's truth when the log carries it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tick {
+    pub frame: ControlFrame,
+    pub true_force_g: Option<f32>,
+    pub in_contact: Option<bool>,
+}
+
+/// One protocol run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Run {
+    pub name: String,
+    pub start_tick: u32,
+    pub duration_s: f32,
+    pub ticks: Vec<Tick>,
+    pub frames: Vec<(TaxelFrame, Option<ArrayEstimate>)>,
+    /// The firmware's own counts at the end of the run (since boot).
+    pub end: Option<RunEnd>,
+}
+
+/// The `RunEnd` marker.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RunEnd {
+    pub end_tick: u32,
+    pub control_frames_dropped: u32,
+    pub taxel_frames_dropped: u32,
+    pub overruns: u32,
+}
+
+/// A decoded log.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Session {
+    pub runs: Vec<Run>,
+    /// Sequence checks over the whole log (numbers run on across runs).
+    pub control_seq: SequenceCheck,
+    pub taxel_seq: SequenceCheck,
+    /// Control frames that arrived flagged `FRAMES_DROPPED`.
+    pub flagged_drops: usize,
+    /// Messages that are not frames (boot banner, instruction counts, errors), as text.
+    pub notes: Vec<String>,
+    /// Error-level messages from the firmware (a panic, a refused configuration).
+    pub errors: Vec<String>,
+    /// Bytes after the last complete frame (a log cut off mid-frame).
+    pub trailing_bytes: usize,
+}
+
+impl Session {
+    pub fn run(&self, name: &str) -> Option<&Run> {
+        self.runs.iter().find(|r| r.name == name)
+    }
+}
+
+/// Decodes `log` (raw defmt bytes, rzCOBS-framed as `defmt-semihosting` and `defmt-rtt`
+/// write them) with the defmt table of `elf`. `log_path` and `elf_path` only name the sources
+/// in errors.
+pub fn decode(elf: &[u8], elf_path: &Path, log: &[u8], log_path: &Path) -> Result<Session, Error> {
+    let elf_err = |message: String| Error {
+        file: elf_path.to_path_buf(),
+        frame: None,
+        message,
+    };
+    let table = Table::parse(elf)
+        .map_err(|e| elf_err(format!("not a firmware ELF with a defmt table: {e}")))?
+        .ok_or_else(|| elf_err("the ELF has no .defmt section".into()))?;
+    let mut stream = table.new_stream_decoder();
+    let mut session = Session::default();
+    let mut builder = Builder::default();
+    let mut index = 0usize;
+    let mut rest = log;
+    // rzCOBS frames end in 0x00; a frame body never contains one.
+    while let Some(end) = rest.iter().position(|&b| b == 0) {
+        let (body, tail) = rest.split_at(end + 1);
+        rest = tail;
+        if body.len() == 1 {
+            continue; // a run of delimiters
+        }
+        let at = |message: String| Error {
+            file: log_path.to_path_buf(),
+            frame: Some(index),
+            message,
+        };
+        stream.received(body);
+        let text = match stream.decode() {
+            Ok(frame) => {
+                let level = frame.level();
+                // The decoder's formatting unwraps on format strings it cannot parse (only a
+                // damaged ELF has those): contain it and report the frame.
+                let text = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    frame.display_message().to_string()
+                }))
+                .map_err(|_| at("the ELF's format string for this frame does not parse".into()))?;
+                if matches!(level, Some(defmt_parser::Level::Error)) {
+                    session.errors.push(text.clone());
+                }
+                text
+            }
+            Err(DecodeError::Malformed) => {
+                return Err(at(
+                    "malformed defmt frame (corrupt log, or a log from another ELF)".into(),
+                ))
+            }
+            Err(DecodeError::UnexpectedEof) => {
+                return Err(at("defmt frame ends early".into()));
+            }
+        };
+        builder
+            .message(&text, &mut session)
+            .map_err(|m| at(format!("{m} in: {}", shorten(&text))))?;
+        index += 1;
+    }
+    session.trailing_bytes = rest.len();
+    builder.finish(&mut session);
+    Ok(session)
+}
+
+fn shorten(text: &str) -> String {
+    const MAX: usize = 160;
+    if text.len() <= MAX {
+        text.to_string()
+    } else {
+        let mut end = MAX;
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        format!("{}…", &text[..end])
+    }
+}
+
+/// Puts decoded messages into runs.
+#[derive(Default)]
+struct Builder {
+    current: Option<Run>,
+}
+
+impl Builder {
+    fn message(&mut self, text: &str, session: &mut Session) -> Result<(), String> {
+        let structs = text::parse_structs(text);
+        let Some(first) = structs.first() else {
+            session.notes.push(text.to_string());
+            return Ok(());
+        };
+        match first.name.as_str() {
+            "RunStart" => {
+                self.finish(session);
+                let f = first.fields();
+                self.current = Some(Run {
+                    name: f.text("name")?.to_string(),
+                    start_tick: f.num("start_tick")?,
+                    duration_s: f.num("duration_s")?,
+                    ..Default::default()
+                });
+            }
+            "RunEnd" => {
+                let f = first.fields();
+                let end = RunEnd {
+                    end_tick: f.num("end_tick")?,
+                    control_frames_dropped: f.num("control_frames_dropped")?,
+                    taxel_frames_dropped: f.num("taxel_frames_dropped")?,
+                    overruns: f.num("overruns")?,
+                };
+                self.run_mut("RunEnd")?.end = Some(end);
+            }
+            "ControlFrame" => {
+                let frame = control_frame(&first.fields())?;
+                session.control_seq.observe(frame.seq);
+                if frame.faults.contains(FaultFlags::FRAMES_DROPPED) {
+                    session.flagged_drops += 1;
+                }
+                let truth = structs.iter().find(|s| s.name == "SimTruth");
+                let (true_force_g, in_contact) = match truth {
+                    Some(s) => {
+                        let f = s.fields();
+                        let tick: u32 = f.num("tick")?;
+                        if tick != frame.tick {
+                            return Err(format!(
+                                "SimTruth tick {tick} rides with ControlFrame tick {}",
+                                frame.tick
+                            ));
+                        }
+                        (Some(f.num("true_force_g")?), Some(f.flag("in_contact")?))
+                    }
+                    None => (None, None),
+                };
+                self.run_mut("ControlFrame")?.ticks.push(Tick {
+                    frame,
+                    true_force_g,
+                    in_contact,
+                });
+            }
+            "TaxelFrame" => {
+                let frame = taxel_frame(&first.fields())?;
+                session.taxel_seq.observe(frame.seq);
+                let estimate = match structs.iter().find(|s| s.name == "ArrayEstimate") {
+                    Some(s) => Some(array_estimate(&s.fields())?),
+                    None => None,
+                };
+                self.run_mut("TaxelFrame")?.frames.push((frame, estimate));
+            }
+            _ => session.notes.push(text.to_string()),
+        }
+        Ok(())
+    }
+
+    fn run_mut(&mut self, what: &str) -> Result<&mut Run, String> {
+        self.current
+            .as_mut()
+            .ok_or_else(|| format!("{what} before any RunStart"))
+    }
+
+    fn finish(&mut self, session: &mut Session) {
+        if let Some(run) = self.current.take() {
+            session.runs.push(run);
+        }
+    }
+}
+
+fn control_frame(f: &Fields) -> Result<ControlFrame, String> {
+    Ok(ControlFrame {
+        seq: f.num("seq")?,
+        tick: f.num("tick")?,
+        command_g: f.num("command_g")?,
+        sensed_g: f.num("sensed_g")?,
+        adjusted_g: f.num("adjusted_g")?,
+        strain_pct: f.num("strain_pct")?,
+        estimate_g: f.num("estimate_g")?,
+        faults: FaultFlags(f.wrapped_num("faults", "FaultFlags")?),
+    })
+}
+
+fn taxel_frame(f: &Fields) -> Result<TaxelFrame, String> {
+    let cells: Vec<i16> = f.numbers("strain_centi_pct")?;
+    if cells.len() != ROWS * COLS {
+        return Err(format!(
+            "field 'strain_centi_pct' has {} cells, not {}",
+            cells.len(),
+            ROWS * COLS
+        ));
+    }
+    let mut frame = TaxelFrame {
+        seq: f.num("seq")?,
+        tick: f.num("tick")?,
+        bad_taxels: f.num("bad_taxels")?,
+        ..Default::default()
+    };
+    for (row, chunk) in frame.strain_centi_pct.iter_mut().zip(cells.chunks(COLS)) {
+        row.copy_from_slice(chunk);
+    }
+    Ok(frame)
+}
+
+fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
+    Ok(ArrayEstimate {
+        tick: f.num("tick")?,
+        total_force_g: f.num("total_force_g")?,
+        centroid_row: f.num("centroid_row")?,
+        centroid_col: f.num("centroid_col")?,
+        probe_force_g: f.num("probe_force_g")?,
+    })
+}
+
+impl Run {
+    /// Seconds since the run started for a control tick: the frame's readings were sampled
+    /// at the start of its tick, i.e. at the end of the period before it.
+    pub fn tick_time_s(&self, tick: u32) -> f64 {
+        f64::from(tick.wrapping_sub(self.start_tick)) * TICK_S
+    }
+
+    /// True when every tick carries the simulator's truth (a QEMU log).
+    pub fn has_truth(&self) -> bool {
+        !self.ticks.is_empty() && self.ticks.iter().all(|t| t.true_force_g.is_some())
+    }
+
+    /// The ticks as the simulator's tick records, in its convention: record `k` holds tick
+    /// `k`'s command and adjusted force with the readings taken at the end of its period
+    /// (which the firmware reports with tick `k + 1`), stamped `t_s = (k + 1) Δt`. The last
+    /// tick's period has no readings in the log and is left out. Without the simulator's
+    /// truth, true force is NaN and contact false. In a decimated log each record is one
+    /// frame, stamped at its own tick.
+    pub fn tick_records(&self) -> Vec<TickRecord> {
+        self.ticks
+            .windows(2)
+            .map(|w| {
+                let now = &w[0];
+                // Consecutive ticks pair up as the simulator's records do; a decimated log (the
+                // board sends every 5th frame) keeps each frame's own readings.
+                let next = if w[1].frame.tick == now.frame.tick.wrapping_add(1) {
+                    &w[1]
+                } else {
+                    now
+                };
+                TickRecord {
+                    t_s: self.tick_time_s(next.frame.tick),
+                    command_g: now.frame.command_g,
+                    sensed_g: next.frame.sensed_g,
+                    adjusted_g: now.frame.adjusted_g,
+                    strain_pct: next.frame.strain_pct,
+                    estimate_g: next.frame.estimate_g,
+                    true_force_g: next.true_force_g.unwrap_or(f32::NAN),
+                    in_contact: next.in_contact.unwrap_or(false),
+                    faults: FaultFlags(now.frame.faults.0 | next.frame.faults.0),
+                    // What the frames do not carry (the simulator's extra columns) keeps its default.
+                    ..Default::default()
+                }
+            })
+            .collect()
+    }
+
+    /// Whole frames as (time, strain grid): a frame completes after the scan that follows its
+    /// tick's period, at the end of that period.
+    pub fn strain_frames(&self) -> Vec<(f64, [[f32; COLS]; ROWS])> {
+        self.frames
+            .iter()
+            .map(|(f, _)| {
+                let grid = f
+                    .strain_centi_pct
+                    .map(|row| row.map(TaxelFrame::strain_pct));
+                (self.tick_time_s(f.tick) + TICK_S, grid)
+            })
+            .collect()
+    }
+}
+
+/// Writes a run's record (`NAME.csv`, the project's record format), its frames
+/// (`NAME_frames.csv`) and the array estimates (`NAME_array.csv`) into `dir`.
+pub fn write_run(
+    dir: &Path,
+    run: &Run,
+    meta: &[(String, String)],
+) -> std::io::Result<Vec<PathBuf>> {
+    use std::io::Write;
+    std::fs::create_dir_all(dir)?;
+    let mut meta = meta.to_vec();
+    meta.push(("scenario".into(), run.name.clone()));
+    meta.push(("sample_rate_hz".into(), format!("{}", 1.0 / TICK_S)));
+    let record = dir.join(format!("{}.csv", run.name));
+    let ticks = run.tick_records();
+    if run.has_truth() {
+        // The simulator's own writer: same columns as its records.
+        sim_host::record::write_record(&record, &meta, &ticks, 1)?;
+    } else {
+        // A board knows no true force: the same columns without the simulator's truth.
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&record)?);
+        for (k, v) in &meta {
+            writeln!(w, "# {k}={v}")?;
+        }
+        writeln!(
+            w,
+            "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g,faults"
+        )?;
+        for r in &ticks {
+            writeln!(
+                w,
+                "{:.4},{:.3},{:.5},{:.3},{:.3},{:.3},{}",
+                r.t_s,
+                r.sensed_g,
+                r.strain_pct,
+                r.command_g,
+                r.adjusted_g,
+                r.estimate_g,
+                r.faults.0
+            )?;
+        }
+        w.flush()?;
+    }
+    let frames = dir.join(format!("{}_frames.csv", run.name));
+    sim_host::record::write_frames(&frames, &meta, &run.strain_frames())?;
+    let array = dir.join(format!("{}_array.csv", run.name));
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&array)?);
+    for (k, v) in &meta {
+        writeln!(w, "# {k}={v}")?;
+    }
+    writeln!(
+        w,
+        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g"
+    )?;
+    for (f, e) in &run.frames {
+        if let Some(e) = e {
+            writeln!(
+                w,
+                "{:.4},{:.3},{:.3},{:.3},{:.3}",
+                run.tick_time_s(f.tick) + TICK_S,
+                e.total_force_g,
+                e.centroid_row,
+                e.centroid_col,
+                e.probe_force_g
+            )?;
+        }
+    }
+    w.flush()?;
+    Ok(vec![record, frames, array])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_that_is_not_a_firmware_elf_is_named_in_the_error() {
+        let e = decode(
+            b"\x7fELF nonsense",
+            Path::new("fw.elf"),
+            b"",
+            Path::new("x.log"),
+        )
+        .unwrap_err();
+        assert_eq!(e.file, Path::new("fw.elf"));
+        assert!(e.to_string().starts_with("fw.elf: "), "{e}");
+    }
+}

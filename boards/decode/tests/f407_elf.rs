@@ -1,0 +1,105 @@
+//! The STM32F407G-DISC1 firmware: builds it (`cargo fw-f407`) and checks its ELF: the vector
+//! table at the start of flash, the RTT control block, the defmt table, and flash and static
+//! RAM against the budget. Ignored in plain `cargo test` (a second target's build);
+//! `scripts/test-all.sh` runs it with `--ignored`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use object::{Object, ObjectSection, ObjectSymbol};
+
+const FLASH: std::ops::Range<u64> = 0x0800_0000..0x0810_0000;
+const RAM: std::ops::Range<u64> = 0x2000_0000..0x2002_0000;
+const FLASH_BUDGET: u64 = 64 * 1024;
+const STATIC_RAM_BUDGET: u64 = 32 * 1024;
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn build() -> PathBuf {
+    let target_dir = std::env::var_os("TACTILE_FW_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join("target/fw"));
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(cargo)
+        .current_dir(workspace())
+        .env("CARGO_TARGET_DIR", &target_dir)
+        .arg("fw-f407")
+        .status()
+        .expect("cargo runs");
+    assert!(status.success(), "the STM32F407 firmware does not build");
+    target_dir.join("thumbv7em-none-eabihf/release/tactile-f407")
+}
+
+#[test]
+#[ignore = "builds the board firmware: scripts/test-all.sh runs it with --ignored"]
+fn f407_firmware_elf_has_its_parts_and_fits_the_budget() {
+    let path = build();
+    let data = std::fs::read(&path).expect("ELF readable");
+    let elf = object::File::parse(&*data).expect("an ELF");
+    assert_eq!(elf.architecture(), object::Architecture::Arm);
+
+    let vectors = elf
+        .section_by_name(".vector_table")
+        .expect(".vector_table section");
+    assert_eq!(
+        vectors.address(),
+        FLASH.start,
+        "vector table not at 0x08000000"
+    );
+    let words: Vec<u32> = vectors
+        .data()
+        .expect("vector table data")
+        .chunks_exact(4)
+        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        .collect();
+    assert!(
+        RAM.contains(&u64::from(words[0]).saturating_sub(1)),
+        "initial SP {:#x}",
+        words[0]
+    );
+    assert!(
+        FLASH.contains(&u64::from(words[1])),
+        "reset vector {:#x}",
+        words[1]
+    );
+    assert_eq!(words[1] & 1, 1, "reset vector must be a Thumb address");
+
+    let rtt = elf
+        .symbols()
+        .find(|s| s.name() == Ok("_SEGGER_RTT"))
+        .expect("_SEGGER_RTT symbol (defmt-rtt's control block)");
+    assert!(
+        RAM.contains(&rtt.address()),
+        "_SEGGER_RTT at {:#x}",
+        rtt.address()
+    );
+    let defmt = elf.section_by_name(".defmt").expect(".defmt section");
+    assert!(defmt.size() > 0, "empty .defmt section");
+
+    // Flash: everything loaded there (code, constants, and .data's initial values).
+    // Static RAM: .data, .bss and .uninit (the stack takes the rest).
+    let (mut flash, mut ram) = (0u64, 0u64);
+    for s in elf.sections() {
+        let name = s.name().unwrap_or("");
+        if FLASH.contains(&s.address()) {
+            flash += s.size();
+        }
+        if RAM.contains(&s.address()) {
+            ram += s.size();
+            if name == ".data" {
+                flash += s.size();
+            }
+        }
+    }
+    println!(
+        "tactile-f407: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB)",
+        flash as f64 / 1024.0,
+        FLASH_BUDGET / 1024,
+        ram as f64 / 1024.0,
+        STATIC_RAM_BUDGET / 1024
+    );
+    assert!(flash <= FLASH_BUDGET, "flash {flash} B over budget");
+    assert!(ram <= STATIC_RAM_BUDGET, "static RAM {ram} B over budget");
+}

@@ -1,0 +1,323 @@
+//! The firmware on QEMU's `netduinoplus2` (STM32F405, Cortex-M4F), with the simulated
+//! applicator, finger and converters of `tactile-plant` as its hardware (firmware-in-the-loop).
+//!
+//! Task graph (RTIC 2; the bodies are `tactile-firmware`'s, shared with the real board):
+//!
+//! | task | priority | trigger | does |
+//! | --- | --- | --- | --- |
+//! | `control` | 3 | SysTick, 1 kHz (hardware reload: drift-free) | gauge → A1 → filter → DAC; then the simulated plant's next millisecond |
+//! | `scan` | 2 | spawned by `control` each tick | four multiplexer steps (4 × 250 µs dwell per ms) |
+//! | `telemetry` | 1 | spawned by `control` each tick | drains the bounded queues to defmt (semihosting) |
+//! | `idle` | 0 | — | WFI |
+//!
+//! The session runs the `force-steps` protocol, then 10 s of `pseudo-random`, each from a fresh
+//! board and fresh task state, streams every control frame (with the simulator's true force)
+//! and every taxel frame, prints the measured instruction counts, and exits QEMU through
+//! semihosting. With `-icount shift=0` one instruction is one nanosecond of virtual time, and
+//! SysTick counts the 168 MHz core clock, so SysTick counts × 1000/168 are instructions.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!(
+        "tactile-qemu is firmware: build it with `cargo fw-qemu` (thumbv7em-none-eabihf) and \
+         run it with boards/qemu-netduinoplus2/run.sh"
+    );
+    std::process::exit(2);
+}
+
+#[cfg(target_os = "none")]
+mod session;
+
+#[cfg(target_os = "none")]
+use defmt_semihosting as _;
+
+#[cfg(target_os = "none")]
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    // The simulated actuator is inside the firmware: nothing to zero. Report and stop QEMU
+    // with a failure code so the test sees it.
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[cfg(target_os = "none")]
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    defmt::error!("HardFault at pc {=u32:#x}", frame.pc());
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[cfg(target_os = "none")]
+#[rtic::app(device = stm32f4::stm32f405, dispatchers = [USART1, USART2])]
+mod app {
+    use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+
+    use cortex_m::peripheral::syst::SystClkSource;
+    use cortex_m::peripheral::{SCB, SYST};
+    use heapless::spsc::{Consumer, Queue};
+    use tactile_firmware::{Controller, Message, Outbox, RunEnd, RunStart, Scanner};
+    use tactile_plant::hardware::SimHardware;
+
+    use crate::session::{self, Cost, SimTruth, RUNS};
+    use core::mem::MaybeUninit;
+
+    /// Core clock of the netduinoplus2 model (and of the F407 board), Hz.
+    const CORE_HZ: u32 = 168_000_000;
+    /// SysTick reload for the 1 kHz control tick.
+    const TICK_RELOAD: u32 = CORE_HZ / 1000 - 1;
+    /// Multiplexer steps per control tick: 1 ms / 250 µs dwell.
+    const SCAN_STEPS_PER_TICK: usize = 4;
+    /// Queue depths: 32 control ticks and 4 taxel frames of slack for the telemetry task.
+    const CONTROL_QUEUE: usize = 33;
+    const TAXEL_QUEUE: usize = 5;
+
+    type ControlMsg = Message<SimTruth>;
+    type TaxelMsg = (
+        tactile_core::telemetry::TaxelFrame,
+        tactile_firmware::ArrayEstimate,
+    );
+
+    /// Set by `control` when the last run has ended; `telemetry` exits QEMU once drained.
+    static SESSION_DONE: AtomicBool = AtomicBool::new(false);
+    /// Taxel frames dropped (the scan task's outbox count, for the run summaries).
+    static TAXEL_DROPS: AtomicU32 = AtomicU32::new(0);
+
+    #[shared]
+    struct Shared {
+        /// The simulated board, built in place in a static (it is 18 KB).
+        hw: &'static mut SimHardware,
+        cost: Cost,
+    }
+
+    #[local]
+    struct Local {
+        controller: Controller,
+        scanner: &'static mut Scanner,
+        syst: SYST,
+        control_out: Outbox<'static, ControlMsg>,
+        taxel_out: Outbox<'static, TaxelMsg>,
+        control_rx: Consumer<'static, ControlMsg>,
+        taxel_rx: Consumer<'static, TaxelMsg>,
+    }
+
+    #[init(local = [
+        control_queue: Queue<ControlMsg, CONTROL_QUEUE> = Queue::new(),
+        taxel_queue: Queue<TaxelMsg, TAXEL_QUEUE> = Queue::new(),
+        hw_slot: MaybeUninit<SimHardware> = MaybeUninit::uninit(),
+        scanner_slot: MaybeUninit<Scanner> = MaybeUninit::uninit(),
+    ])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        session::paint_stack();
+        defmt::info!("tactile-qemu: {=usize} runs", RUNS.len());
+        // Built straight into their statics: the stack never holds a whole board.
+        let hw: &'static mut SimHardware = cx.local.hw_slot.write(session::board());
+        let (controller, scanner) = session::task_state(0, hw);
+        let scanner: &'static mut Scanner = cx.local.scanner_slot.write(scanner);
+        let (control_tx, control_rx) = cx.local.control_queue.split();
+        let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
+        let mut syst = cx.core.SYST;
+        // No clock-ready bits to wait for: QEMU's model has no RCC, and the core clock is
+        // the model's fixed 168 MHz.
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(TICK_RELOAD);
+        syst.clear_current();
+        syst.enable_interrupt();
+        syst.enable_counter();
+        (
+            Shared {
+                hw,
+                cost: Cost::default(),
+            },
+            Local {
+                controller,
+                scanner,
+                control_out: Outbox::new(control_tx),
+                taxel_out: Outbox::new(taxel_tx),
+                control_rx,
+                taxel_rx,
+                syst,
+            },
+        )
+    }
+
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        loop {
+            // With `-icount …,sleep=off` QEMU jumps virtual time to the next interrupt.
+            cortex_m::asm::wfi();
+        }
+    }
+
+    /// The 1 kHz control tick; then the simulated plant's next millisecond (the board's
+    /// "physics", which a real board gets for free).
+    #[task(binds = SysTick, priority = 3, shared = [hw, cost],
+           local = [controller, control_out, syst, board_tick: u32 = 0, run: usize = 0,
+                    started: bool = false, pending_reset: bool = false, done: bool = false])]
+    fn control(mut cx: control::Context) {
+        let local = cx.local;
+        if *local.done {
+            let _ = telemetry::spawn();
+            return;
+        }
+        let tick = *local.board_tick;
+        let controller = &mut *local.controller;
+        if core::mem::take(local.pending_reset) {
+            // A fresh board and fresh task state for the next protocol.
+            let run = *local.run;
+            cx.shared.hw.lock(|hw| session::renew(run, hw, controller));
+            // Rebuilding the board took longer than a tick: the new run starts its periods
+            // now (the gap belongs to no run), so it is not counted as an overrun.
+            SCB::clear_pendst();
+            local.syst.clear_current();
+            *local.started = false;
+            session::RESET_SCANNER.store(true, Ordering::Release);
+        }
+        if !core::mem::replace(local.started, true) {
+            if let Some((name, protocol)) = RUNS.get(*local.run) {
+                local.control_out.send(Message::Start(RunStart {
+                    name,
+                    start_tick: tick,
+                    duration_s: protocol.duration_s(),
+                }));
+            }
+        }
+        let (frame, truth, control_counts, physics_counts) = cx.shared.hw.lock(|hw| {
+            let hw: &mut SimHardware = hw;
+            // Simulator truth at the instant the converters sampled (end of the last period).
+            let truth = SimTruth {
+                tick,
+                true_force_g: hw.true_force_g() as f32,
+                in_contact: hw.in_contact(),
+            };
+            let t0 = SYST::get_current();
+            let frame = controller.tick(hw, tick);
+            let t1 = SYST::get_current();
+            hw.advance_period();
+            let t2 = SYST::get_current();
+            (frame, truth, elapsed(t0, t1), elapsed(t1, t2))
+        });
+        cx.shared.cost.lock(|c| {
+            c.control.observe(control_counts);
+            c.physics.observe(physics_counts);
+        });
+        local.control_out.send(Message::Tick(frame, truth));
+        // Scan and telemetry may still be running from the last tick: then they pick up this
+        // tick's work themselves (telemetry) or the multiplexer dwells one tick longer (scan),
+        // so a refused spawn loses no frame.
+        let _ = scan::spawn(tick);
+        let _ = telemetry::spawn();
+        *local.board_tick = tick.wrapping_add(1);
+
+        if controller.finished() {
+            local.control_out.send(Message::End(RunEnd {
+                end_tick: *local.board_tick,
+                control_frames_dropped: local.control_out.dropped(),
+                taxel_frames_dropped: TAXEL_DROPS.load(Ordering::Relaxed),
+                overruns: controller.overruns(),
+            }));
+            *local.run += 1;
+            if *local.run < RUNS.len() {
+                // Swapped at the next tick, once this tick's scan has run on this board.
+                *local.pending_reset = true;
+            } else {
+                *local.done = true;
+                SESSION_DONE.store(true, Ordering::Release);
+            }
+        }
+        // The deadline: SysTick pending again means the next tick is already due.
+        if SCB::is_pendst_pending() {
+            controller.record_overrun();
+        }
+    }
+
+    /// SysTick counts from `t0` to `t1` (it counts down and reloads once per tick).
+    fn elapsed(t0: u32, t1: u32) -> u32 {
+        if t0 >= t1 {
+            t0 - t1
+        } else {
+            t0 + (TICK_RELOAD + 1 - t1)
+        }
+    }
+
+    #[task(priority = 2, shared = [hw, cost], local = [scanner, taxel_out, started: bool = false])]
+    async fn scan(mut cx: scan::Context, tick: u32) {
+        let local = cx.local;
+        if session::RESET_SCANNER.swap(false, Ordering::AcqRel) {
+            // A new run: fresh per-taxel state, calibrated on the new board.
+            let calibration = cx.shared.hw.lock(|hw| *hw.calibration());
+            if let Some(s) = session::scanner(calibration) {
+                **local.scanner = s;
+            }
+            *local.started = false;
+        }
+        for _ in 0..SCAN_STEPS_PER_TICK {
+            let scanner = &mut **local.scanner;
+            let started = &mut *local.started;
+            let (report, counts) = cx.shared.hw.lock(|hw| {
+                let hw: &mut SimHardware = hw;
+                if !*started {
+                    *started = true;
+                    scanner.start(hw);
+                }
+                // The simulated converter first (board physics, not firmware), then the
+                // firmware's step on its code: the measured span is the firmware alone.
+                let code = hw.sample_selected_taxel();
+                let mut converter = session::Converted { hw, code };
+                let t0 = SYST::get_current();
+                let report = scanner.step(&mut converter, tick);
+                let t1 = SYST::get_current();
+                (report, elapsed(t0, t1))
+            });
+            cx.shared.cost.lock(|c| {
+                if report.is_some() {
+                    c.scan_frame_step.observe(counts);
+                } else {
+                    c.scan_step.observe(counts);
+                }
+            });
+            if let Some(r) = report {
+                if !local.taxel_out.send((r.frame, r.estimate)) {
+                    TAXEL_DROPS.store(local.taxel_out.dropped(), Ordering::Relaxed);
+                }
+            }
+        }
+    }
+
+    #[task(priority = 1, shared = [cost], local = [control_rx, taxel_rx])]
+    async fn telemetry(mut cx: telemetry::Context) {
+        loop {
+            let mut idle = true;
+            while let Some(m) = cx.local.control_rx.dequeue() {
+                idle = false;
+                match m {
+                    Message::Tick(frame, truth) => defmt::info!("{} {}", frame, truth),
+                    Message::Start(s) => defmt::info!("{}", s),
+                    Message::End(e) => defmt::info!("{}", e),
+                }
+            }
+            if let Some((frame, estimate)) = cx.local.taxel_rx.dequeue() {
+                idle = false;
+                defmt::info!("{} {}", frame, estimate);
+            }
+            if idle {
+                break;
+            }
+        }
+        if SESSION_DONE.load(Ordering::Acquire)
+            && !cx.local.control_rx.ready()
+            && !cx.local.taxel_rx.ready()
+        {
+            let cost = cx.shared.cost.lock(|c| *c);
+            defmt::info!("{}", cost.report());
+            defmt::info!("{}", session::memory());
+            cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_SUCCESS);
+        }
+    }
+}

@@ -1,0 +1,219 @@
+//! The firmware on the STM32F407G-DISC1 (`boards/README.md` has every pin and scaling).
+//!
+//! Task graph (RTIC 2; bodies from `tactile-firmware`, shared with the QEMU build):
+//!
+//! | task | priority | trigger | does |
+//! | --- | --- | --- | --- |
+//! | `control` | 3 | SysTick, 1 kHz (hardware reload: drift-free) | 8 gauge samples → A1 → filter → DAC; probe channel → inverse model |
+//! | `scan` | 2 | TIM2 update, 4 kHz (250 µs dwell) | sample the selected taxel, move the multiplexer on |
+//! | `telemetry` | 1 | spawned by `control` | drains the bounded queues to defmt over RTT |
+//! | `idle` | 0 | — | WFI |
+//!
+//! Control frames go out every [`CONTROL_FRAME_EVERY`]-th tick (RTT bandwidth; every frame
+//! sent is numbered, so gaps are still drops); every taxel frame goes out.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!(
+        "tactile-f407 is firmware: build it with `cargo fw-f407`, flash and run it with \
+         `cargo flash-f407` (probe-rs)"
+    );
+    std::process::exit(2);
+}
+
+#[cfg(target_os = "none")]
+mod board;
+
+#[cfg(target_os = "none")]
+use {defmt_rtt as _, panic_probe as _};
+
+/// Control frames sent per control tick: one in five (200 frames/s, about 7 KB/s of RTT).
+#[cfg(target_os = "none")]
+const CONTROL_FRAME_EVERY: u32 = 5;
+
+#[cfg(target_os = "none")]
+#[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART1, USART2])]
+mod app {
+    use core::sync::atomic::{AtomicU32, Ordering};
+    use cortex_m::peripheral::syst::SystClkSource;
+    use cortex_m::peripheral::SCB;
+    use heapless::spsc::{Consumer, Queue};
+    use stm32f4xx_hal::{pac, prelude::*, timer};
+    use tactile_core::telemetry::TaxelFrame;
+    use tactile_firmware::{
+        ArrayEstimate, Controller, FirmwareConfig, Message, Outbox, RunEnd, RunStart, Scanner,
+    };
+
+    use crate::board::{self, ControlBoard, ScanBoard, WithAdc, CORE_HZ, PROTOCOL, PROTOCOL_NAME};
+    use crate::CONTROL_FRAME_EVERY;
+
+    const CONTROL_QUEUE: usize = 17;
+    const TAXEL_QUEUE: usize = 5;
+
+    /// The control tick now running (the scan stamps its frames with it).
+    static TICK: AtomicU32 = AtomicU32::new(0);
+
+    type ControlMsg = Message<()>;
+    type TaxelMsg = (TaxelFrame, ArrayEstimate);
+
+    #[shared]
+    struct Shared {
+        /// ADC1, converting for both the control and the scan task.
+        adc: board::Converter,
+    }
+
+    #[local]
+    struct Local {
+        control_board: ControlBoard,
+        scan_board: ScanBoard,
+        controller: Controller,
+        scanner: Scanner,
+        control_out: Outbox<'static, ControlMsg>,
+        taxel_out: Outbox<'static, TaxelMsg>,
+        control_rx: Consumer<'static, ControlMsg>,
+        taxel_rx: Consumer<'static, TaxelMsg>,
+        scan_timer: timer::CounterHz<pac::TIM2>,
+    }
+
+    #[init(local = [
+        control_queue: Queue<ControlMsg, CONTROL_QUEUE> = Queue::new(),
+        taxel_queue: Queue<TaxelMsg, TAXEL_QUEUE> = Queue::new(),
+    ])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let config = FirmwareConfig::BOARD;
+        let board::Hardware {
+            mut adc,
+            mut control_board,
+            mut scan_board,
+            mut scan_timer,
+        } = board::setup(cx.device);
+        control_board.zero_actuator();
+        // Calibrate with the probe lifted (the actuator output is at its safe zero).
+        let calibration = scan_board.rest_calibration(&mut adc, 16);
+        let probe = calibration.get(config.probe.index()).copied();
+        let (Some(controller), Ok(mut scanner)) = (
+            probe.and_then(|cal| Controller::new(&config, PROTOCOL, cal).ok()),
+            Scanner::new(&config, calibration),
+        ) else {
+            defmt::panic!("the core library refused the board configuration");
+        };
+        scanner.start(&mut WithAdc {
+            adc: &mut adc,
+            board: &mut scan_board,
+        });
+        defmt::info!("tactile-f407: protocol {=str}", PROTOCOL_NAME);
+
+        let (control_tx, control_rx) = cx.local.control_queue.split();
+        let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
+        // The control tick: SysTick on the 168 MHz core clock, reloaded by hardware.
+        let mut syst = cx.core.SYST;
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(CORE_HZ / 1000 - 1);
+        syst.clear_current();
+        syst.enable_interrupt();
+        syst.enable_counter();
+        // The scan: one multiplexer step per 250 µs dwell.
+        let dwell_hz = (1.0 / config.scan.dwell_s) as u32;
+        if scan_timer.start(dwell_hz.Hz()).is_err() {
+            defmt::panic!("TIM2 cannot run at {=u32} Hz", dwell_hz);
+        }
+        scan_timer.listen(timer::Event::Update);
+        (
+            Shared { adc },
+            Local {
+                control_board,
+                scan_board,
+                controller,
+                scanner,
+                control_out: Outbox::new(control_tx),
+                taxel_out: Outbox::new(taxel_tx),
+                control_rx,
+                taxel_rx,
+                scan_timer,
+            },
+        )
+    }
+
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    #[task(binds = SysTick, priority = 3, shared = [adc],
+           local = [controller, control_board, control_out, tick: u32 = 0, ended: bool = false])]
+    fn control(mut cx: control::Context) {
+        let local = cx.local;
+        let tick = *local.tick;
+        TICK.store(tick, Ordering::Relaxed);
+        if tick == 0 {
+            local.control_out.send(Message::Start(RunStart {
+                name: PROTOCOL_NAME,
+                start_tick: 0,
+                duration_s: PROTOCOL.duration_s(),
+            }));
+        }
+        let (controller, board) = (&mut *local.controller, &mut *local.control_board);
+        let frame = cx
+            .shared
+            .adc
+            .lock(|adc| controller.tick(&mut WithAdc { adc, board }, tick));
+        if tick.is_multiple_of(CONTROL_FRAME_EVERY) {
+            local.control_out.send(Message::Tick(frame, ()));
+        }
+        if local.controller.finished() && !core::mem::replace(local.ended, true) {
+            local.control_out.send(Message::End(RunEnd {
+                end_tick: tick,
+                control_frames_dropped: local.control_out.dropped(),
+                taxel_frames_dropped: 0,
+                overruns: local.controller.overruns(),
+            }));
+        }
+        let _ = telemetry::spawn();
+        *local.tick = tick.wrapping_add(1);
+        // The deadline: SysTick pending again means the next tick is already due.
+        if SCB::is_pendst_pending() {
+            local.controller.record_overrun();
+        }
+    }
+
+    #[task(binds = TIM2, priority = 2, shared = [adc],
+           local = [scanner, scan_board, scan_timer, taxel_out])]
+    fn scan(mut cx: scan::Context) {
+        let local = cx.local;
+        local.scan_timer.clear_flags(timer::Flag::Update);
+        let tick = TICK.load(Ordering::Relaxed);
+        let (scanner, board) = (&mut *local.scanner, &mut *local.scan_board);
+        let report = cx
+            .shared
+            .adc
+            .lock(|adc| scanner.step(&mut WithAdc { adc, board }, tick));
+        if let Some(report) = report {
+            local.taxel_out.send((report.frame, report.estimate));
+        }
+    }
+
+    #[task(priority = 1, local = [control_rx, taxel_rx])]
+    async fn telemetry(cx: telemetry::Context) {
+        loop {
+            let mut idle = true;
+            while let Some(m) = cx.local.control_rx.dequeue() {
+                idle = false;
+                match m {
+                    Message::Tick(frame, ()) => defmt::info!("{}", frame),
+                    Message::Start(s) => defmt::info!("{}", s),
+                    Message::End(e) => defmt::info!("{}", e),
+                }
+            }
+            if let Some((frame, estimate)) = cx.local.taxel_rx.dequeue() {
+                idle = false;
+                defmt::info!("{} {}", frame, estimate);
+            }
+            if idle {
+                break;
+            }
+        }
+    }
+}

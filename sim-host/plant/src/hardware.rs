@@ -1,0 +1,207 @@
+//! The simulated board: the applicator and the finger seen through their converters, for
+//! firmware-in-the-loop runs. The firmware writes a DAC code and reads converter codes, exactly
+//! as on a board; the physics between those codes is the rig's (the same step sequence, noise
+//! streams and sampling instants as [`crate::rig::Rig::tick`]), with no control code here.
+//!
+//! One control period is `write DAC → advance_period → read gauge and probe codes`; the scan
+//! reads the taxel selected by the multiplexer with the probe force at the end of the period.
+
+use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
+use tactile_core::tactile::{TaxelCalibration, TaxelId, TAXELS};
+
+use crate::applicator::{self, ApplicatorState, Contact, Lumped};
+use crate::finger::Finger;
+use crate::noise::Noise;
+use crate::rig::{RigConfig, SUBSTEPS, TICK_S};
+
+/// Converter samples the rig takes of the element under the probe when calibrating at rest.
+const CALIBRATION_FRAMES: usize = 16;
+
+/// The simulated applicator, finger and converters.
+pub struct SimHardware {
+    config: RigConfig,
+    plant: ApplicatorState,
+    lumped: Lumped,
+    finger: Finger,
+    calibration: [TaxelCalibration; TAXELS],
+    gauge_noise: Noise,
+    /// DAC code driving the current amplifier (the safe zero until the firmware writes).
+    dac: AdcCode,
+    /// Gauge samples taken during the last period.
+    gauge_codes: [AdcCode; SAMPLES_PER_TICK],
+    /// The probed element's channel, sampled at the end of the last period.
+    probe_code: AdcCode,
+    true_force_g: f64,
+    periods: u64,
+    /// End of the last period, s (the time the scan samples at).
+    t_end_s: f64,
+    /// Taxel the multiplexer selects, and the one the envelope detector held before it.
+    selected: TaxelId,
+    last_sampled: TaxelId,
+}
+
+impl SimHardware {
+    /// The board of `config`'s rig, probe lifted and at rest. Takes the technician's rest
+    /// calibration at once, as [`crate::rig::Rig::new`] does (same noise draws).
+    pub fn new(config: &RigConfig) -> Self {
+        let mut finger = Finger::new(config.seed, config.probe, config.effects, config.readout);
+        let calibration = finger.rest_calibration(CALIBRATION_FRAMES);
+        let plant = ApplicatorState {
+            stuck: true,
+            ..Default::default()
+        };
+        // Before the first period the converters read the unloaded gauge, noise-free (no
+        // draw, so the noise stream stays the rig's).
+        let rest_code = config.gauge.adc.code(
+            config
+                .gauge
+                .volts(plant.gauge_force_g(&config.applicator) as f32),
+        );
+        Self {
+            plant,
+            lumped: Lumped::new(&config.applicator, TICK_S / SUBSTEPS as f64),
+            finger,
+            calibration,
+            gauge_noise: Noise::new(config.seed ^ 0x6761_7567),
+            dac: config.actuator.zero_code(),
+            gauge_codes: [rest_code; SAMPLES_PER_TICK],
+            probe_code: AdcCode(0),
+            true_force_g: 0.0,
+            periods: 0,
+            t_end_s: 0.0,
+            selected: TaxelId::from_index(0),
+            last_sampled: TaxelId::from_index(TAXELS - 1),
+            config: config.clone(),
+        }
+    }
+
+    pub fn config(&self) -> &RigConfig {
+        &self.config
+    }
+
+    /// Per-taxel calibration captured at rest when the board was built.
+    pub fn calibration(&self) -> &[TaxelCalibration; TAXELS] {
+        &self.calibration
+    }
+
+    /// The DAC register.
+    pub fn write_dac(&mut self, code: AdcCode) {
+        self.dac = code;
+    }
+
+    pub fn dac(&self) -> AdcCode {
+        self.dac
+    }
+
+    /// One control period of physics with the DAC held: the plant's ten steps, the gauge
+    /// sampled eight times, the finger advanced, the probed element's channel sampled at the end.
+    pub fn advance_period(&mut self) {
+        let t_s = self.periods as f64 * TICK_S;
+        let actuator = &self.config.actuator;
+        let drive_v = f64::from(actuator.dac.volts(self.dac));
+        let p = self.config.applicator;
+        let contact = Contact::new(
+            &p,
+            self.finger.probe_taxel().element.g1,
+            self.finger.probe_rest_strain_pct(),
+        );
+        let mut stress_sum = 0.0;
+        for k in 0..SUBSTEPS {
+            applicator::step_lumped(&self.lumped, &mut self.plant, &contact, drive_v);
+            stress_sum += contact.force_g(self.plant.tip_m, self.plant.tip_m_per_s);
+            if let Some(slot) = k
+                .checked_sub(SUBSTEPS - SAMPLES_PER_TICK)
+                .and_then(|i| self.gauge_codes.get_mut(i))
+            {
+                let force = self.plant.gauge_force_g(&p)
+                    + self.config.gauge_noise_g * self.gauge_noise.gaussian();
+                *slot = self
+                    .config
+                    .gauge
+                    .adc
+                    .code(self.config.gauge.volts(force as f32));
+            }
+        }
+        self.finger.tick(stress_sum / SUBSTEPS as f64, TICK_S);
+        // Same expression as the rig's, so the time effects see the same instants.
+        let t_end = t_s + TICK_S;
+        self.true_force_g = contact.force_g(self.plant.tip_m, self.plant.tip_m_per_s);
+        self.probe_code = self.finger.sample_probe_channel(self.true_force_g, t_end);
+        self.t_end_s = t_end;
+        self.periods += 1;
+    }
+
+    /// The gauge converter's samples of the last period.
+    pub fn gauge_codes(&self) -> [AdcCode; SAMPLES_PER_TICK] {
+        self.gauge_codes
+    }
+
+    /// The probed element's channel at the end of the last period.
+    pub fn probe_code(&self) -> AdcCode {
+        self.probe_code
+    }
+
+    /// Multiplexer address: drive `taxel`'s row, sense its column.
+    pub fn select_taxel(&mut self, taxel: TaxelId) {
+        self.selected = taxel;
+    }
+
+    /// Samples the envelope detector on the selected taxel after its dwell (the detector
+    /// still holds the blend of the taxel sampled before it).
+    pub fn sample_selected_taxel(&mut self) -> AdcCode {
+        let code = self.finger.sample_scan(
+            self.selected,
+            self.last_sampled,
+            self.true_force_g,
+            self.t_end_s,
+        );
+        self.last_sampled = self.selected;
+        code
+    }
+
+    /// Simulator truth: the contact force at the end of the last period, grams.
+    pub fn true_force_g(&self) -> f64 {
+        self.true_force_g
+    }
+
+    pub fn in_contact(&self) -> bool {
+        self.true_force_g > 0.0
+    }
+
+    /// Control periods simulated so far.
+    pub fn periods(&self) -> u64 {
+        self.periods
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_held_dac_code_presses_the_probe_into_the_finger() {
+        let config = RigConfig::default();
+        let mut hw = SimHardware::new(&config);
+        for _ in 0..200 {
+            hw.advance_period();
+        }
+        assert!(
+            !hw.in_contact(),
+            "the zero code must leave the probe lifted"
+        );
+        // 30 g at the probe through the actuator path.
+        hw.write_dac(config.actuator.code(30.0));
+        for _ in 0..1500 {
+            hw.advance_period();
+        }
+        assert!(hw.in_contact());
+        let gauge = config.gauge.average_force(&hw.gauge_codes()).unwrap();
+        assert!((gauge - 30.0).abs() < 3.0, "gauge {gauge} g");
+        assert!(
+            (hw.true_force_g() - 30.0).abs() < 3.0,
+            "{}",
+            hw.true_force_g()
+        );
+        assert_eq!(hw.periods(), 1700);
+    }
+}

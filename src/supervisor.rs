@@ -1,0 +1,509 @@
+//! The force loop with its safety supervisor: the command check, the slew limiter, A1, the
+//! lowpass-notch filter and the DAC, with every sensor and timing fault driving the actuator to
+//! its safe output (zero force: the probe retracts) within the tick that sees it. Written once,
+//! used by the firmware's control task and the simulator's rig.
+//!
+//! | fault | how it shows | reaction |
+//! | --- | --- | --- |
+//! | gauge disconnected or saturated | a sample at a rail, or the average out of the physical range | zero output that tick; latched after 2 consecutive ticks |
+//! | gauge stuck | identical readings for [`SupervisorConfig::stuck_ticks`] while the command moves by more than [`SupervisorConfig::stuck_command_g`] | latched |
+//! | implausible slew | the reading changes by more than [`SupervisorConfig::max_slew_g_per_tick`] in one tick | latched |
+//! | contact lost | the reading, averaged over 32 ticks, below half the command averaged over the same ticks (and that above [`SupervisorConfig::contact_command_g`]) for [`SupervisorConfig::contact_ticks`] | bounded re-approach; latched after [`SupervisorConfig::contact_latch_ticks`] |
+//!
+//! Why an average against the command and not a fixed threshold: with the probe in the air the
+//! gauge does not read zero. The beam accelerates the tip mass, so it reads about a third of the
+//! motor's force, ringing at the free beam mode (140 Hz, slowly damped); only its 32 ms average
+//! against the command tells flight from contact.
+//! | command out of range, NaN or infinite | checked at entry | clamped (NaN → 0), flagged |
+//! | deadline overrun | reported by the board's timer | zero output in the same period, latched |
+//!
+//! Latched faults clear only through [`ForceLoop::clear_faults`].
+
+use crate::control::{ActuatorConfig, ForceLaw, ForceLawConfig, SlewLimiter};
+use crate::filter::{FilterError, LowpassNotch, LowpassNotchConfig, LowpassNotchState};
+use crate::gauge::{AdcCode, GaugeFault};
+use crate::telemetry::FaultFlags;
+
+/// Thresholds of the supervisor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupervisorConfig {
+    /// The applicator's command range, grams.
+    pub command_max_g: f32,
+    /// Consecutive bad gauge ticks before the fault latches.
+    pub gauge_fault_ticks: u16,
+    /// Ticks of identical readings that make a stuck gauge (the averaged reading of a live gauge
+    /// changes every few ticks with its 0.14 g of noise).
+    pub stuck_ticks: u16,
+    /// How far the command must move meanwhile for the stuck reading to be a fault.
+    pub stuck_command_g: f32,
+    /// The largest change of the reading the applicator can make in one tick.
+    pub max_slew_g_per_tick: f32,
+    /// The contact rule watches only commands above this (a light touch is left alone).
+    pub contact_command_g: f32,
+    /// Ticks off the finger while commanding force before the re-approach starts.
+    pub contact_ticks: u16,
+    /// Force commanded during the re-approach, and its ramp back to the command afterwards.
+    pub approach_g: f32,
+    /// Ticks of re-approach without contact before the fault latches.
+    pub contact_latch_ticks: u16,
+}
+
+impl Default for SupervisorConfig {
+    fn default() -> Self {
+        Self::DESIGN
+    }
+}
+
+impl SupervisorConfig {
+    pub const DESIGN: SupervisorConfig = SupervisorConfig {
+        command_max_g: 120.0,
+        gauge_fault_ticks: 2,
+        stuck_ticks: 50,
+        stuck_command_g: 1.0,
+        max_slew_g_per_tick: 40.0,
+        contact_command_g: 5.0,
+        contact_ticks: 25,
+        approach_g: 2.0,
+        contact_latch_ticks: 2000,
+    };
+}
+
+/// Everything the force loop is configured by.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForceLoopConfig {
+    pub law: ForceLawConfig,
+    pub filter: LowpassNotchConfig,
+    pub actuator: ActuatorConfig,
+    pub supervisor: SupervisorConfig,
+    /// Slew limit of the command ahead of the law, g/s.
+    pub slew_g_per_s: f32,
+}
+
+/// What one tick of the loop decided.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopOutput {
+    /// The code to write to the DAC.
+    pub dac_code: AdcCode,
+    /// The command after the range check, the slew limiter and the re-approach bound.
+    pub shaped_g: f32,
+    /// A1's adjusted command (0 when the output is safe).
+    pub adjusted_g: f32,
+    pub faults: FaultFlags,
+}
+
+/// The force loop: state of the law, the filter and the supervisor.
+#[derive(Clone, Debug)]
+pub struct ForceLoop {
+    config: ForceLoopConfig,
+    slew: SlewLimiter,
+    law: ForceLaw,
+    filter: LowpassNotch,
+    filter_state: LowpassNotchState,
+    latched: FaultFlags,
+    bad_gauge_ticks: u16,
+    last_reading_g: Option<f32>,
+    stuck_ticks: u16,
+    stuck_command_from_g: f32,
+    off_finger_ticks: u16,
+    /// Recent readings and commands for the contact rule (rings of 32).
+    recent_g: [f32; 32],
+    recent_command_g: [f32; 32],
+    recent_head: usize,
+    approaching: bool,
+    /// Ticks since contact was lost; reset only after [`SETTLED_CONTACT_TICKS`] in contact, so a
+    /// false release in the air does not restart the clock of the latch.
+    approach_ticks: u16,
+    in_contact_ticks: u16,
+    contact_losses: u32,
+}
+
+/// Ticks of contact after a re-approach before the loss counts as over.
+const SETTLED_CONTACT_TICKS: u16 = 200;
+
+impl ForceLoop {
+    pub fn new(config: ForceLoopConfig) -> Result<Self, FilterError> {
+        let filter = config.filter.discretize()?;
+        Ok(Self {
+            slew: SlewLimiter::new(config.slew_g_per_s, config.law.dt_s),
+            law: ForceLaw::new(config.law),
+            filter,
+            filter_state: LowpassNotchState::default(),
+            latched: FaultFlags::NONE,
+            bad_gauge_ticks: 0,
+            last_reading_g: None,
+            stuck_ticks: 0,
+            stuck_command_from_g: 0.0,
+            off_finger_ticks: 0,
+            recent_g: [0.0; 32],
+            recent_command_g: [0.0; 32],
+            recent_head: 0,
+            approaching: false,
+            approach_ticks: 0,
+            in_contact_ticks: 0,
+            contact_losses: 0,
+            config,
+        })
+    }
+
+    pub fn config(&self) -> &ForceLoopConfig {
+        &self.config
+    }
+
+    /// The latched faults (empty when running).
+    pub fn latched(&self) -> FaultFlags {
+        self.latched
+    }
+
+    /// Times the probe lost contact while force was commanded.
+    pub fn contact_losses(&self) -> u32 {
+        self.contact_losses
+    }
+
+    /// The explicit command that clears latched faults; the loop restarts from rest.
+    pub fn clear_faults(&mut self) {
+        self.latched = FaultFlags::NONE;
+        self.bad_gauge_ticks = 0;
+        self.stuck_ticks = 0;
+        self.off_finger_ticks = 0;
+        self.approaching = false;
+        self.approach_ticks = 0;
+        self.in_contact_ticks = 0;
+        self.restart();
+    }
+
+    fn restart(&mut self) {
+        self.slew = SlewLimiter::new(self.config.slew_g_per_s, self.config.law.dt_s);
+        self.law.reset();
+        self.filter_state = LowpassNotchState::default();
+    }
+
+    fn safe(&mut self, shaped_g: f32, mut faults: FaultFlags) -> LoopOutput {
+        // Zero force now: no filter transient, no memory of the error.
+        self.restart();
+        if self.latched.0 != 0 {
+            faults.insert(self.latched.0 | FaultFlags::LATCHED);
+        }
+        LoopOutput {
+            dac_code: self.config.actuator.zero_code(),
+            shaped_g,
+            adjusted_g: 0.0,
+            faults,
+        }
+    }
+
+    /// One tick: `command_g` from the command source, `reading` the gauge path's result for the
+    /// last period, `overrun` the board timer's verdict on the last deadline.
+    pub fn tick(
+        &mut self,
+        command_g: f32,
+        reading: Result<f32, GaugeFault>,
+        overrun: bool,
+    ) -> LoopOutput {
+        let s = self.config.supervisor;
+        let mut faults = FaultFlags::NONE;
+
+        // The command, checked at entry.
+        let command_g = if command_g.is_finite() {
+            if !(0.0..=s.command_max_g).contains(&command_g) {
+                faults.insert(FaultFlags::COMMAND_CLAMPED);
+            }
+            crate::limit(command_g, 0.0, s.command_max_g)
+        } else {
+            faults.insert(FaultFlags::INVALID_INPUT);
+            0.0
+        };
+
+        if overrun {
+            self.latched.insert(FaultFlags::DEADLINE_OVERRUN);
+        }
+
+        // The gauge.
+        let sensed_g = match reading {
+            Ok(f) => {
+                self.bad_gauge_ticks = 0;
+                Some(f)
+            }
+            Err(fault) => {
+                let flag = match fault {
+                    GaugeFault::AtRail { .. } => FaultFlags::GAUGE_AT_RAIL,
+                    GaugeFault::OutOfRange { .. } => FaultFlags::GAUGE_OUT_OF_RANGE,
+                };
+                faults.insert(flag);
+                self.bad_gauge_ticks = self.bad_gauge_ticks.saturating_add(1);
+                if self.bad_gauge_ticks >= s.gauge_fault_ticks {
+                    self.latched.insert(flag);
+                }
+                None
+            }
+        };
+        let shaped_probe = self.slew.update(command_g);
+        if let (Some(now), Some(before)) = (sensed_g, self.last_reading_g) {
+            if (now - before).abs() > s.max_slew_g_per_tick {
+                self.latched.insert(FaultFlags::FORCE_SLEW);
+            }
+            if now == before {
+                if self.stuck_ticks == 0 {
+                    self.stuck_command_from_g = shaped_probe;
+                }
+                self.stuck_ticks = self.stuck_ticks.saturating_add(1);
+                if self.stuck_ticks >= s.stuck_ticks
+                    && (shaped_probe - self.stuck_command_from_g).abs() > s.stuck_command_g
+                {
+                    self.latched.insert(FaultFlags::GAUGE_STUCK);
+                }
+            } else {
+                self.stuck_ticks = 0;
+            }
+        }
+        if sensed_g.is_some() {
+            self.last_reading_g = sensed_g;
+        }
+        let Some(sensed_g) = sensed_g else {
+            return self.safe(shaped_probe, faults);
+        };
+        if self.latched.0 != 0 {
+            return self.safe(shaped_probe, faults);
+        }
+
+        // Contact: off the finger while commanding force starts a bounded re-approach.
+        if let Some(slot) = self.recent_g.get_mut(self.recent_head) {
+            *slot = sensed_g;
+        }
+        if let Some(slot) = self.recent_command_g.get_mut(self.recent_head) {
+            *slot = shaped_probe;
+        }
+        self.recent_head = (self.recent_head + 1) % self.recent_g.len();
+        let mean_g = self.recent_g.iter().sum::<f32>() / self.recent_g.len() as f32;
+        let mean_command_g =
+            self.recent_command_g.iter().sum::<f32>() / self.recent_command_g.len() as f32;
+        let mut shaped_g = shaped_probe;
+        if self.approaching {
+            // In the air the gauge reads the tip's inertia, about a third of the approach force,
+            // under the beam's ringing; on the finger it reads the approach force itself. The
+            // median of the last 32 readings sees through the ringing (only while approaching).
+            let mut sorted = self.recent_g;
+            sorted.sort_unstable_by(f32::total_cmp);
+            let median_g = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+            if median_g >= 0.75 * s.approach_g {
+                self.approaching = false;
+                self.off_finger_ticks = 0;
+                self.slew.update_from(sensed_g);
+                shaped_g = self.slew.update(command_g);
+            }
+        } else if mean_g < 0.5 * mean_command_g && mean_command_g > s.contact_command_g {
+            self.off_finger_ticks = self.off_finger_ticks.saturating_add(1);
+            if self.off_finger_ticks >= s.contact_ticks {
+                self.approaching = true;
+                if self.approach_ticks == 0 {
+                    self.contact_losses = self.contact_losses.saturating_add(1);
+                }
+                // The release test must see only readings taken during the approach (a ringing
+                // sample from before would release it at once).
+                self.recent_g = [0.0; 32];
+            }
+        } else {
+            self.off_finger_ticks = 0;
+        }
+        if self.approaching {
+            faults.insert(FaultFlags::CONTACT_LOST | FaultFlags::APPROACHING);
+            self.in_contact_ticks = 0;
+            shaped_g = shaped_g.min(s.approach_g);
+        } else if self.approach_ticks > 0 {
+            self.in_contact_ticks = self.in_contact_ticks.saturating_add(1);
+            if self.in_contact_ticks >= SETTLED_CONTACT_TICKS {
+                self.approach_ticks = 0;
+            }
+        }
+        if self.approaching || self.approach_ticks > 0 {
+            self.approach_ticks = self.approach_ticks.saturating_add(1);
+            if self.approach_ticks >= s.contact_latch_ticks {
+                self.latched.insert(FaultFlags::CONTACT_LOST);
+                return self.safe(shaped_g, faults);
+            }
+        }
+
+        let a = self.law.update(shaped_g, sensed_g);
+        if a.saturated {
+            faults.insert(FaultFlags::ACTUATOR_SATURATED);
+        }
+        if a.invalid_input {
+            faults.insert(FaultFlags::INVALID_INPUT);
+        }
+        let filtered_g = self.filter.update(&mut self.filter_state, a.force_g);
+        LoopOutput {
+            dac_code: self.config.actuator.code(filtered_g),
+            shaped_g,
+            adjusted_g: a.force_g,
+            faults,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gauge::AdcCode;
+
+    fn memo_loop() -> ForceLoop {
+        ForceLoop::new(ForceLoopConfig {
+            law: ForceLawConfig::MEMO,
+            filter: LowpassNotchConfig::MEMO,
+            actuator: ActuatorConfig::MEMO,
+            supervisor: SupervisorConfig::DESIGN,
+            slew_g_per_s: 500.0,
+        })
+        .unwrap()
+    }
+
+    fn zero() -> AdcCode {
+        ActuatorConfig::MEMO.zero_code()
+    }
+
+    /// Holds 30 g with a live (noisy-looking) gauge for `ticks`.
+    fn run_normally(l: &mut ForceLoop, ticks: u32) {
+        for k in 0..ticks {
+            let wobble = if k % 2 == 0 { 0.05 } else { -0.05 };
+            let out = l.tick(30.0, Ok(30.0 + wobble), false);
+            assert_eq!(out.faults.0 & FaultFlags::LATCHED, 0);
+        }
+    }
+
+    #[test]
+    fn a_rail_reading_is_safe_at_once_and_latched_on_the_second_tick() {
+        let mut l = memo_loop();
+        run_normally(&mut l, 200);
+        let rail = Err(GaugeFault::AtRail { code: AdcCode(0) });
+        let first = l.tick(30.0, rail, false);
+        assert_eq!(first.dac_code, zero());
+        assert!(first.faults.contains(FaultFlags::GAUGE_AT_RAIL));
+        assert!(!first.faults.contains(FaultFlags::LATCHED));
+        let second = l.tick(30.0, rail, false);
+        assert!(second.faults.contains(FaultFlags::LATCHED));
+        // Latched: a good reading does not restart the loop...
+        let after = l.tick(30.0, Ok(30.0), false);
+        assert_eq!(after.dac_code, zero());
+        assert!(after
+            .faults
+            .contains_all(FaultFlags::LATCHED | FaultFlags::GAUGE_AT_RAIL));
+        // ...until the explicit clear.
+        l.clear_faults();
+        let resumed = l.tick(30.0, Ok(0.2), false);
+        assert_ne!(resumed.dac_code, zero());
+        assert_eq!(resumed.faults.0 & FaultFlags::LATCHED, 0);
+    }
+
+    #[test]
+    fn a_single_out_of_range_tick_does_not_latch() {
+        let mut l = memo_loop();
+        run_normally(&mut l, 50);
+        let out = l.tick(30.0, Err(GaugeFault::OutOfRange { force_g: 150.0 }), false);
+        assert_eq!(out.dac_code, zero());
+        let next = l.tick(30.0, Ok(30.0), false);
+        assert_eq!(next.faults.0 & FaultFlags::LATCHED, 0);
+    }
+
+    #[test]
+    fn a_stuck_gauge_latches_only_when_the_command_moves() {
+        let mut l = memo_loop();
+        // Holding still with a frozen reading: not a fault by the table's rule.
+        for _ in 0..200 {
+            assert_eq!(
+                l.tick(0.0, Ok(0.0), false).faults.0 & FaultFlags::LATCHED,
+                0
+            );
+        }
+        // The command ramps at 500 g/s with the reading still frozen: latched once the command
+        // has moved by more than 1 g (the third tick).
+        let latched_at = (0..100).position(|_| {
+            l.tick(30.0, Ok(0.0), false)
+                .faults
+                .contains(FaultFlags::GAUGE_STUCK)
+        });
+        assert_eq!(latched_at, Some(2));
+        // A gauge that freezes while the command ramps latches after the rule's 50 repeats (the
+        // first frozen reading still differs from the live one before it).
+        let mut l = memo_loop();
+        run_normally(&mut l, 100);
+        let latched_at = (0..100).position(|k| {
+            l.tick(30.0 + k as f32 * 0.1, Ok(30.0), false)
+                .faults
+                .contains(FaultFlags::GAUGE_STUCK)
+        });
+        assert_eq!(latched_at, Some(50));
+    }
+
+    #[test]
+    fn an_implausible_jump_latches_in_the_same_tick() {
+        let mut l = memo_loop();
+        run_normally(&mut l, 100);
+        let out = l.tick(30.0, Ok(90.0), false);
+        assert_eq!(out.dac_code, zero());
+        assert!(out
+            .faults
+            .contains_all(FaultFlags::FORCE_SLEW | FaultFlags::LATCHED));
+    }
+
+    #[test]
+    fn an_overrun_gives_zero_output_in_the_same_period() {
+        let mut l = memo_loop();
+        run_normally(&mut l, 100);
+        let out = l.tick(30.0, Ok(30.0), true);
+        assert_eq!(out.dac_code, zero());
+        assert!(out
+            .faults
+            .contains_all(FaultFlags::DEADLINE_OVERRUN | FaultFlags::LATCHED));
+    }
+
+    #[test]
+    fn bad_commands_are_clamped_and_flagged() {
+        let mut l = memo_loop();
+        let out = l.tick(f32::NAN, Ok(0.0), false);
+        assert!(out.faults.contains(FaultFlags::INVALID_INPUT));
+        assert_eq!(out.shaped_g, 0.0);
+        let out = l.tick(500.0, Ok(0.0), false);
+        assert!(out.faults.contains(FaultFlags::COMMAND_CLAMPED));
+        let out = l.tick(-5.0, Ok(0.0), false);
+        assert!(out.faults.contains(FaultFlags::COMMAND_CLAMPED));
+    }
+
+    #[test]
+    fn contact_loss_bounds_the_command_then_releases_it() {
+        let mut l = memo_loop();
+        run_normally(&mut l, 200);
+        // Off the finger: once the 32-tick mean falls below 15 g, and 25 ticks later, the command
+        // is held at the approach force.
+        let mut out = l.tick(30.0, Ok(0.0), false);
+        for _ in 0..40 {
+            out = l.tick(30.0, Ok(0.0), false);
+        }
+        assert!(
+            out.faults.contains(FaultFlags::APPROACHING),
+            "{:?} {}",
+            out.faults.names().collect::<Vec<_>>(),
+            out.shaped_g
+        );
+        assert_eq!(out.shaped_g, 2.0);
+        assert_eq!(l.contact_losses(), 1);
+        // Back on the finger at the approach force: once most of the last 32 readings are near
+        // it (their median), the command ramps from the reading at the slew rate.
+        let released = (0..40).find_map(|k| {
+            let out = l.tick(30.0, Ok(2.0), false);
+            (!out.faults.contains(FaultFlags::APPROACHING)).then_some((k, out))
+        });
+        let (k, out) = released.expect("released");
+        assert!(
+            (15..=17).contains(&k),
+            "released after {k} readings: the median needs half of 32"
+        );
+        assert!((out.shaped_g - 2.5).abs() < 1e-4, "{}", out.shaped_g);
+        // A loss that never finds the finger latches after 2 s.
+        let mut l = memo_loop();
+        run_normally(&mut l, 200);
+        let latched = (0..2100).any(|_| {
+            l.tick(30.0, Ok(0.0), false)
+                .faults
+                .contains(FaultFlags::LATCHED)
+        });
+        assert!(latched);
+    }
+}
