@@ -91,6 +91,25 @@ pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// Parses `NAME@SECONDS` into a fault injection.
+pub fn parse_fault(spec: &str) -> Result<crate::rig::FaultInjection, String> {
+    let valid = || crate::rig::InjectedFault::NAMES.join(", ");
+    let (name, at) = spec.split_once('@').ok_or_else(|| {
+        format!(
+            "fault '{spec}' is not NAME@SECONDS; valid faults: {}",
+            valid()
+        )
+    })?;
+    let fault = crate::rig::InjectedFault::parse(name)
+        .ok_or_else(|| format!("unknown fault '{name}'; valid faults: {}", valid()))?;
+    let at_s = at
+        .parse::<f64>()
+        .ok()
+        .filter(|t| t.is_finite() && *t >= 0.0)
+        .ok_or_else(|| format!("fault time '{at}' is not a non-negative number of seconds"))?;
+    Ok(crate::rig::FaultInjection { fault, at_s })
+}
+
 /// What an experiment run produced.
 pub struct ExperimentOutput {
     pub run: Run,
@@ -244,6 +263,11 @@ pub fn listing() -> String {
     for (n, d) in EFFECTS {
         let _ = writeln!(s, "  {n:<16} {d}");
     }
+    let _ = writeln!(
+        s,
+        "faults (--fault NAME@SECONDS):\n  {}",
+        crate::rig::InjectedFault::NAMES.join(", ")
+    );
     s
 }
 

@@ -8,6 +8,7 @@ pub mod analysis;
 pub mod cli;
 pub mod diagnose;
 pub mod fit;
+pub mod fuzz;
 pub mod metrics;
 pub mod plot;
 pub mod record;

@@ -109,6 +109,8 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
     let mut rec = Record::default();
     let mut header: Option<Vec<String>> = None;
     let mut index = [0usize; 3];
+    // File line of each data row, for errors found after reading.
+    let mut row_lines: Vec<usize> = Vec::new();
     for (i, line) in reader.lines().enumerate() {
         let n = i + 1;
         let line = line.map_err(|e| err(Some(n), None, format!("unreadable line: {e}")))?;
@@ -181,6 +183,7 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
             }
         }
         rec.t_s.push(t);
+        row_lines.push(n);
         rec.force_g.push(values[index[1]]);
         rec.strain_pct.push(values[index[2]]);
         let mut extra = rec.extra.iter_mut();
@@ -208,20 +211,18 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
     }
     let step = rec.sample_period_s().unwrap_or(0.0);
     // The first step that strays from the median by more than 1 % is uneven sampling.
-    let mut line_of_row = 0;
-    for (k, w) in rec.t_s.windows(2).enumerate() {
-        if ((w[1] - w[0]) - step).abs() > 0.01 * step {
-            line_of_row = k + 2;
-            break;
-        }
-    }
-    if line_of_row > 0 {
+    if let Some(k) = rec
+        .t_s
+        .windows(2)
+        .position(|w| ((w[1] - w[0]) - step).abs() > 0.01 * step)
+    {
+        let (a, b) = (rec.t_s[k], rec.t_s[k + 1]);
         return Err(err(
-            None,
+            row_lines.get(k + 1).copied(),
             Some("t_s".into()),
             format!(
-                "uneven sampling at data row {line_of_row}: step {:.6} s vs median {step:.6} s",
-                rec.t_s[line_of_row - 1] - rec.t_s[line_of_row - 2]
+                "uneven sampling: step {:.6} s from {a} s, the record's median step is {step:.6} s",
+                b - a
             ),
         ));
     }

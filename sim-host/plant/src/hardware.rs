@@ -5,6 +5,11 @@
 //!
 //! One control period is `write DAC → advance_period → read gauge and probe codes`; the scan
 //! reads the taxel selected by the multiplexer with the probe force at the end of the period.
+//!
+//! Fault injection: the board injects `RigConfig::fault` as the rig does, at the same instants
+//! (the converter faults into the codes it hands out, lost contact into the physics). The two
+//! faults that live in the firmware rather than in the hardware (a NaN command, a missed
+//! deadline) are announced by [`SimHardware::fault_starting`] for the harness to act on.
 
 use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
 use tactile_core::tactile::{TaxelCalibration, TaxelId, TAXELS};
@@ -12,7 +17,7 @@ use tactile_core::tactile::{TaxelCalibration, TaxelId, TAXELS};
 use crate::applicator::{self, ApplicatorState, Contact, Lumped};
 use crate::finger::Finger;
 use crate::noise::Noise;
-use crate::rig::{RigConfig, SUBSTEPS, TICK_S};
+use crate::rig::{FaultInjection, InjectedFault, RigConfig, SUBSTEPS, TICK_S};
 
 /// Converter samples the rig takes of the element under the probe when calibrating at rest.
 const CALIBRATION_FRAMES: usize = 16;
@@ -93,25 +98,53 @@ impl SimHardware {
         self.dac
     }
 
+    /// Where the DAC register lives, for a crash handler that must zero the output without
+    /// going through whichever task holds the board (as firmware writes a memory-mapped
+    /// register). Valid while the board stays where it is (on the target it lives in a static).
+    pub fn dac_register(&mut self) -> *mut AdcCode {
+        core::ptr::addr_of_mut!(self.dac)
+    }
+
+    /// The fault whose injection begins with the coming period, if any: what the harness must
+    /// do itself for the faults that live in the firmware (`CommandNan`, `DeadlineOverrun`).
+    /// The rig's tick `k` is this board's period `k`, so "the coming period" is the rig's tick
+    /// that first sees the fault.
+    pub fn fault_starting(&self) -> Option<InjectedFault> {
+        let t_s = self.periods as f64 * TICK_S;
+        self.config
+            .fault
+            .filter(|f| f.starts_in(t_s))
+            .map(|f| f.fault)
+    }
+
     /// One control period of physics with the DAC held: the plant's ten steps, the gauge
     /// sampled eight times, the finger advanced, the probed element's channel sampled at the end.
     pub fn advance_period(&mut self) {
         let t_s = self.periods as f64 * TICK_S;
+        let fault = self.config.fault.filter(|f| f.active_in(t_s));
         let actuator = &self.config.actuator;
         let drive_v = f64::from(actuator.dac.volts(self.dac));
         let p = self.config.applicator;
-        let contact = Contact::new(
+        let mut contact = Contact::new(
             &p,
             self.finger.probe_taxel().element.g1,
             self.finger.probe_rest_strain_pct(),
         );
+        if let Some(FaultInjection {
+            fault: InjectedFault::ContactLost { strain_pct },
+            ..
+        }) = fault
+        {
+            contact.rest_strain_pct += strain_pct;
+        }
+        let mut samples = [AdcCode(0); SAMPLES_PER_TICK];
         let mut stress_sum = 0.0;
         for k in 0..SUBSTEPS {
             applicator::step_lumped(&self.lumped, &mut self.plant, &contact, drive_v);
             stress_sum += contact.force_g(self.plant.tip_m, self.plant.tip_m_per_s);
             if let Some(slot) = k
                 .checked_sub(SUBSTEPS - SAMPLES_PER_TICK)
-                .and_then(|i| self.gauge_codes.get_mut(i))
+                .and_then(|i| samples.get_mut(i))
             {
                 let force = self.plant.gauge_force_g(&p)
                     + self.config.gauge_noise_g * self.gauge_noise.gaussian();
@@ -122,6 +155,17 @@ impl SimHardware {
                     .code(self.config.gauge.volts(force as f32));
             }
         }
+        if let Some(f) = fault {
+            // The noise was drawn all the same: the streams stay the rig's.
+            inject_gauge_fault(
+                &self.config,
+                f.fault,
+                f.starts_in(t_s),
+                &self.gauge_codes,
+                &mut samples,
+            );
+        }
+        self.gauge_codes = samples;
         self.finger.tick(stress_sum / SUBSTEPS as f64, TICK_S);
         // Same expression as the rig's, so the time effects see the same instants.
         let t_end = t_s + TICK_S;
@@ -149,12 +193,27 @@ impl SimHardware {
     /// Samples the envelope detector on the selected taxel after its dwell (the detector
     /// still holds the blend of the taxel sampled before it).
     pub fn sample_selected_taxel(&mut self) -> AdcCode {
-        let code = self.finger.sample_scan(
+        let mut code = self.finger.sample_scan(
             self.selected,
             self.last_sampled,
             self.true_force_g,
             self.t_end_s,
         );
+        // The scan after period k belongs to the rig's tick k (its start time is the fault's
+        // clock there).
+        let tick_s = self.periods.saturating_sub(1) as f64 * TICK_S;
+        if self.periods > 0
+            && self.config.fault.is_some_and(|f| {
+                f.active_in(tick_s)
+                    && f.fault
+                        == InjectedFault::TaxelOpen {
+                            index: self.selected.index(),
+                        }
+            })
+        {
+            // An open taxel: its detector reads the converter's lower rail.
+            code = AdcCode(0);
+        }
         self.last_sampled = self.selected;
         code
     }
@@ -171,6 +230,46 @@ impl SimHardware {
     /// Control periods simulated so far.
     pub fn periods(&self) -> u64 {
         self.periods
+    }
+}
+
+impl FaultInjection {
+    /// True in the control period that starts at `t_s` once the fault has begun (the rig's
+    /// test: `t_s ≥ at_s`).
+    pub fn active_in(&self, t_s: f64) -> bool {
+        t_s >= self.at_s
+    }
+
+    /// True only in the first period the fault is active (one-tick faults: spike, NaN command,
+    /// missed deadline).
+    pub fn starts_in(&self, t_s: f64) -> bool {
+        t_s >= self.at_s && t_s - self.at_s < TICK_S
+    }
+}
+
+/// What a converter fault does to one period's gauge samples (`previous`: the last period's
+/// codes, which a stuck converter repeats). The rig's own rules: a disconnected gauge reads the
+/// lower rail, a saturated one the upper, a spike adds `g` grams to every sample of its one
+/// period.
+pub fn inject_gauge_fault(
+    config: &RigConfig,
+    fault: InjectedFault,
+    first_period: bool,
+    previous: &[AdcCode; SAMPLES_PER_TICK],
+    samples: &mut [AdcCode; SAMPLES_PER_TICK],
+) {
+    let gauge = &config.gauge;
+    match fault {
+        InjectedFault::GaugeDisconnected => *samples = [AdcCode(0); SAMPLES_PER_TICK],
+        InjectedFault::GaugeSaturated => *samples = [gauge.adc.code(f32::MAX); SAMPLES_PER_TICK],
+        InjectedFault::GaugeStuck => *samples = *previous,
+        InjectedFault::ForceSpike { g } if first_period => {
+            for s in samples.iter_mut() {
+                let v = gauge.adc.volts(*s) + g / gauge.grams_per_volt;
+                *s = gauge.adc.code(v);
+            }
+        }
+        _ => {}
     }
 }
 

@@ -61,6 +61,9 @@ enum Command {
         /// Skip the PNG.
         #[arg(long)]
         no_plot: bool,
+        /// Inject a fault, NAME@SECONDS (see `tactile list`).
+        #[arg(long)]
+        fault: Option<String>,
     },
     /// Fit one of the memo's models to a record (t_s,force_g,strain_pct).
     Fit {
@@ -98,6 +101,20 @@ enum Command {
     },
 }
 
+/// `println!`/`print!` that ignore a closed pipe (`tactile … | head`) instead of panicking.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
+
 fn usage_error(message: &str) -> ExitCode {
     eprintln!("tactile: {message}");
     ExitCode::from(2)
@@ -107,7 +124,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::List => {
-            print!("{}", cli::listing());
+            out!("{}", cli::listing());
             ExitCode::SUCCESS
         }
         Command::Experiment {
@@ -121,6 +138,7 @@ fn main() -> ExitCode {
             record_hz,
             effects,
             no_plot,
+            fault,
         } => {
             if !SCENARIOS.contains(&name.as_str()) {
                 return usage_error(&format!(
@@ -148,6 +166,12 @@ fn main() -> ExitCode {
                     return usage_error(&e);
                 }
             }
+            if let Some(spec) = fault {
+                match cli::parse_fault(&spec) {
+                    Ok(f) => config.fault = Some(f),
+                    Err(e) => return usage_error(&e),
+                }
+            }
             let options = ScenarioOptions {
                 load_g: load,
                 protocol_seed,
@@ -156,9 +180,9 @@ fn main() -> ExitCode {
             };
             match cli::experiment(&name, &options, config, &out, record_hz, !no_plot) {
                 Ok(o) => {
-                    print!("{}", o.summary);
+                    out!("{}", o.summary);
                     for f in o.files {
-                        println!("  wrote {}", f.display());
+                        outln!("  wrote {}", f.display());
                     }
                     ExitCode::SUCCESS
                 }
@@ -190,8 +214,8 @@ fn main() -> ExitCode {
                 );
                 return ExitCode::from(1);
             };
-            print!("{}", sim_host::fit::describe(&fit));
-            println!(
+            out!("{}", sim_host::fit::describe(&fit));
+            outln!(
                 "  ({} evaluations, {:.2} s)",
                 fit.evaluations,
                 start.elapsed().as_secs_f64()
@@ -222,8 +246,8 @@ fn main() -> ExitCode {
                 );
                 return ExitCode::from(1);
             };
-            print!("{}", d.summary);
-            println!("  ({:.1} s)", start.elapsed().as_secs_f64());
+            out!("{}", d.summary);
+            outln!("  ({:.1} s)", start.elapsed().as_secs_f64());
             if let Some(path) = json {
                 let text = serde_json::to_string_pretty(&d).unwrap_or_default();
                 if let Err(e) = std::fs::write(&path, text) {
@@ -233,7 +257,7 @@ fn main() -> ExitCode {
             }
             if let Some(dir) = report {
                 match sim_host::report::diagnosis_report(&dir, &file, &series, &d) {
-                    Ok(p) => println!("  report: {}", p.display()),
+                    Ok(p) => outln!("  report: {}", p.display()),
                     Err(e) => {
                         eprintln!("tactile: report {}: {e}", dir.display());
                         return ExitCode::from(1);
@@ -245,7 +269,7 @@ fn main() -> ExitCode {
         Command::Tables { out, seed } => match sim_host::tables::reproduce(seed) {
             Ok(t) => {
                 let text = sim_host::tables::render(&t);
-                print!("{text}");
+                out!("{text}");
                 let written = std::fs::create_dir_all(&out)
                     .and_then(|_| std::fs::write(out.join("tables.md"), &text))
                     .and_then(|_| {
@@ -256,7 +280,7 @@ fn main() -> ExitCode {
                     });
                 match written {
                     Ok(()) => {
-                        println!("wrote {}", out.join("tables.md").display());
+                        outln!("wrote {}", out.join("tables.md").display());
                         ExitCode::SUCCESS
                     }
                     Err(e) => {
@@ -272,7 +296,7 @@ fn main() -> ExitCode {
         },
         Command::Demo { out, seed } => match cli::demo(&out, seed) {
             Ok(path) => {
-                println!("report: {}", path.display());
+                outln!("report: {}", path.display());
                 ExitCode::SUCCESS
             }
             Err(e) => {
