@@ -18,6 +18,12 @@ for component in rustfmt clippy; do
     fi
 done
 rustup target list --installed | grep -x thumbv7em-none-eabihf
+# The thumb target links with flip-link (.cargo/config.toml): stack-overflow protection.
+if ! command -v flip-link >/dev/null 2>&1; then
+    echo "installing flip-link (the linker of the thumb target): cargo install flip-link --locked"
+    cargo install flip-link --locked
+fi
+echo "flip-link: $(command -v flip-link)"
 
 step "formatting (cargo fmt --check)"
 cargo fmt --all --check
@@ -27,6 +33,9 @@ cargo clippy --all-targets -- -D warnings
 
 step "core library for the Cortex-M4F (thumbv7em-none-eabihf)"
 cargo core-thumb
+
+step "firmware lints for the Cortex-M4F: no unwrap, expect, panicking index or panic (clippy -D warnings)"
+cargo clippy -p tactile-firmware -p tactile-qemu -p tactile-f407 --target thumbv7em-none-eabihf -- -D warnings
 
 step "QEMU for the firmware-in-the-loop test (qemu-system-arm)"
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
@@ -38,7 +47,7 @@ if ! command -v qemu-system-arm >/dev/null 2>&1; then
 fi
 qemu-system-arm --version | sed -n 1p
 
-step "firmware in the loop: QEMU netduinoplus2 against the host simulator"
+step "firmware in the loop: QEMU netduinoplus2 against the host simulator, injected faults, crash handlers"
 cargo test --release -p tactile-decode --test qemu_fil -- --ignored --nocapture
 
 step "STM32F407G-DISC1 firmware: build and ELF checks"

@@ -7,6 +7,7 @@
 pub mod analysis;
 pub mod cli;
 pub mod diagnose;
+pub mod estimators;
 pub mod fit;
 pub mod fuzz;
 pub mod metrics;

@@ -11,6 +11,7 @@
 //!   element's estimator and the command source.
 //! - [`scan`]: the 8×8 scan, strain per taxel, the per-taxel inverse model, total force and
 //!   centroid.
+//! - [`safety`]: watchdog check-ins, the reset cause, the crash handlers' report.
 //! - [`telemetry`]: bounded outboxes that number frames and count drops, never blocking.
 //! - `sim` (feature `sim`): the simulated board of `tactile-plant` behind the same traits.
 #![cfg_attr(not(test), no_std)]
@@ -27,14 +28,18 @@
 pub mod board;
 pub mod config;
 pub mod control;
+pub mod safety;
 pub mod scan;
 pub mod telemetry;
 
 #[cfg(any(test, feature = "sim"))]
 pub mod sim;
+#[cfg(any(test, feature = "sim"))]
+pub use sim::{DeliberateCrash, FilRun, FIL_SESSION};
 
 pub use board::{ControlIo, ScanIo};
 pub use config::{ConfigError, FirmwareConfig, CONTROL_PERIOD_S};
 pub use control::Controller;
+pub use safety::{CheckIns, ResetCause, SafeStop};
 pub use scan::{ArrayEstimate, ScanReport, Scanner};
 pub use telemetry::{Message, Numbered, Outbox, RunEnd, RunStart};

@@ -50,6 +50,8 @@ pub struct Tick {
     pub frame: ControlFrame,
     pub true_force_g: Option<f32>,
     pub in_contact: Option<bool>,
+    /// The code this tick wrote to the (simulated) DAC, when the log carries it.
+    pub dac_code: Option<u16>,
 }
 
 /// One protocol run.
@@ -213,7 +215,7 @@ impl Builder {
                     session.flagged_drops += 1;
                 }
                 let truth = structs.iter().find(|s| s.name == "SimTruth");
-                let (true_force_g, in_contact) = match truth {
+                let (true_force_g, in_contact, dac_code) = match truth {
                     Some(s) => {
                         let f = s.fields();
                         let tick: u32 = f.num("tick")?;
@@ -223,14 +225,19 @@ impl Builder {
                                 frame.tick
                             ));
                         }
-                        (Some(f.num("true_force_g")?), Some(f.flag("in_contact")?))
+                        (
+                            Some(f.num("true_force_g")?),
+                            Some(f.flag("in_contact")?),
+                            Some(f.num("dac_code")?),
+                        )
                     }
-                    None => (None, None),
+                    None => (None, None, None),
                 };
                 self.run_mut("ControlFrame")?.ticks.push(Tick {
                     frame,
                     true_force_g,
                     in_contact,
+                    dac_code,
                 });
             }
             "TaxelFrame" => {
@@ -344,8 +351,9 @@ impl Run {
                     true_force_g: next.true_force_g.unwrap_or(f32::NAN),
                     in_contact: next.in_contact.unwrap_or(false),
                     faults: FaultFlags(now.frame.faults.0 | next.frame.faults.0),
-                    // What the frames do not carry (the simulator's extra columns) keeps its default.
-                    ..Default::default()
+                    // The code tick `k` wrote, as the simulator's record `k` holds it.
+                    // 0 when the log does not carry it (a board's log).
+                    dac_code: now.dac_code.unwrap_or_default(),
                 }
             })
             .collect()

@@ -11,9 +11,12 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use sim_host::metrics::{rms, worst_step_settling_s};
+use sim_host::rig::InjectedFault;
 use sim_host::rig::{RigConfig, TickRecord};
-use sim_host::scenario::{run_named, ScenarioOptions};
-use tactile_core::telemetry::TaxelFrame;
+use sim_host::scenario::{run_named, run_protocol, ScenarioOptions};
+use tactile_core::control::ActuatorConfig;
+use tactile_core::telemetry::{FaultFlags, TaxelFrame};
+use tactile_firmware::{FilRun, FIL_SESSION};
 
 const QEMU: &str = "qemu-system-arm";
 const QEMU_TIMEOUT: Duration = Duration::from_secs(150);
@@ -47,10 +50,12 @@ fn build_firmware() -> PathBuf {
     target_dir.join("thumbv7em-none-eabihf/release/tactile-qemu")
 }
 
-/// Runs the firmware to its semihosting exit; returns the defmt bytes it wrote.
-fn run_qemu(elf: &Path, log: &Path) {
+/// Runs the firmware to its semihosting exit with `append` as its command line, writing the
+/// defmt bytes to `log`; returns whether it exited with success.
+fn run_qemu(elf: &Path, log: &Path, append: &str) -> bool {
     let out = std::fs::File::create(log).expect("log file");
-    let mut child = Command::new(QEMU)
+    let mut command = Command::new(QEMU);
+    command
         .args([
             "-machine",
             "netduinoplus2",
@@ -63,7 +68,11 @@ fn run_qemu(elf: &Path, log: &Path) {
         .args(["-icount", "shift=0,align=off,sleep=off"])
         .args(["-semihosting-config", "enable=on,target=native"])
         .arg("-kernel")
-        .arg(elf)
+        .arg(elf);
+    if !append.is_empty() {
+        command.args(["-append", append]);
+    }
+    let mut child = command
         .stdout(out)
         .stderr(Stdio::inherit())
         .spawn()
@@ -71,11 +80,16 @@ fn run_qemu(elf: &Path, log: &Path) {
     let start = Instant::now();
     loop {
         if let Some(status) = child.try_wait().expect("qemu status") {
-            assert!(
-                status.success(),
-                "the firmware exited with {status} (a panic or HardFault: see the log)"
+            eprintln!(
+                "QEMU ran the session{} in {:.1} s wall ({status})",
+                if append.is_empty() {
+                    String::new()
+                } else {
+                    format!(" with `{append}`")
+                },
+                start.elapsed().as_secs_f64()
             );
-            break;
+            return status.success();
         }
         if start.elapsed() > QEMU_TIMEOUT {
             let _ = child.kill();
@@ -84,10 +98,16 @@ fn run_qemu(elf: &Path, log: &Path) {
         }
         std::thread::sleep(Duration::from_millis(100));
     }
-    eprintln!(
-        "QEMU ran the session in {:.1} s wall",
-        start.elapsed().as_secs_f64()
-    );
+}
+
+fn decode_log(elf: &Path, log: &Path) -> tactile_decode::Session {
+    tactile_decode::decode(
+        &std::fs::read(elf).expect("elf"),
+        elf,
+        &std::fs::read(log).expect("log"),
+        log,
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn host_run(name: &str, duration_s: f32) -> sim_host::scenario::Run {
@@ -112,6 +132,113 @@ fn rms_between(a: &[TickRecord], b: &[TickRecord], f: impl Fn(&TickRecord) -> f6
     rms(&pairs, |r| f64::from(r.sensed_g), |_| 0.0)
 }
 
+fn is_fault(spec: &FilRun, fault: InjectedFault) -> bool {
+    spec.fault.is_some_and(|f| f.fault == fault)
+}
+
+/// A fault run of the QEMU session, from its decoded defmt stream: the DAC at the zero code
+/// within 2 ticks of the injection (in the same tick for a missed deadline) and held there,
+/// LATCHED and the fault's bit in the frames, the probe's true force released, and every
+/// control value, DAC code and fault bit equal to the host rig's run of the same fault.
+fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
+    let name = spec.name;
+    let injection = spec.fault.expect("a fault run");
+    // (fault bit, safe within this many ticks, latched by this many ticks after): the host
+    // simulator's fault tests, the same table.
+    let (bit, within, latch) = match injection.fault {
+        InjectedFault::GaugeDisconnected | InjectedFault::GaugeSaturated => {
+            (FaultFlags::GAUGE_AT_RAIL, 2, 2)
+        }
+        InjectedFault::ForceSpike { .. } => (FaultFlags::FORCE_SLEW, 2, 1),
+        InjectedFault::DeadlineOverrun => (FaultFlags::DEADLINE_OVERRUN, 1, 0),
+        other => panic!("{name}: no expectations written for {other:?}"),
+    };
+    let zero = ActuatorConfig::MEMO.zero_code().0;
+    let ticks = &run.ticks;
+    // Tick k starts at k ms: the first tick at or after the injection time.
+    let k0 = ticks
+        .iter()
+        .position(|t| run.tick_time_s(t.frame.tick) >= injection.at_s - 1e-9)
+        .expect("the injection falls inside the run");
+    let dac = |t: &tactile_decode::Tick| t.dac_code.expect("QEMU frames carry the DAC code");
+    assert!(
+        ticks[..k0].iter().rev().take(100).all(|t| dac(t) != zero),
+        "{name}: the actuator was not driving before the fault"
+    );
+    let last_driving = ticks[k0..].iter().rposition(|t| dac(t) != zero);
+    let safe_after = last_driving.map_or(0, |i| i + 1);
+    assert!(
+        safe_after < within,
+        "{name}: DAC not at the zero code {zero} until {safe_after} ticks after the injection"
+    );
+    let flags = |k: usize| ticks[k].frame.faults;
+    let latched_at = (k0..=k0 + latch)
+        .find(|&k| flags(k).contains_all(bit | FaultFlags::LATCHED))
+        .unwrap_or_else(|| {
+            panic!(
+                "{name}: {:?} not latched within {latch} ticks: {:?}",
+                FaultFlags(bit).names().collect::<Vec<_>>(),
+                flags(k0 + latch).names().collect::<Vec<_>>()
+            )
+        });
+    assert!(
+        ticks[latched_at..]
+            .iter()
+            .all(|t| t.frame.faults.contains(FaultFlags::LATCHED)),
+        "{name}: the latch let go"
+    );
+    // The probe retracts: true force below 0.5 g within 150 ms, below 0.1 g at the end.
+    let records = run.tick_records();
+    let released = records[k0..]
+        .iter()
+        .position(|r| r.true_force_g < 0.5)
+        .unwrap_or_else(|| panic!("{name}: the probe force never falls"));
+    assert!(
+        released < 150,
+        "{name}: force above 0.5 g for {released} ms"
+    );
+    let end_force = records.last().expect("records").true_force_g;
+    assert!(end_force < 0.1, "{name}: {end_force} g at the end");
+    eprintln!(
+        "{name}: injected at tick {k0}; DAC at the zero code {safe_after} tick(s) later; \
+         {:?} latched {} tick(s) later; true force < 0.5 g after {released} ms, {end_force:.3} g \
+         at the end",
+        flags(latched_at).names().collect::<Vec<_>>(),
+        latched_at - k0
+    );
+
+    // The host rig, same protocol, fault and seed: identical to the bit.
+    let host = run_protocol(name, spec.protocol, spec.rig(), false, |_| {}).expect("host rig");
+    assert_eq!(ticks.len(), host.ticks.len(), "{name}");
+    for (k, (fw, rig)) in ticks.iter().zip(&host.ticks).enumerate() {
+        let f = &fw.frame;
+        assert_eq!(
+            (
+                f.command_g.to_bits(),
+                f.adjusted_g.to_bits(),
+                dac(fw),
+                f.faults.0
+            ),
+            (
+                rig.command_g.to_bits(),
+                rig.adjusted_g.to_bits(),
+                rig.dac_code,
+                // The rig flags a railed taxel per tick; the firmware marks it in its frames.
+                rig.faults.0 & !FaultFlags::TAXEL_AT_RAIL
+            ),
+            "{name}: tick {k} differs from the host rig"
+        );
+    }
+    let truth = rms_between(&records, &host.ticks, |r| f64::from(r.true_force_g));
+    let sensed = rms_between(&records, &host.ticks, |r| f64::from(r.sensed_g));
+    eprintln!(
+        "{name}: firmware vs host rig over {} ticks: command, A1 output, DAC code and fault bits \
+         identical; RMS true force {truth:.2e} g, gauge force {sensed:.2e} g",
+        ticks.len()
+    );
+    assert!(truth == 0.0 && sensed == 0.0, "{name}: traces differ");
+}
+
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn firmware_in_the_loop_tracks_like_the_simulator() {
@@ -126,15 +253,12 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     let dir = workspace().join("target/qemu-fil");
     std::fs::create_dir_all(&dir).expect("output directory");
     let log = dir.join("session.defmt");
-    run_qemu(&elf, &log);
+    assert!(
+        run_qemu(&elf, &log, ""),
+        "the firmware exited with a failure (a panic or HardFault: see the log)"
+    );
 
-    let session = tactile_decode::decode(
-        &std::fs::read(&elf).expect("elf"),
-        &elf,
-        &std::fs::read(&log).expect("log"),
-        &log,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let session = decode_log(&elf, &log);
     assert!(
         session.errors.is_empty(),
         "firmware errors: {:?}",
@@ -149,26 +273,45 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     assert_eq!(session.flagged_drops, 0);
     assert_eq!(session.trailing_bytes, 0);
     let names: Vec<&str> = session.runs.iter().map(|r| r.name.as_str()).collect();
-    assert_eq!(names, ["force-steps", "pseudo-random"]);
-    for run in &session.runs {
+    let expected: Vec<&str> = FIL_SESSION.iter().map(|r| r.name).collect();
+    assert_eq!(names, expected);
+    for (run, spec) in session.runs.iter().zip(&FIL_SESSION) {
         let end = run.end.unwrap_or_else(|| panic!("{}: no RunEnd", run.name));
+        // The one overrun is the injected one.
+        let overruns = u32::from(is_fault(spec, InjectedFault::DeadlineOverrun));
         assert_eq!(
             (
                 end.control_frames_dropped,
                 end.taxel_frames_dropped,
                 end.overruns
             ),
-            (0, 0, 0),
+            (0, 0, overruns),
             "{}",
             run.name
         );
         let expected_ticks = (f64::from(run.duration_s) / tactile_decode::TICK_S).round() as usize;
         assert_eq!(run.ticks.len(), expected_ticks, "{}", run.name);
-        assert!(run.duration_s >= 10.0, "{}: {} s", run.name, run.duration_s);
+        assert_eq!(run.duration_s, spec.protocol.duration_s(), "{}", run.name);
+        // Every tick of the run, in order (the sequence numbers are checked session-wide).
+        assert!(
+            run.ticks
+                .windows(2)
+                .all(|w| w[1].frame.tick == w[0].frame.tick.wrapping_add(1)),
+            "{}: ticks missing",
+            run.name
+        );
         let files = tactile_decode::write_run(&dir, run, &[]).expect("records written");
         // The record reads back with the simulator's strict reader.
         let back = sim_host::record::read_record(&files[0]).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(back.len(), run.ticks.len() - 1);
+    }
+    for spec in FIL_SESSION.iter().filter(|r| r.fault.is_none()) {
+        let run = session.run(spec.name).expect("run decoded");
+        assert!(run.duration_s >= 10.0, "{}: {} s", run.name, run.duration_s);
+    }
+    for spec in FIL_SESSION.iter().filter(|r| r.fault.is_some()) {
+        let run = session.run(spec.name).expect("run decoded");
+        fault_run_is_safe_and_is_the_rigs(run, spec);
     }
 
     for (name, duration_s) in [("force-steps", 10.5f32), ("pseudo-random", 10.0)] {
@@ -241,4 +384,59 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         worst > 0.03,
         "settling {worst} s is too quick to be the slewed 10 g step"
     );
+}
+
+/// The crash handlers: a deliberate panic, then a deliberate HardFault (an undefined
+/// instruction) at a tick where the actuator is driving 10 g; each handler must put the safe
+/// code into the simulated DAC before it reports, and QEMU must stop with a failure code.
+#[test]
+#[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
+fn a_panic_and_a_hardfault_zero_the_actuator_before_reporting() {
+    if !qemu_present() {
+        eprintln!(
+            "\n!!!!!!!! SKIPPED: {QEMU} is not installed, the crash test did NOT run !!!!!!!!\n"
+        );
+        return;
+    }
+    let elf = build_firmware();
+    let dir = workspace().join("target/qemu-fil");
+    std::fs::create_dir_all(&dir).expect("output directory");
+    let zero = ActuatorConfig::MEMO.zero_code().0;
+    // 1.2 s into force-steps: the first 10 g step is on.
+    const CRASH_TICK: u32 = 1200;
+    for (request, cause) in [
+        ("panic-at-tick", "panic"),
+        ("hardfault-at-tick", "hardfault"),
+    ] {
+        let log = dir.join(format!("{cause}.defmt"));
+        let append = format!("{request}={CRASH_TICK}");
+        assert!(
+            !run_qemu(&elf, &log, &append),
+            "{cause}: QEMU exited with success after a crash"
+        );
+        let session = decode_log(&elf, &log);
+        // The last frame out before the crash: the actuator was driving.
+        let last = session
+            .runs
+            .last()
+            .and_then(|r| r.ticks.last())
+            .expect("frames before the crash");
+        assert_eq!(last.frame.tick, CRASH_TICK - 1, "{cause}");
+        let driving = last.dac_code.expect("DAC code in the frame");
+        assert_ne!(driving, zero, "{cause}: the actuator was not driving");
+        // The crash report: the handler's SafeStop, with the DAC read back at the zero code.
+        assert_eq!(session.errors.len(), 1, "{cause}: {:?}", session.errors);
+        let report = &session.errors[0];
+        let stop = tactile_decode::text::parse_structs(report)
+            .into_iter()
+            .find(|s| s.name == "SafeStop")
+            .unwrap_or_else(|| panic!("{cause}: no SafeStop in {report:?}"));
+        let f = stop.fields();
+        assert_eq!(f.text("cause").expect("cause"), cause);
+        assert!(f.flag("board").expect("board"));
+        let dac: u16 = f.num("dac_code").expect("dac_code");
+        let safe: u16 = f.num("safe_code").expect("safe_code");
+        assert_eq!((dac, safe), (zero, zero), "{cause}: {report}");
+        eprintln!("{cause} at tick {CRASH_TICK}: DAC {driving} → {dac} (zero code) before the report: {report}");
+    }
 }

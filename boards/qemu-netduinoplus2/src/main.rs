@@ -16,6 +16,14 @@
 //! semihosting. With `-icount shift=0` one instruction is one nanosecond of virtual time, and
 //! SysTick counts the 168 MHz core clock, so SysTick counts × 1000/168 are instructions.
 #![cfg_attr(target_os = "none", no_std, no_main)]
+// The firmware's paths never panic by accident: no unwrap, expect, panicking index or panic!
+// (scripts/test-all.sh runs clippy for the thumb target with -D warnings).
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 #[cfg(not(target_os = "none"))]
 fn main() {
@@ -33,25 +41,25 @@ mod session;
 use defmt_semihosting as _;
 
 #[cfg(target_os = "none")]
+mod crash;
+
+/// Panic: the simulated actuator to zero first, then the report; QEMU stops with a failure
+/// code so the test sees it.
+#[cfg(target_os = "none")]
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    // The simulated actuator is inside the firmware: nothing to zero. Report and stop QEMU
-    // with a failure code so the test sees it.
-    defmt::error!("panic: {}", defmt::Display2Format(info));
-    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    loop {
-        cortex_m::asm::wfi();
-    }
+    let safe = crash::zero_actuator("panic");
+    defmt::error!("{} {}", safe, defmt::Display2Format(info));
+    crash::stop()
 }
 
+/// HardFault: the same, with the faulting address.
 #[cfg(target_os = "none")]
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
-    defmt::error!("HardFault at pc {=u32:#x}", frame.pc());
-    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    loop {
-        cortex_m::asm::wfi();
-    }
+    let safe = crash::zero_actuator("hardfault");
+    defmt::error!("{} HardFault at pc {=u32:#x}", safe, frame.pc());
+    crash::stop()
 }
 
 #[cfg(target_os = "none")]
@@ -64,6 +72,7 @@ mod app {
     use heapless::spsc::{Consumer, Queue};
     use tactile_firmware::{Controller, Message, Outbox, RunEnd, RunStart, Scanner};
     use tactile_plant::hardware::SimHardware;
+    use tactile_plant::rig::InjectedFault;
 
     use crate::session::{self, Cost, SimTruth, RUNS};
     use core::mem::MaybeUninit;
@@ -105,6 +114,8 @@ mod app {
         taxel_out: Outbox<'static, TaxelMsg>,
         control_rx: Consumer<'static, ControlMsg>,
         taxel_rx: Consumer<'static, TaxelMsg>,
+        /// A crash the test asked for (`-append "panic-at-tick=N"`), or none.
+        crash: Option<tactile_firmware::DeliberateCrash>,
     }
 
     #[init(local = [
@@ -117,7 +128,12 @@ mod app {
         session::paint_stack();
         defmt::info!("tactile-qemu: {=usize} runs", RUNS.len());
         // Built straight into their statics: the stack never holds a whole board.
-        let hw: &'static mut SimHardware = cx.local.hw_slot.write(session::board());
+        let hw: &'static mut SimHardware =
+            crate::crash::arm(cx.local.hw_slot.write(session::board()));
+        let crash = crate::crash::requested();
+        if let Some(c) = crash {
+            defmt::warn!("deliberate crash requested: {}", defmt::Debug2Format(&c));
+        }
         let (controller, scanner) = session::task_state(0, hw);
         let scanner: &'static mut Scanner = cx.local.scanner_slot.write(scanner);
         let (control_tx, control_rx) = cx.local.control_queue.split();
@@ -143,6 +159,7 @@ mod app {
                 control_rx,
                 taxel_rx,
                 syst,
+                crash,
             },
         )
     }
@@ -158,7 +175,7 @@ mod app {
     /// The 1 kHz control tick; then the simulated plant's next millisecond (the board's
     /// "physics", which a real board gets for free).
     #[task(binds = SysTick, priority = 3, shared = [hw, cost],
-           local = [controller, control_out, syst, board_tick: u32 = 0, run: usize = 0,
+           local = [controller, control_out, syst, crash, board_tick: u32 = 0, run: usize = 0,
                     started: bool = false, pending_reset: bool = false, done: bool = false])]
     fn control(mut cx: control::Context) {
         let local = cx.local;
@@ -167,6 +184,8 @@ mod app {
             return;
         }
         let tick = *local.board_tick;
+        // A requested crash hits at the start of its tick, with the DAC still driving.
+        crate::crash::at_tick(*local.crash, tick);
         let controller = &mut *local.controller;
         if core::mem::take(local.pending_reset) {
             // A fresh board and fresh task state for the next protocol.
@@ -180,29 +199,36 @@ mod app {
             session::RESET_SCANNER.store(true, Ordering::Release);
         }
         if !core::mem::replace(local.started, true) {
-            if let Some((name, protocol)) = RUNS.get(*local.run) {
+            if let Some(run) = RUNS.get(*local.run) {
                 local.control_out.send(Message::Start(RunStart {
-                    name,
+                    name: run.name,
                     start_tick: tick,
-                    duration_s: protocol.duration_s(),
+                    duration_s: run.protocol.duration_s(),
                 }));
             }
         }
-        let (frame, truth, control_counts, physics_counts) = cx.shared.hw.lock(|hw| {
-            let hw: &mut SimHardware = hw;
-            // Simulator truth at the instant the converters sampled (end of the last period).
-            let truth = SimTruth {
-                tick,
-                true_force_g: hw.true_force_g() as f32,
-                in_contact: hw.in_contact(),
-            };
-            let t0 = SYST::get_current();
-            let frame = controller.tick(hw, tick);
-            let t1 = SYST::get_current();
-            hw.advance_period();
-            let t2 = SYST::get_current();
-            (frame, truth, elapsed(t0, t1), elapsed(t1, t2))
-        });
+        let (frame, truth, control_counts, physics_counts, miss_deadline) =
+            cx.shared.hw.lock(|hw| {
+                let hw: &mut SimHardware = hw;
+                // Simulator truth at the instant the converters sampled (end of the last period).
+                let true_force_g = hw.true_force_g() as f32;
+                let in_contact = hw.in_contact();
+                let t0 = SYST::get_current();
+                let frame = controller.tick(hw, tick);
+                let t1 = SYST::get_current();
+                hw.advance_period();
+                let t2 = SYST::get_current();
+                let truth = SimTruth {
+                    tick,
+                    true_force_g,
+                    in_contact,
+                    dac_code: hw.dac().0,
+                };
+                // An injected deadline overrun hits the coming period: this tick must run
+                // late for it (the rig's tick k sees the overrun of the task before it).
+                let miss = hw.fault_starting() == Some(InjectedFault::DeadlineOverrun);
+                (frame, truth, elapsed(t0, t1), elapsed(t1, t2), miss)
+            });
         cx.shared.cost.lock(|c| {
             c.control.observe(control_counts);
             c.physics.observe(physics_counts);
@@ -229,6 +255,13 @@ mod app {
             } else {
                 *local.done = true;
                 SESSION_DONE.store(true, Ordering::Release);
+            }
+        }
+        if miss_deadline {
+            // The injected timing fault, for real: keep the core busy until the next tick is
+            // due, so the deadline check below sees it as the board would.
+            while !SCB::is_pendst_pending() {
+                cortex_m::asm::nop();
             }
         }
         // The deadline: SysTick pending again means the next tick is already due.

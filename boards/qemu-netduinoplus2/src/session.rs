@@ -9,59 +9,31 @@ use tactile_firmware::{Controller, FirmwareConfig, Scanner};
 use tactile_plant::hardware::SimHardware;
 use tactile_plant::rig::RigConfig;
 
-/// Length of the pseudo-random run, s (the issue asks for at least 10 s per protocol).
-const PSEUDO_RANDOM_S: f32 = 10.0;
-
-/// The session, in order: the memo's force steps (10.5 s), then the memo's pseudo-random
-/// protocol (seed 1989) cut to [`PSEUDO_RANDOM_S`], as `tactile experiment pseudo-random` runs it
-/// with that duration. Names are the simulator's scenario names.
-pub const RUNS: [(&str, Protocol); 2] = [
-    ("force-steps", Protocol::FORCE_STEPS_MEMO),
-    ("pseudo-random", pseudo_random(PSEUDO_RANDOM_S)),
-];
-
-const fn pseudo_random(duration_s: f32) -> Protocol {
-    match Protocol::PSEUDO_RANDOM_MEMO {
-        Protocol::PseudoRandom {
-            seed,
-            min_g,
-            max_g,
-            max_change_g,
-            dwell_min_s,
-            dwell_max_s,
-            ..
-        } => Protocol::PseudoRandom {
-            seed,
-            min_g,
-            max_g,
-            max_change_g,
-            dwell_min_s,
-            dwell_max_s,
-            duration_s,
-        },
-        other => other,
-    }
-}
+/// The session's runs (shared with the QEMU test, which replays them on the host simulator).
+pub use tactile_firmware::FIL_SESSION as RUNS;
 
 /// Set by `control` when it replaced the board: the scan task starts a fresh scanner.
 pub static RESET_SCANNER: AtomicBool = AtomicBool::new(false);
 
-/// The simulator's rig configuration: the firmware runs exactly what the host simulator runs.
-fn rig() -> RigConfig {
-    RigConfig::default()
+/// The simulator's rig configuration for run `run`: the firmware runs exactly what the host
+/// simulator runs, with that run's injected fault on the board.
+fn rig(run: usize) -> RigConfig {
+    RUNS.get(run).map_or_else(RigConfig::default, |r| r.rig())
 }
 
-/// A board as the simulator's rig builds it.
+/// The board of the session's first run, as the simulator's rig builds it.
 #[inline(never)]
 pub fn board() -> SimHardware {
-    SimHardware::new(&rig())
+    SimHardware::new(&rig(0))
 }
 
 /// The control and scan state for run `run`, calibrated on `hw`.
 #[inline(never)]
 pub fn task_state(run: usize, hw: &SimHardware) -> (Controller, Scanner) {
-    let fw = FirmwareConfig::from_rig(&rig());
-    let protocol = RUNS.get(run).map_or(Protocol::FORCE_STEPS_MEMO, |r| r.1);
+    let fw = FirmwareConfig::from_rig(&rig(run));
+    let protocol = RUNS
+        .get(run)
+        .map_or(Protocol::FORCE_STEPS_MEMO, |r| r.protocol);
     let calibration = *hw.calibration();
     let probe = calibration.get(fw.probe.index()).copied();
     let controller = probe.and_then(|cal| Controller::new(&fw, protocol, cal).ok());
@@ -75,9 +47,11 @@ pub fn task_state(run: usize, hw: &SimHardware) -> (Controller, Scanner) {
 /// control task's stack frame does not hold a whole board).
 #[inline(never)]
 pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
-    let config = rig();
+    let config = rig(run);
     let fw = FirmwareConfig::from_rig(&config);
-    let protocol = RUNS.get(run).map_or(Protocol::FORCE_STEPS_MEMO, |r| r.1);
+    let protocol = RUNS
+        .get(run)
+        .map_or(Protocol::FORCE_STEPS_MEMO, |r| r.protocol);
     *hw = SimHardware::new(&config);
     let probe = hw.calibration().get(fw.probe.index()).copied();
     match probe.and_then(|cal| Controller::new(&fw, protocol, cal).ok()) {
@@ -88,7 +62,8 @@ pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
 
 #[inline(never)]
 pub fn scanner(calibration: [TaxelCalibration; TAXELS]) -> Option<Scanner> {
-    Scanner::new(&FirmwareConfig::from_rig(&rig()), calibration).ok()
+    // The scan configuration is the same in every run (faults do not change it).
+    Scanner::new(&FirmwareConfig::from_rig(&rig(0)), calibration).ok()
 }
 
 /// The constant configuration was refused: nothing sensible to run.
@@ -116,12 +91,14 @@ impl tactile_firmware::ScanIo for Converted<'_> {
     }
 }
 
-/// Simulator truth riding with a control frame: the contact force when the converters sampled.
+/// Simulator truth riding with a control frame: the contact force when the converters
+/// sampled, and the code the tick wrote to the simulated DAC (what the actuator was told).
 #[derive(Clone, Copy, Debug, Default, PartialEq, defmt::Format)]
 pub struct SimTruth {
     pub tick: u32,
     pub true_force_g: f32,
     pub in_contact: bool,
+    pub dac_code: u16,
 }
 
 /// SysTick counts per instruction at `-icount shift=0` (1 ns each) and a 168 MHz core clock,
@@ -198,15 +175,29 @@ impl Cost {
     }
 }
 
-/// Stack painting: every word between the statics and the stack pointer at boot gets this
-/// pattern; the deepest word overwritten since is the stack's high-water mark.
+/// Stack painting: every word between the stack's lowest address and the stack pointer at
+/// boot gets this pattern; the deepest word overwritten since is the stack's high-water mark.
 const PAINT: u32 = 0xA5A5_5A5A;
 
+/// Where RAM starts (SRAM1 of the STM32F405/F407).
+const RAM_START: usize = 0x2000_0000;
+
 extern "C" {
-    /// End of the statics (cortex-m-rt's link.x): the stack may grow down to here.
-    static mut __sheap: u32;
+    /// The stack's lowest address (cortex-m-rt's link.x; flip-link moves it to the start of
+    /// RAM, below the statics, so an overflow faults instead of overwriting them).
+    static mut _stack_end: u32;
     /// Top of the stack.
     static _stack_start: u32;
+    /// End of RAM.
+    static _ram_end: u32;
+}
+
+/// The stack's region, [lowest, top).
+fn stack_region() -> (usize, usize) {
+    (
+        core::ptr::addr_of_mut!(_stack_end) as usize,
+        core::ptr::addr_of!(_stack_start) as usize,
+    )
 }
 
 /// Paints the free stack (call first thing in `init`).
@@ -214,10 +205,10 @@ pub fn paint_stack() {
     let sp = cortex_m::register::msp::read() as usize;
     // Leave the words `init` itself is using.
     let top = sp.saturating_sub(256);
-    let mut p = core::ptr::addr_of_mut!(__sheap) as usize;
+    let (mut p, _) = stack_region();
     while p < top {
-        // SAFETY: [__sheap, sp − 256) is RAM no one uses yet (below the live stack, above the
-        // statics); aligned to 4 by the linker script.
+        // SAFETY: [stack end, sp − 256) is stack no one uses yet (below the live frames);
+        // aligned to 4 by the linker script.
         unsafe { core::ptr::write_volatile(p as *mut u32, PAINT) };
         p += 4;
     }
@@ -232,16 +223,16 @@ pub struct MemoryUse {
 }
 
 pub fn memory() -> MemoryUse {
-    let base = core::ptr::addr_of_mut!(__sheap) as usize;
-    // SAFETY: only the symbol's address is taken.
-    let top = core::ptr::addr_of!(_stack_start) as usize;
+    let (base, top) = stack_region();
+    let ram_end = core::ptr::addr_of!(_ram_end) as usize;
     let mut p = base;
-    // SAFETY: reads words of RAM between the statics and the stack top.
+    // SAFETY: reads words of the stack region, below the live frames once painted.
     while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
         p += 4;
     }
     MemoryUse {
-        static_ram: (base - 0x2000_0000) as u32,
+        // Whatever RAM the stack does not have holds the statics.
+        static_ram: (ram_end.saturating_sub(RAM_START) - (top - base)) as u32,
         stack_peak: (top - p) as u32,
         stack_free: (p - base) as u32,
     }

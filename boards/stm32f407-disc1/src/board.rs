@@ -15,10 +15,11 @@ use stm32f4xx_hal::pac::{self, ADC1, TIM2};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
 use stm32f4xx_hal::timer::CounterHz;
+use stm32f4xx_hal::watchdog::IndependentWatchdog;
 use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{ReadoutAmplifier, TaxelCalibration, TaxelId, TAXELS};
-use tactile_firmware::{ControlIo, FirmwareConfig, ScanIo};
+use tactile_firmware::{ControlIo, FirmwareConfig, ResetCause, SafeStop, ScanIo};
 
 /// Core clock, Hz (HSE 8 MHz crystal of the DISC1 through the PLL).
 pub const CORE_HZ: u32 = 168_000_000;
@@ -113,10 +114,21 @@ pub struct Hardware {
     pub scan_board: ScanBoard,
     /// TIM2: the scan's dwell timer.
     pub scan_timer: CounterHz<TIM2>,
+    /// The independent watchdog, not started yet (it runs on the LSI, independent of the
+    /// core clock, and cannot be stopped once started).
+    pub watchdog: IndependentWatchdog,
+    /// Why the chip last reset (RCC_CSR, read before its flags are cleared).
+    pub reset_cause: ResetCause,
 }
 
 /// Clocks, pins and converters.
 pub fn setup(dp: pac::Peripherals) -> Hardware {
+    let reset_cause = ResetCause::from_rcc_csr(dp.RCC.csr().read().bits());
+    // Clear the flags, so the next boot reports only its own reset.
+    dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
+    let watchdog = IndependentWatchdog::new(dp.IWDG);
+    // A debugger's halt must not count as a hang.
+    watchdog.stop_on_debug(&dp.DBGMCU, true);
     let mut rcc = dp.RCC.freeze(
         Config::hse(8.MHz())
             .sysclk(CORE_HZ.Hz())
@@ -153,6 +165,29 @@ pub fn setup(dp: pac::Peripherals) -> Hardware {
             ),
         },
         scan_timer: dp.TIM2.counter_hz(&mut rcc),
+        watchdog,
+        reset_cause,
+    }
+}
+
+/// The crash handlers' first act: the safe code straight into the DAC's channel-1 data
+/// register, read back. No driver, no lock, nothing that can fail or wait; harmless before
+/// `setup` (a write to an unclocked peripheral is ignored, and the read-back then says 0).
+pub fn zero_actuator_register(cause: &'static str) -> SafeStop {
+    let safe_code = FirmwareConfig::BOARD.actuator.zero_code().0;
+    // SAFETY: DHR12R1 is channel 1's right-aligned 12-bit data register; with the trigger off
+    // (as `setup` leaves it) the output follows one APB1 clock later. Nothing else runs after a
+    // crash, so taking the register from its owner here races with no one.
+    let dac_code = unsafe {
+        let dac = &*pac::DAC::ptr();
+        dac.dhr12r1().write(|w| w.bits(u32::from(safe_code)));
+        dac.dhr12r1().read().bits() as u16
+    };
+    SafeStop {
+        cause,
+        board: true,
+        dac_code,
+        safe_code,
     }
 }
 

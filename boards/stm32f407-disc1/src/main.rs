@@ -9,9 +9,22 @@
 //! | `telemetry` | 1 | spawned by `control` | drains the bounded queues to defmt over RTT |
 //! | `idle` | 0 | — | WFI |
 //!
-//! Control frames go out every [`CONTROL_FRAME_EVERY`]-th tick (RTT bandwidth; every frame
-//! sent is numbered, so gaps are still drops); every taxel frame goes out.
+//! Control frames go out every [`CONTROL_FRAME_EVERY`]-th tick (RTT bandwidth; only queued
+//! frames are numbered, so a sequence gap is a loss after the queue, and a full queue is
+//! counted and flagged); every taxel frame goes out.
+//!
+//! Safety: the panic and HardFault handlers write the DAC's safe code to its register before
+//! anything else; the independent watchdog (100 ms) is fed from `idle` only when control and
+//! telemetry have both checked in; the reset cause (RCC_CSR) is logged at boot.
 #![cfg_attr(target_os = "none", no_std, no_main)]
+// The firmware's paths never panic by accident: no unwrap, expect, panicking index or panic!
+// (scripts/test-all.sh runs clippy for the thumb target with -D warnings).
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 #[cfg(not(target_os = "none"))]
 fn main() {
@@ -26,7 +39,39 @@ fn main() {
 mod board;
 
 #[cfg(target_os = "none")]
-use {defmt_rtt as _, panic_probe as _};
+use defmt_rtt as _;
+
+/// Panic: the actuator to its safe zero first, then the report (location only: formatting the
+/// message would link `core::fmt`'s float code past the flash budget), then a HardFault, which
+/// `probe-rs run` reports with a backtrace.
+#[cfg(target_os = "none")]
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    let safe = board::zero_actuator_register("panic");
+    match info.location() {
+        Some(at) => defmt::error!("{} at {=str}:{=u32}", safe, at.file(), at.line()),
+        None => defmt::error!("{}", safe),
+    }
+    cortex_m::asm::udf()
+}
+
+/// HardFault: the actuator to zero, the report, then wait for the independent watchdog to reset
+/// the board (the reset cause is reported at the next boot).
+#[cfg(target_os = "none")]
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    let safe = board::zero_actuator_register("hardfault");
+    defmt::error!("{} HardFault at pc {=u32:#x}", safe, frame.pc());
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Independent watchdog timeout, ms: 100 control ticks. Long enough for the telemetry task to
+/// drain a burst at priority 1, short enough that a hung control loop is reset well before a
+/// person would notice the probe pressing.
+#[cfg(target_os = "none")]
+const WATCHDOG_TIMEOUT_MS: u32 = 100;
 
 /// Control frames sent per control tick: one in five (200 frames/s, about 7 KB/s of RTT).
 #[cfg(target_os = "none")]
@@ -39,14 +84,19 @@ mod app {
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SCB;
     use heapless::spsc::{Consumer, Queue};
+    use stm32f4xx_hal::watchdog::IndependentWatchdog;
     use stm32f4xx_hal::{pac, prelude::*, timer};
     use tactile_core::telemetry::TaxelFrame;
     use tactile_firmware::{
-        ArrayEstimate, Controller, FirmwareConfig, Message, Outbox, RunEnd, RunStart, Scanner,
+        ArrayEstimate, CheckIns, Controller, FirmwareConfig, Message, Outbox, RunEnd, RunStart,
+        Scanner,
     };
 
     use crate::board::{self, ControlBoard, ScanBoard, WithAdc, CORE_HZ, PROTOCOL, PROTOCOL_NAME};
-    use crate::CONTROL_FRAME_EVERY;
+    use crate::{CONTROL_FRAME_EVERY, WATCHDOG_TIMEOUT_MS};
+
+    /// Check-ins of control and telemetry; `idle` feeds the watchdog only when both are in.
+    static CHECK_INS: CheckIns = CheckIns::new();
 
     const CONTROL_QUEUE: usize = 17;
     const TAXEL_QUEUE: usize = 5;
@@ -74,6 +124,7 @@ mod app {
         control_rx: Consumer<'static, ControlMsg>,
         taxel_rx: Consumer<'static, TaxelMsg>,
         scan_timer: timer::CounterHz<pac::TIM2>,
+        watchdog: IndependentWatchdog,
     }
 
     #[init(local = [
@@ -87,8 +138,11 @@ mod app {
             mut control_board,
             mut scan_board,
             mut scan_timer,
+            mut watchdog,
+            reset_cause,
         } = board::setup(cx.device);
         control_board.zero_actuator();
+        defmt::info!("{}", reset_cause);
         // Calibrate with the probe lifted (the actuator output is at its safe zero).
         let calibration = scan_board.rest_calibration(&mut adc, 16);
         let probe = calibration.get(config.probe.index()).copied();
@@ -119,6 +173,8 @@ mod app {
             defmt::panic!("TIM2 cannot run at {=u32} Hz", dwell_hz);
         }
         scan_timer.listen(timer::Event::Update);
+        // Last: the calibration above takes 256 ms and feeds nothing.
+        watchdog.start(WATCHDOG_TIMEOUT_MS.millis());
         (
             Shared { adc },
             Local {
@@ -131,14 +187,20 @@ mod app {
                 control_rx,
                 taxel_rx,
                 scan_timer,
+                watchdog,
             },
         )
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
+    /// Sleeps between interrupts and feeds the watchdog: from the lowest priority, and only
+    /// when control and telemetry have both checked in since the last feed.
+    #[idle(local = [watchdog])]
+    fn idle(cx: idle::Context) -> ! {
         loop {
             cortex_m::asm::wfi();
+            if CHECK_INS.both_since_last_feed() {
+                cx.local.watchdog.feed();
+            }
         }
     }
 
@@ -177,6 +239,7 @@ mod app {
         if SCB::is_pendst_pending() {
             local.controller.record_overrun();
         }
+        CHECK_INS.control();
     }
 
     #[task(binds = TIM2, priority = 2, shared = [adc],
@@ -197,6 +260,7 @@ mod app {
 
     #[task(priority = 1, local = [control_rx, taxel_rx])]
     async fn telemetry(cx: telemetry::Context) {
+        CHECK_INS.telemetry();
         loop {
             let mut idle = true;
             while let Some(m) = cx.local.control_rx.dequeue() {

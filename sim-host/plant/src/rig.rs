@@ -271,11 +271,12 @@ impl Rig {
         mut on_frame: impl FnMut(f64, &StrainGrid),
     ) -> TickRecord {
         let t_s = self.time_s();
-        let fault_now = self.config.fault.filter(|f| t_s >= f.at_s).map(|f| f.fault);
-        let first_fault_tick = self
+        let fault_now = self
             .config
             .fault
-            .is_some_and(|f| t_s >= f.at_s && t_s - f.at_s < TICK_S);
+            .filter(|f| f.active_in(t_s))
+            .map(|f| f.fault);
+        let first_fault_tick = self.config.fault.is_some_and(|f| f.starts_in(t_s));
         let command_in = if fault_now == Some(InjectedFault::CommandNan) && first_fault_tick {
             f32::NAN
         } else {
@@ -313,19 +314,14 @@ impl Rig {
                     .code(self.config.gauge.volts(force as f32));
             }
         }
-        match fault_now {
-            Some(InjectedFault::GaugeDisconnected) => samples = [AdcCode(0); SAMPLES_PER_TICK],
-            Some(InjectedFault::GaugeSaturated) => {
-                samples = [self.config.gauge.adc.code(f32::MAX); SAMPLES_PER_TICK]
-            }
-            Some(InjectedFault::GaugeStuck) => samples = self.last_samples,
-            Some(InjectedFault::ForceSpike { g }) if first_fault_tick => {
-                for s in samples.iter_mut() {
-                    let v = self.config.gauge.adc.volts(*s) + g / self.config.gauge.grams_per_volt;
-                    *s = self.config.gauge.adc.code(v);
-                }
-            }
-            _ => {}
+        if let Some(fault) = fault_now {
+            crate::hardware::inject_gauge_fault(
+                &self.config,
+                fault,
+                first_fault_tick,
+                &self.last_samples,
+                &mut samples,
+            );
         }
         self.last_samples = samples;
         self.last_gauge = self.config.gauge.average_force(&samples);

@@ -92,6 +92,13 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Compare the force estimators on the simulator's protocols.
+    Estimators {
+        #[arg(long, default_value = "out/estimators")]
+        out: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// The main job without a board: the memo's experiment set, plots and a report.
     Demo {
         #[arg(long, default_value = "out/demo")]
@@ -283,6 +290,31 @@ fn main() -> ExitCode {
                         outln!("wrote {}", out.join("tables.md").display());
                         ExitCode::SUCCESS
                     }
+                    Err(e) => {
+                        eprintln!("tactile: {}: {e}", out.display());
+                        ExitCode::from(1)
+                    }
+                }
+            }
+            Err(e) => {
+                eprintln!("tactile: {e}");
+                ExitCode::from(1)
+            }
+        },
+        Command::Estimators { out, seed } => match sim_host::estimators::compare(seed) {
+            Ok(t) => {
+                let text = sim_host::estimators::render(&t);
+                out!("{text}");
+                let written = std::fs::create_dir_all(&out)
+                    .and_then(|_| std::fs::write(out.join("estimators.md"), &text))
+                    .and_then(|_| {
+                        std::fs::write(
+                            out.join("estimators.json"),
+                            serde_json::to_string_pretty(&t).unwrap_or_default(),
+                        )
+                    });
+                match written {
+                    Ok(()) => ExitCode::SUCCESS,
                     Err(e) => {
                         eprintln!("tactile: {}: {e}", out.display());
                         ExitCode::from(1)

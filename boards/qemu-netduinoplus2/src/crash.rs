@@ -1,0 +1,83 @@
+//! Panic and HardFault: the simulated actuator to its safe zero before anything else, then the
+//! report, then QEMU stops with a failure code. A test can ask for either crash at a given tick
+//! through the semihosting command line (`-append "panic-at-tick=N"`, `hardfault-at-tick=N`).
+
+use core::sync::atomic::{AtomicPtr, AtomicU16, Ordering};
+
+use tactile_core::gauge::AdcCode;
+use tactile_firmware::{DeliberateCrash, SafeStop};
+use tactile_plant::hardware::SimHardware;
+
+/// The simulated DAC register (null until `init` has built the board).
+static SIM_DAC: AtomicPtr<AdcCode> = AtomicPtr::new(core::ptr::null_mut());
+/// The code that puts zero volts into the amplifier, from the board's actuator configuration.
+static SAFE_CODE: AtomicU16 = AtomicU16::new(0);
+
+/// Gives the crash handlers the board's DAC (call once the board sits in its static).
+pub fn arm(hw: &'static mut SimHardware) -> &'static mut SimHardware {
+    SAFE_CODE.store(hw.config().actuator.zero_code().0, Ordering::Relaxed);
+    SIM_DAC.store(hw.dac_register(), Ordering::Release);
+    hw
+}
+
+/// Writes the safe code into the simulated DAC and reads it back. First thing in every crash
+/// handler: nothing before it may fail or wait.
+pub fn zero_actuator(cause: &'static str) -> SafeStop {
+    let dac = SIM_DAC.load(Ordering::Acquire);
+    let safe_code = SAFE_CODE.load(Ordering::Relaxed);
+    if dac.is_null() {
+        return SafeStop {
+            cause,
+            board: false,
+            dac_code: 0,
+            safe_code,
+        };
+    }
+    // SAFETY: `dac` points into the board's static (set by `arm`), which is never moved or
+    // freed. The task that held the board is not resumed after a crash, so this write is the
+    // last access to the register, as a crash handler's write to a real DAC register is.
+    let dac_code = unsafe {
+        core::ptr::write_volatile(dac, AdcCode(safe_code));
+        core::ptr::read_volatile(dac).0
+    };
+    SafeStop {
+        cause,
+        board: true,
+        dac_code,
+        safe_code,
+    }
+}
+
+/// Stops QEMU with a failure code (the test sees it), after a crash report.
+pub fn stop() -> ! {
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// The crash the command line asks for, if any.
+pub fn requested() -> Option<DeliberateCrash> {
+    let mut cmdline = [0u8; 256];
+    // SAFETY: SYS_GET_CMDLINE writes at most `len` bytes (NUL included) into the buffer.
+    let status =
+        unsafe { cortex_m_semihosting::syscall!(GET_CMDLINE, cmdline.as_mut_ptr(), cmdline.len()) };
+    if status != 0 {
+        return None;
+    }
+    DeliberateCrash::from_cmdline(&cmdline)
+}
+
+/// Crashes as asked when the control task reaches the requested tick.
+pub fn at_tick(request: Option<DeliberateCrash>, tick: u32) {
+    match request {
+        Some(DeliberateCrash::Panic { tick: t }) if t == tick => deliberate_panic(tick),
+        Some(DeliberateCrash::HardFault { tick: t }) if t == tick => cortex_m::asm::udf(),
+        _ => {}
+    }
+}
+
+#[allow(clippy::panic)] // the test's deliberate panic: the handler is what is being tested
+fn deliberate_panic(tick: u32) -> ! {
+    panic!("deliberate panic at tick {tick} (panic-at-tick)")
+}

@@ -1,0 +1,201 @@
+//! Force estimators side by side on the simulator (issue 7, first part): the elastic model, the
+//! memo's inverted second-order model, the same refitted here, and the structural inverse of the
+//! modified Maxwell–Kelvin element with load-dependent springs — each run on the probed element's
+//! 1 kHz strain exactly as the chip would.
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+use tactile_core::viscoelastic::{InverseEstimator, NonlinearMk, SecondOrder, StructuralInverse};
+
+use crate::fit::{fit, Base, ModelSpec, Series};
+use crate::rig::{RigConfig, TickRecord, TICK_S};
+use crate::scenario::{run_named, ScenarioError, ScenarioOptions};
+
+pub const ESTIMATORS: [&str; 5] = [
+    "elastic",
+    "memo inverse (Table IV fit)",
+    "second-order inverse, refitted",
+    "structural inverse (eq. 14, nominal)",
+    "structural inverse, parameters 15-30 % off",
+];
+
+/// The element 4,2 model with every parameter off, as an uncalibrated taxel would be.
+fn mistuned() -> NonlinearMk {
+    let m = NonlinearMk::ELEMENT_4_2;
+    let scale =
+        |l: tactile_core::viscoelastic::SpringLaw, k: f64| tactile_core::viscoelastic::SpringLaw {
+            base: l.base * k,
+            sqrt_coeff: l.sqrt_coeff * k,
+            linear_coeff: l.linear_coeff * k,
+        };
+    NonlinearMk {
+        g1: scale(m.g1, 1.15),
+        n1: m.n1 * 1.3,
+        alpha: m.alpha,
+        n2: m.n2 * 0.8,
+        g2: scale(m.g2, 0.85),
+    }
+}
+pub const PROTOCOLS: [&str; 3] = ["pseudo-random", "step-loads", "sines"];
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EstimatorTable {
+    /// `rms_g[protocol][estimator]`: RMS of estimate − true contact force, grams.
+    pub rms_g: Vec<[f64; 5]>,
+    /// Largest estimate above 30 g in the first 5 s of a 30 g step, per estimator.
+    pub overshoot_30g_rise_g: [f64; 5],
+}
+
+fn run(name: &str, options: ScenarioOptions, seed: u64) -> Result<Vec<TickRecord>, ScenarioError> {
+    Ok(run_named(
+        name,
+        &options,
+        RigConfig {
+            seed,
+            scan_array: false,
+            ..Default::default()
+        },
+        |_| {},
+    )?
+    .ticks)
+}
+
+/// The four estimates of one record.
+fn estimates(
+    ticks: &[TickRecord],
+    elastic_g: f64,
+    elastic_offset: f64,
+    refit: &SecondOrder,
+    refit_offset: f64,
+) -> [Vec<f64>; 5] {
+    let strain: Vec<f32> = ticks.iter().map(|t| t.strain_pct).collect();
+    let elastic = strain
+        .iter()
+        .map(|e| (elastic_g * (f64::from(*e) - elastic_offset)).max(0.0))
+        .collect();
+    let inverse = |so: &SecondOrder, offset: f64| -> Vec<f64> {
+        match so.inverse::<f32>(TICK_S) {
+            Ok(model) => {
+                let mut est = InverseEstimator::new(model);
+                strain
+                    .iter()
+                    .map(|e| f64::from(est.force_g(e - offset as f32)))
+                    .collect()
+            }
+            Err(_) => vec![f64::NAN; strain.len()],
+        }
+    };
+    let structural = |model: NonlinearMk| -> Vec<f64> {
+        let mut inv = StructuralInverse::new(model, TICK_S);
+        strain.iter().map(|e| f64::from(inv.force_g(*e))).collect()
+    };
+    [
+        elastic,
+        inverse(&SecondOrder::MEMO_FIT, 0.0),
+        inverse(refit, refit_offset),
+        structural(NonlinearMk::ELEMENT_4_2),
+        structural(mistuned()),
+    ]
+}
+
+fn rms(est: &[f64], ticks: &[TickRecord]) -> f64 {
+    (est.iter()
+        .zip(ticks)
+        .map(|(e, t)| (e - f64::from(t.true_force_g)).powi(2))
+        .sum::<f64>()
+        / est.len().max(1) as f64)
+        .sqrt()
+}
+
+/// Runs the protocols and scores the estimators.
+pub fn compare(seed: u64) -> Result<EstimatorTable, ScenarioError> {
+    // Calibration as the memo did it: elastic and second-order models fitted to the sum of
+    // sinusoids (10 Hz samples), then used unchanged.
+    let sines = run("sines", ScenarioOptions::default(), seed + 2)?;
+    let (f, e): (Vec<f64>, Vec<f64>) = sines
+        .iter()
+        .skip(99)
+        .step_by(100)
+        .map(|t| (f64::from(t.sensed_g), f64::from(t.strain_pct)))
+        .unzip();
+    let cal = Series::whole(0.1, f, e);
+    let elastic = fit(&ModelSpec::new(Base::Elastic), &cal, &[])
+        .ok_or_else(|| ScenarioError::Unknown("elastic calibration fit failed".into()))?;
+    let so = fit(&ModelSpec::new(Base::SecondOrder), &cal, &[])
+        .ok_or_else(|| ScenarioError::Unknown("second-order calibration fit failed".into()))?;
+    let p = &so.physical;
+    let refit = SecondOrder {
+        a1: p[0],
+        a2: p[1],
+        b0: p[2],
+        b1: p[3],
+        b2: p[4],
+    };
+    let mut table = EstimatorTable {
+        rms_g: Vec::new(),
+        overshoot_30g_rise_g: [0.0; 5],
+    };
+    for (k, name) in PROTOCOLS.iter().enumerate() {
+        let ticks = if *name == "sines" {
+            sines.clone()
+        } else {
+            run(name, ScenarioOptions::default(), seed + 10 + k as u64)?
+        };
+        let est = estimates(
+            &ticks,
+            elastic.physical[0],
+            elastic.physical[1],
+            &refit,
+            p[5],
+        );
+        let mut row = [0.0; 5];
+        for (r, e) in row.iter_mut().zip(&est) {
+            *r = rms(e, &ticks);
+        }
+        table.rms_g.push(row);
+    }
+    let step = run(
+        "step",
+        ScenarioOptions {
+            load_g: 30.0,
+            ..Default::default()
+        },
+        seed + 20,
+    )?;
+    let est = estimates(
+        &step,
+        elastic.physical[0],
+        elastic.physical[1],
+        &refit,
+        p[5],
+    );
+    // The step is applied at 2 s; look at its first 5 s.
+    let window = (2.0 / TICK_S) as usize..(7.0 / TICK_S) as usize;
+    for (o, e) in table.overshoot_30g_rise_g.iter_mut().zip(&est) {
+        *o = e[window.clone()].iter().fold(f64::MIN, |m, v| m.max(*v)) - 30.0;
+    }
+    Ok(table)
+}
+
+pub fn render(t: &EstimatorTable) -> String {
+    let mut s = String::from("| protocol | ");
+    s.push_str(&ESTIMATORS.join(" | "));
+    s.push_str(" |\n|---|---|---|---|---|---|\n");
+    for (name, row) in PROTOCOLS.iter().zip(&t.rms_g) {
+        let _ = writeln!(
+            s,
+            "| {name} | {} |",
+            row.map(|v| format!("{v:.3}")).join(" | ")
+        );
+    }
+    let _ = writeln!(
+        s,
+        "| overshoot on a 30 g rise (g) | {} |",
+        t.overshoot_30g_rise_g
+            .map(|v| format!("{v:+.2}"))
+            .join(" | ")
+    );
+    s.push_str("\nRMS of estimate − true contact force (g), probed element at 1 kHz (the memo's Table IV inverse: 2.23 g). \"Nominal\" is the simulator's own element 4,2 law, so that column is the noise floor of an exactly calibrated taxel; the last column is what the same estimator does with the parameters off by 15–30 %, as an uncalibrated taxel would be. Per-taxel dynamic calibration (fitting the element law) is not built yet.\n");
+    s
+}
