@@ -5,15 +5,15 @@
 
 use tactile_core::control::{ActuatorConfig, ForceLawConfig};
 use tactile_core::filter::LowpassNotchConfig;
-use tactile_core::gauge::{AdcCode, GaugeConfig, GaugeFault, SAMPLES_PER_TICK};
+use tactile_core::gauge::{GaugeConfig, GaugeFault};
 use tactile_core::supervisor::{ForceLoop, ForceLoopConfig, SupervisorConfig};
-use tactile_core::tactile::{ScanSequencer, TaxelCalibration, TaxelId, TAXELS};
+use tactile_core::tactile::{ScanSequencer, TaxelId, TAXELS};
 use tactile_core::telemetry::FaultFlags;
 use tactile_core::viscoelastic::{InverseEstimator, ModelError, SecondOrder};
 
-use crate::applicator::{self, ApplicatorParams, ApplicatorState, Contact, Lumped};
-use crate::finger::{code_to_strain_pct, Effects, Finger, ReadoutParams, StrainGrid};
-use crate::noise::Noise;
+use crate::applicator::ApplicatorParams;
+use crate::finger::{code_to_strain_pct, Effects, ReadoutParams, StrainGrid};
+use crate::hardware::SimHardware;
 
 /// Plant steps per control tick.
 pub const SUBSTEPS: usize = 10;
@@ -186,16 +186,12 @@ impl core::error::Error for RigError {}
 pub struct Rig {
     pub config: RigConfig,
     force_loop: ForceLoop,
-    /// Gauge codes of the last tick (what a stuck converter repeats).
-    last_samples: [AdcCode; SAMPLES_PER_TICK],
-    pub plant: ApplicatorState,
-    lumped: Lumped,
-    pub finger: Finger,
-    calibration: [TaxelCalibration; TAXELS],
+    /// The simulated board: applicator, finger, converters (the firmware-in-the-loop build
+    /// runs the same one).
+    pub hardware: SimHardware,
     estimator: InverseEstimator,
     scan: ScanSequencer,
     frame: StrainGrid,
-    gauge_noise: Noise,
     last_gauge: Result<f32, GaugeFault>,
     tick: u64,
     /// Scan steps per control tick (dwell 250 µs → 4).
@@ -227,24 +223,14 @@ impl Rig {
                 .inverse(TICK_S)
                 .map_err(RigError::Estimator)?,
         );
-        let mut finger = Finger::new(config.seed, config.probe, config.effects, config.readout);
-        let calibration = finger.rest_calibration(16);
         let scan_steps_per_tick =
             libm::round(TICK_S / f64::from(config.readout.scan.dwell_s)).max(1.0) as usize;
         Ok(Self {
             force_loop,
-            last_samples: [AdcCode(2048); SAMPLES_PER_TICK],
-            plant: ApplicatorState {
-                stuck: true,
-                ..Default::default()
-            },
-            lumped: Lumped::new(&config.applicator, TICK_S / SUBSTEPS as f64),
-            finger,
-            calibration,
+            hardware: SimHardware::new(&config),
             estimator,
             scan: ScanSequencer::new(),
             frame: [[0.0; 8]; 8],
-            gauge_noise: Noise::new(config.seed ^ 0x6761_7567),
             last_gauge: Ok(0.0),
             tick: 0,
             scan_steps_per_tick,
@@ -254,14 +240,6 @@ impl Rig {
 
     pub fn time_s(&self) -> f64 {
         self.tick as f64 * TICK_S
-    }
-
-    fn contact(&self) -> Contact {
-        Contact::new(
-            &self.config.applicator,
-            self.finger.probe_taxel().element.g1,
-            self.finger.probe_rest_strain_pct(),
-        )
     }
 
     /// One control tick with command `command_g`; `on_frame` receives each completed 8×8 scan.
@@ -287,55 +265,23 @@ impl Rig {
         let out = self.force_loop.tick(command_in, self.last_gauge, overrun);
         let mut faults = out.faults;
         let adjusted = out.adjusted_g;
-        let actuator = &self.config.actuator;
-        let drive_v = f64::from(actuator.dac.volts(out.dac_code));
-
-        // Plant: ten RK4 steps; the gauge is sampled eight times within the tick.
-        let p = self.config.applicator;
-        let mut contact = self.contact();
-        if let Some(InjectedFault::ContactLost { strain_pct }) = fault_now {
-            contact.rest_strain_pct += strain_pct;
-        }
-        let mut samples = [AdcCode(0); SAMPLES_PER_TICK];
-        let mut stress_sum = 0.0;
-        for k in 0..SUBSTEPS {
-            applicator::step_lumped(&self.lumped, &mut self.plant, &contact, drive_v);
-            stress_sum += contact.force_g(self.plant.tip_m, self.plant.tip_m_per_s);
-            if let Some(slot) = k
-                .checked_sub(SUBSTEPS - SAMPLES_PER_TICK)
-                .and_then(|i| samples.get_mut(i))
-            {
-                let force = self.plant.gauge_force_g(&p)
-                    + self.config.gauge_noise_g * self.gauge_noise.gaussian();
-                *slot = self
-                    .config
-                    .gauge
-                    .adc
-                    .code(self.config.gauge.volts(force as f32));
-            }
-        }
-        if let Some(fault) = fault_now {
-            crate::hardware::inject_gauge_fault(
-                &self.config,
-                fault,
-                first_fault_tick,
-                &self.last_samples,
-                &mut samples,
-            );
-        }
-        self.last_samples = samples;
-        self.last_gauge = self.config.gauge.average_force(&samples);
-        let mean_stress = stress_sum / SUBSTEPS as f64;
-        self.finger.tick(mean_stress, TICK_S);
+        // The board: the DAC holds the code for the period, the plant runs, the converters
+        // sample.
+        self.hardware.write_dac(out.dac_code);
+        self.hardware.advance_period();
+        self.last_gauge = self
+            .config
+            .gauge
+            .average_force(&self.hardware.gauge_codes());
         let t_end = t_s + TICK_S;
-        let true_force = contact.force_g(self.plant.tip_m, self.plant.tip_m_per_s);
+        let true_force = self.hardware.true_force_g();
 
         // The probed element's own channel, converted and inverted as on the chip.
         let probe = self.config.probe.index();
-        let code = self.finger.sample_probe_channel(true_force, t_end);
+        let code = self.hardware.probe_code();
         let adc = self.config.readout.adc;
-        let strain = self
-            .calibration
+        let calibration = self.hardware.calibration();
+        let strain = calibration
             .get(probe)
             .map_or(f32::NAN, |cal| code_to_strain_pct(&adc, cal, code));
         let estimate = self.estimator.force_g(strain);
@@ -343,24 +289,16 @@ impl Rig {
         if self.config.scan_array {
             for _ in 0..self.scan_steps_per_tick {
                 let sampled = self.scan.selected();
-                let previous = TaxelId::from_index(sampled.index() + TAXELS - 1);
                 let step = self.scan.advance();
-                let mut code = self
-                    .finger
-                    .sample_scan(sampled, previous, true_force, t_end);
-                if fault_now
-                    == Some(InjectedFault::TaxelOpen {
-                        index: sampled.index(),
-                    })
-                {
-                    code = AdcCode(0);
-                }
+                self.hardware.select_taxel(sampled);
+                let code = self.hardware.sample_selected_taxel();
                 // A taxel at a rail is open or shorted: marked bad (NaN) in the frame.
                 let strain = if adc.at_rail(code) {
                     faults.insert(FaultFlags::TAXEL_AT_RAIL);
                     f32::NAN
                 } else {
-                    self.calibration
+                    self.hardware
+                        .calibration()
                         .get(sampled.index())
                         .map_or(f32::NAN, |c| code_to_strain_pct(&adc, c, code))
                 };
