@@ -7,7 +7,9 @@
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use serde::Serialize;
-use tactile_core::viscoelastic::{Discrete2State, MaxwellKelvin, SecondOrder};
+use tactile_core::viscoelastic::{
+    Discrete2State, MaxwellKelvin, NonlinearMk, NonlinearMkState, SecondOrder, SpringLaw,
+};
 
 use crate::record::Record;
 
@@ -19,14 +21,18 @@ pub enum Base {
     MaxwellKelvin,
     MkAlpha,
     SecondOrder,
+    /// Eq. 14 with load-dependent springs, G₁(σ) = a + b√σ and G₂(σ) = c + dσ (the core's
+    /// `NonlinearMk`): the model a taxel's dynamic calibration fits.
+    MkNonlinear,
 }
 
 impl Base {
-    pub const ALL: [Base; 4] = [
+    pub const ALL: [Base; 5] = [
         Base::Elastic,
         Base::MaxwellKelvin,
         Base::MkAlpha,
         Base::SecondOrder,
+        Base::MkNonlinear,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -34,6 +40,7 @@ impl Base {
             Base::MaxwellKelvin => "maxwell-kelvin",
             Base::MkAlpha => "mk-alpha",
             Base::SecondOrder => "second-order",
+            Base::MkNonlinear => "mk-nonlinear",
         }
     }
     pub fn parse(name: &str) -> Result<Base, String> {
@@ -66,6 +73,15 @@ impl Base {
                 (1e-7, 1e5),
                 (1e-9, 1e5),
             ],
+            Base::MkNonlinear => &[
+                (0.01, 50.0),
+                (1e-4, 10.0),
+                (10.0, 1e7),
+                (1e-4, 1e3),
+                (0.1, 1e5),
+                (0.05, 1e3),
+                (1e-4, 10.0),
+            ],
         }
     }
     /// Number of physical parameters (the strain offset follows them).
@@ -78,6 +94,15 @@ impl Base {
             Base::MaxwellKelvin => &["G1", "N1", "N2", "G2"],
             Base::MkAlpha => &["G1", "N1", "N2", "G2", "alpha"],
             Base::SecondOrder => &["a1", "a2", "b0", "b1", "b2"],
+            Base::MkNonlinear => &[
+                "G1_base",
+                "G1_sqrt",
+                "N1",
+                "alpha",
+                "N2",
+                "G2_base",
+                "G2_linear",
+            ],
         }
     }
 }
@@ -266,6 +291,11 @@ impl ModelSpec {
         let p = self.physical(theta);
         match self.base {
             Base::SecondOrder => p.get(2).copied().unwrap_or(f64::NAN),
+            // The instantaneous spring's secant stiffness at 30 g.
+            Base::MkNonlinear => match (p.first(), p.get(1)) {
+                (Some(a), Some(b)) => a + b * 30f64.sqrt(),
+                _ => f64::NAN,
+            },
             _ => p.first().copied().unwrap_or(f64::NAN),
         }
     }
@@ -302,8 +332,24 @@ impl ModelSpec {
                     vec![ln(mk.a1), ln(mk.a2), ln(mk.b0), ln(mk.b1), ln(mk.b2)],
                 ]
             }
+            // Element 4,2's law and two variations (added below).
+            Base::MkNonlinear => Vec::new(),
         };
         let mut bases = bases;
+        if self.base == Base::MkNonlinear {
+            let m = NonlinearMk::ELEMENT_4_2;
+            for k in [1.0, 0.7, 1.4] {
+                bases.push(vec![
+                    m.g1.base * k,
+                    m.g1.sqrt_coeff * k,
+                    m.n1,
+                    m.alpha,
+                    m.n2,
+                    m.g2.base * k,
+                    m.g2.linear_coeff * k,
+                ]);
+            }
+        }
         if self.base == Base::MkAlpha {
             bases.extend(grid_starts(data));
         }
@@ -437,7 +483,58 @@ impl ModelSpec {
         out
     }
 
+    /// The calibrated element of an `mk-nonlinear` fit.
+    pub fn nonlinear_element(&self, theta: &[f64]) -> Option<NonlinearMk> {
+        if self.base != Base::MkNonlinear {
+            return None;
+        }
+        let p = self.physical(theta);
+        Some(NonlinearMk {
+            g1: SpringLaw {
+                base: *p.first()?,
+                sqrt_coeff: *p.get(1)?,
+                linear_coeff: 0.0,
+            },
+            n1: *p.get(2)?,
+            alpha: *p.get(3)?,
+            n2: *p.get(4)?,
+            g2: SpringLaw {
+                base: *p.get(5)?,
+                sqrt_coeff: 0.0,
+                linear_coeff: *p.get(6)?,
+            },
+        })
+    }
+
     fn base_response(&self, p: &[f64], input: &[f64], dt: f64) -> Option<Vec<f64>> {
+        if self.base == Base::MkNonlinear {
+            let el = NonlinearMk {
+                g1: SpringLaw {
+                    base: p[0],
+                    sqrt_coeff: p[1],
+                    linear_coeff: 0.0,
+                },
+                n1: p[2],
+                alpha: p[3],
+                n2: p[4],
+                g2: SpringLaw {
+                    base: p[5],
+                    sqrt_coeff: 0.0,
+                    linear_coeff: p[6],
+                },
+            };
+            let mut state = NonlinearMkState::default();
+            return Some(
+                input
+                    .iter()
+                    .map(|u| {
+                        let s = u.max(0.0);
+                        el.step(&mut state, s, dt);
+                        el.strain_pct(&state, s)
+                    })
+                    .collect(),
+            );
+        }
         let model = match self.base {
             Base::Elastic => return Some(input.iter().map(|u| u / p[0]).collect()),
             Base::MaxwellKelvin => MaxwellKelvin {
@@ -464,6 +561,7 @@ impl ModelSpec {
                 b2: p[4],
             }
             .forward::<f64>(dt),
+            Base::MkNonlinear => return None,
         }
         .ok()?;
         let mut state = Discrete2State::default();
