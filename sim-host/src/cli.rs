@@ -354,6 +354,12 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
         )?;
         let _ = writeln!(report, "| {hz} | {:+.2} |", 20.0 * g.log10());
     }
+    report.push_str("\n# The memo's tables on the simulator (`tactile tables`)\n\n");
+    report.push_str(&crate::tables::render(&crate::tables::reproduce(seed)?));
+    report.push_str("\n# Force estimators (`tactile estimators`)\n\n");
+    report.push_str(&crate::estimators::render(&crate::estimators::compare(
+        seed,
+    )?));
     report.push('\n');
     report.push_str(&details);
     let path = out.join("report.md");
