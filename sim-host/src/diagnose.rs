@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use rustfft::{num_complex::Complex, FftPlanner};
 use serde::Serialize;
-use tactile_core::viscoelastic::{Discrete2State, MaxwellKelvin, SecondOrder};
+use tactile_core::viscoelastic::Discrete2State;
 
 use crate::fit::{fit, lag_correlation, Augment, Base, Fit, ModelSpec, Series};
 
@@ -470,28 +470,7 @@ pub fn diagnose(data: &Series) -> Option<Diagnosis> {
 
 /// The base model's inverse (stress from strain) as the chip runs it.
 fn inverse_of(fit: &Fit, dt: f64) -> Option<tactile_core::viscoelastic::Discrete2<f64>> {
-    let p = &fit.physical;
-    match fit.model.base {
-        Base::MkAlpha => MaxwellKelvin {
-            g1: p[0],
-            n1: p[1],
-            alpha: p[4],
-            n2: p[2],
-            g2: p[3],
-        }
-        .inverse(dt)
-        .ok(),
-        Base::SecondOrder => SecondOrder {
-            a1: p[0],
-            a2: p[1],
-            b0: p[2],
-            b1: p[3],
-            b2: p[4],
-        }
-        .inverse(dt)
-        .ok(),
-        _ => None,
-    }
+    fit.model.base.second_order(&fit.physical)?.inverse(dt).ok()
 }
 
 /// Force from strain with the baseline's inverse, then with the accepted effects folded in

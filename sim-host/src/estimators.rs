@@ -9,8 +9,8 @@ use serde::Serialize;
 use tactile_core::viscoelastic::{InverseEstimator, NonlinearMk, SecondOrder, StructuralInverse};
 
 use crate::fit::{fit, Base, ModelSpec, Series};
-use crate::rig::{RigConfig, TickRecord, TICK_S};
-use crate::scenario::{run_named, ScenarioError, ScenarioOptions};
+use crate::rig::{TickRecord, TICK_S};
+use crate::scenario::{probe_run, ScenarioError, ScenarioOptions};
 
 pub const ESTIMATORS: [&str; 5] = [
     "elastic",
@@ -54,21 +54,6 @@ pub struct EstimatorTable {
 /// Load dependence of the springs of the "other taxel", relative to the memo's.
 pub const OTHER_TAXEL_STIFFENING: f64 = 1.4;
 
-fn run_with(
-    name: &str,
-    options: ScenarioOptions,
-    seed: u64,
-    stiffening: f64,
-) -> Result<Vec<TickRecord>, ScenarioError> {
-    let mut config = RigConfig {
-        seed,
-        scan_array: false,
-        ..Default::default()
-    };
-    config.effects.stiffening = stiffening;
-    Ok(run_named(name, &options, config, |_| {})?.ticks)
-}
-
 /// Dynamic calibration of one taxel: fit eq. 14 with load-dependent springs to a bench record
 /// (sinusoids about 25 g, steps in 40–60 g, rest) sampled at 200 Hz; returns the element law
 /// and the strain offset.
@@ -86,17 +71,7 @@ pub fn calibrate(ticks: &[TickRecord]) -> Option<(NonlinearMk, f64)> {
 }
 
 fn run(name: &str, options: ScenarioOptions, seed: u64) -> Result<Vec<TickRecord>, ScenarioError> {
-    Ok(run_named(
-        name,
-        &options,
-        RigConfig {
-            seed,
-            scan_array: false,
-            ..Default::default()
-        },
-        |_| {},
-    )?
-    .ticks)
+    probe_run(name, options, seed, 1.0)
 }
 
 /// The four estimates of one record.
@@ -163,13 +138,9 @@ pub fn compare(seed: u64) -> Result<EstimatorTable, ScenarioError> {
     let so = fit(&ModelSpec::new(Base::SecondOrder), &cal, &[])
         .ok_or_else(|| ScenarioError::Unknown("second-order calibration fit failed".into()))?;
     let p = &so.physical;
-    let refit = SecondOrder {
-        a1: p[0],
-        a2: p[1],
-        b0: p[2],
-        b1: p[3],
-        b2: p[4],
-    };
+    let refit = Base::SecondOrder
+        .second_order(p)
+        .ok_or_else(|| ScenarioError::Unknown("second-order fit has too few parameters".into()))?;
     let mut table = EstimatorTable {
         rms_g: Vec::new(),
         overshoot_30g_rise_g: [0.0; 5],
@@ -195,7 +166,7 @@ pub fn compare(seed: u64) -> Result<EstimatorTable, ScenarioError> {
         table.rms_g.push(row);
     }
     // Another taxel: the nominal law against the calibrated one.
-    let cal_ticks = run_with(
+    let cal_ticks = probe_run(
         "bench-record",
         ScenarioOptions::default(),
         seed + 30,
@@ -204,7 +175,7 @@ pub fn compare(seed: u64) -> Result<EstimatorTable, ScenarioError> {
     let (law, offset) = calibrate(&cal_ticks)
         .ok_or_else(|| ScenarioError::Unknown("calibration fit failed".into()))?;
     for (k, name) in PROTOCOLS.iter().enumerate() {
-        let ticks = run_with(
+        let ticks = probe_run(
             name,
             ScenarioOptions::default(),
             seed + 40 + k as u64,

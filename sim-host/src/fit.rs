@@ -84,6 +84,35 @@ impl Base {
             ],
         }
     }
+    /// The linear models as eq. 17, from their physical parameters (`None` for the elastic and
+    /// the load-dependent models, which are not of that form).
+    pub fn second_order(self, p: &[f64]) -> Option<SecondOrder> {
+        let mk = |alpha: f64| -> Option<SecondOrder> {
+            Some(
+                MaxwellKelvin {
+                    g1: *p.first()?,
+                    n1: *p.get(1)?,
+                    alpha,
+                    n2: *p.get(2)?,
+                    g2: *p.get(3)?,
+                }
+                .second_order(),
+            )
+        };
+        match self {
+            Base::MaxwellKelvin => mk(0.0),
+            Base::MkAlpha => mk(*p.get(4)?),
+            Base::SecondOrder => Some(SecondOrder {
+                a1: *p.first()?,
+                a2: *p.get(1)?,
+                b0: *p.get(2)?,
+                b1: *p.get(3)?,
+                b2: *p.get(4)?,
+            }),
+            Base::Elastic | Base::MkNonlinear => None,
+        }
+    }
+
     /// Number of physical parameters (the strain offset follows them).
     pub fn parameter_count(self) -> usize {
         self.parameter_names().len()
@@ -535,35 +564,10 @@ impl ModelSpec {
                     .collect(),
             );
         }
-        let model = match self.base {
-            Base::Elastic => return Some(input.iter().map(|u| u / p[0]).collect()),
-            Base::MaxwellKelvin => MaxwellKelvin {
-                g1: p[0],
-                n1: p[1],
-                alpha: 0.0,
-                n2: p[2],
-                g2: p[3],
-            }
-            .forward::<f64>(dt),
-            Base::MkAlpha => MaxwellKelvin {
-                g1: p[0],
-                n1: p[1],
-                alpha: p[4],
-                n2: p[2],
-                g2: p[3],
-            }
-            .forward::<f64>(dt),
-            Base::SecondOrder => SecondOrder {
-                a1: p[0],
-                a2: p[1],
-                b0: p[2],
-                b1: p[3],
-                b2: p[4],
-            }
-            .forward::<f64>(dt),
-            Base::MkNonlinear => return None,
+        if self.base == Base::Elastic {
+            return Some(input.iter().map(|u| u / p[0]).collect());
         }
-        .ok()?;
+        let model = self.base.second_order(p)?.forward::<f64>(dt).ok()?;
         let mut state = Discrete2State::default();
         Some(input.iter().map(|u| model.update(&mut state, *u)).collect())
     }

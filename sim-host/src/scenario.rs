@@ -182,3 +182,21 @@ pub fn run_named(
     let p = protocol(name, options)?;
     run_protocol(name, p, config, options.fixed_gains, progress)
 }
+
+/// The ticks of a named scenario on the default rig with `seed`, without the array scan (the
+/// tables and estimator comparisons need only the probed element), and the finger's springs'
+/// load dependence set to `stiffening` (1 = the memo's).
+pub fn probe_run(
+    name: &str,
+    options: ScenarioOptions,
+    seed: u64,
+    stiffening: f64,
+) -> Result<Vec<crate::rig::TickRecord>, ScenarioError> {
+    let mut config = RigConfig {
+        seed,
+        scan_array: false,
+        ..Default::default()
+    };
+    config.effects.stiffening = stiffening;
+    Ok(run_named(name, &options, config, |_| {})?.ticks)
+}

@@ -9,11 +9,11 @@
 use std::fmt::Write as _;
 
 use serde::Serialize;
-use tactile_core::viscoelastic::{Discrete2State, SecondOrder};
+use tactile_core::viscoelastic::Discrete2State;
 
 use crate::fit::{fit, Base, Fit, ModelSpec, Series};
-use crate::rig::{RigConfig, TickRecord};
-use crate::scenario::{run_named, ScenarioError, ScenarioOptions};
+use crate::rig::TickRecord;
+use crate::scenario::{probe_run, ScenarioError, ScenarioOptions};
 
 pub const LOADS_G: [f32; 4] = [10.0, 30.0, 50.0, 80.0];
 /// FACTS.md: Table I (element 4,2), Table II, Table III, Table IV.
@@ -55,17 +55,7 @@ fn at_10_hz(ticks: &[TickRecord]) -> (Vec<f64>, Vec<f64>) {
 }
 
 fn record(name: &str, options: ScenarioOptions, seed: u64) -> Result<Series, ScenarioError> {
-    let run = run_named(
-        name,
-        &options,
-        RigConfig {
-            seed,
-            scan_array: false,
-            ..Default::default()
-        },
-        |_| {},
-    )?;
-    let (force, strain) = at_10_hz(&run.ticks);
+    let (force, strain) = at_10_hz(&probe_run(name, options, seed, 1.0)?);
     Ok(Series::whole(0.1, force, strain))
 }
 
@@ -144,13 +134,9 @@ pub fn reproduce(seed: u64) -> Result<Tables, ScenarioError> {
         .map(|s| (g * (s - e.physical[1])).max(0.0))
         .collect();
     let p = &so.physical;
-    let second = SecondOrder {
-        a1: p[0],
-        a2: p[1],
-        b0: p[2],
-        b1: p[3],
-        b2: p[4],
-    };
+    let second = Base::SecondOrder
+        .second_order(p)
+        .ok_or_else(|| ScenarioError::Unknown("second-order fit has too few parameters".into()))?;
     let inverse_force: Vec<f64> = match second.inverse::<f64>(0.1) {
         Ok(inv) => {
             let mut st = Discrete2State::default();

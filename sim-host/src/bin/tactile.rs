@@ -122,6 +122,35 @@ macro_rules! out {
     }};
 }
 
+/// Prints a Markdown report and writes it, with its data as JSON, as `out/NAME.{md,json}`.
+fn print_and_write(
+    out: &std::path::Path,
+    name: &str,
+    text: &str,
+    data: &impl serde::Serialize,
+) -> ExitCode {
+    out!("{text}");
+    let md = out.join(format!("{name}.md"));
+    let written = std::fs::create_dir_all(out)
+        .and_then(|_| std::fs::write(&md, text))
+        .and_then(|_| {
+            std::fs::write(
+                out.join(format!("{name}.json")),
+                serde_json::to_string_pretty(data).unwrap_or_default(),
+            )
+        });
+    match written {
+        Ok(()) => {
+            outln!("wrote {}", md.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("tactile: {}: {e}", out.display());
+            ExitCode::from(1)
+        }
+    }
+}
+
 fn usage_error(message: &str) -> ExitCode {
     eprintln!("tactile: {message}");
     ExitCode::from(2)
@@ -274,53 +303,14 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Command::Tables { out, seed } => match sim_host::tables::reproduce(seed) {
-            Ok(t) => {
-                let text = sim_host::tables::render(&t);
-                out!("{text}");
-                let written = std::fs::create_dir_all(&out)
-                    .and_then(|_| std::fs::write(out.join("tables.md"), &text))
-                    .and_then(|_| {
-                        std::fs::write(
-                            out.join("tables.json"),
-                            serde_json::to_string_pretty(&t).unwrap_or_default(),
-                        )
-                    });
-                match written {
-                    Ok(()) => {
-                        outln!("wrote {}", out.join("tables.md").display());
-                        ExitCode::SUCCESS
-                    }
-                    Err(e) => {
-                        eprintln!("tactile: {}: {e}", out.display());
-                        ExitCode::from(1)
-                    }
-                }
-            }
+            Ok(t) => print_and_write(&out, "tables", &sim_host::tables::render(&t), &t),
             Err(e) => {
                 eprintln!("tactile: {e}");
                 ExitCode::from(1)
             }
         },
         Command::Estimators { out, seed } => match sim_host::estimators::compare(seed) {
-            Ok(t) => {
-                let text = sim_host::estimators::render(&t);
-                out!("{text}");
-                let written = std::fs::create_dir_all(&out)
-                    .and_then(|_| std::fs::write(out.join("estimators.md"), &text))
-                    .and_then(|_| {
-                        std::fs::write(
-                            out.join("estimators.json"),
-                            serde_json::to_string_pretty(&t).unwrap_or_default(),
-                        )
-                    });
-                match written {
-                    Ok(()) => ExitCode::SUCCESS,
-                    Err(e) => {
-                        eprintln!("tactile: {}: {e}", out.display());
-                        ExitCode::from(1)
-                    }
-                }
-            }
+            Ok(t) => print_and_write(&out, "estimators", &sim_host::estimators::render(&t), &t),
             Err(e) => {
                 eprintln!("tactile: {e}");
                 ExitCode::from(1)
