@@ -90,15 +90,19 @@ impl Protocol {
         }
     }
 
-    pub const PSEUDO_RANDOM_MEMO: Protocol = Protocol::PseudoRandom {
-        seed: 1989,
-        min_g: 20.0,
-        max_g: 40.0,
-        max_change_g: 20.0,
-        dwell_min_s: 2.0,
-        dwell_max_s: 8.0,
-        duration_s: 100.0,
-    };
+    pub const PSEUDO_RANDOM_MEMO: Protocol = Protocol::pseudo_random_memo(1989, 100.0);
+    /// [`Self::PSEUDO_RANDOM_MEMO`] with another seed and length.
+    pub const fn pseudo_random_memo(seed: u64, duration_s: f32) -> Protocol {
+        Protocol::PseudoRandom {
+            seed,
+            min_g: 20.0,
+            max_g: 40.0,
+            max_change_g: 20.0,
+            dwell_min_s: 2.0,
+            dwell_max_s: 8.0,
+            duration_s,
+        }
+    }
     pub const SINES_MEMO: Protocol = Protocol::Sines {
         seed: 138,
         offset_g: 25.0,

@@ -95,25 +95,7 @@ pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioErr
             f1_hz: 54.0,
             duration_s: 30.0,
         },
-        "pseudo-random" => match Protocol::PSEUDO_RANDOM_MEMO {
-            Protocol::PseudoRandom {
-                min_g,
-                max_g,
-                max_change_g,
-                dwell_min_s,
-                dwell_max_s,
-                ..
-            } => Protocol::PseudoRandom {
-                seed: o.protocol_seed,
-                min_g,
-                max_g,
-                max_change_g,
-                dwell_min_s,
-                dwell_max_s,
-                duration_s: o.duration_s,
-            },
-            other => other,
-        },
+        "pseudo-random" => Protocol::pseudo_random_memo(o.protocol_seed, o.duration_s),
         "sines" => Protocol::Sines {
             seed: o.protocol_seed,
             offset_g: 25.0,

@@ -97,26 +97,7 @@ pub const FIL_SESSION: [FilRun; 5] = [
 ];
 
 const fn pseudo_random(duration_s: f32) -> Protocol {
-    match Protocol::PSEUDO_RANDOM_MEMO {
-        Protocol::PseudoRandom {
-            seed,
-            min_g,
-            max_g,
-            max_change_g,
-            dwell_min_s,
-            dwell_max_s,
-            ..
-        } => Protocol::PseudoRandom {
-            seed,
-            min_g,
-            max_g,
-            max_change_g,
-            dwell_min_s,
-            dwell_max_s,
-            duration_s,
-        },
-        other => other,
-    }
+    Protocol::pseudo_random_memo(1989, duration_s)
 }
 
 /// A deliberate crash the QEMU firmware can be asked for (semihosting command line, QEMU's
