@@ -340,7 +340,28 @@ pub fn diagnose(data: &Series) -> Option<Diagnosis> {
                         if start.len() >= current.theta.len() {
                             start[..current.theta.len()].copy_from_slice(&current.theta);
                         }
-                        let outcome = crate::fit::fit_from(&spec, data, &[start]).map(|f| {
+                        // A delay is a poor target for a local search from one guess (the error
+                        // has a minimum per step the force takes): also start from 2, 10, 30 and
+                        // 100 ms, and from the lag where the residual meets the force rate.
+                        let mut starts = vec![start.clone()];
+                        if aug == Augment::TimeDelay {
+                            // A large delay also spoils the baseline the warm start comes from:
+                            // start from the model's own starts too.
+                            let lag = current_tests.xcorr_peak_lag_s;
+                            let fresh = spec.starts(data);
+                            for base in std::iter::once(&start).chain(fresh.iter()) {
+                                for d in [0.002, 0.03, 0.1, lag] {
+                                    if d > 0.0 {
+                                        let mut p = spec.physical(base);
+                                        if let Some(last) = p.last_mut() {
+                                            *last = d;
+                                        }
+                                        starts.push(spec.internal(&p));
+                                    }
+                                }
+                            }
+                        }
+                        let outcome = crate::fit::fit_from(&spec, data, &starts).map(|f| {
                             let tests = residual_tests(&residual_of(&f, data), data);
                             (f, tests)
                         });

@@ -117,7 +117,11 @@ fn periodic_interference_is_found_at_its_frequency() {
 
 #[test]
 fn time_delay_is_found_and_measured() {
-    for (strength, seed, delay) in [("delay=0.005", 61, 0.005), ("delay=0.008", 62, 0.008)] {
+    for (strength, seed, delay) in [
+        ("delay=0.005", 61, 0.005),
+        ("delay=0.008", 62, 0.008),
+        ("delay=0.02", 63, 0.02),
+    ] {
         let d = diagnose(&bench_record(&[strength], seed)).unwrap();
         check(&d, "time_delay");
         let fitted = d.force_estimate.estimator_config["delay_s"]
