@@ -81,19 +81,10 @@ pub fn static_linearity(ticks: &[TickRecord], slew_g_per_s: f32) -> Vec<(f32, f6
         .filter(|(_, s)| s.command_g > 0.0)
         .filter_map(|(i, s)| {
             let before = segs.get(i.checked_sub(1)?)?;
-            let offset = mean(
-                ticks[before.end.saturating_sub(10)..before.end]
-                    .iter()
-                    .map(|r| f64::from(r.strain_pct)),
-            );
+            let offset = mean_strain(ticks.get(before.end.saturating_sub(10)..before.end)?);
             let ramp = (s.command_g / slew_g_per_s / crate::rig::TICK_S as f32).ceil() as usize;
             let at = s.start + ramp + 100;
-            let reading = mean(
-                ticks
-                    .get(at..at + 10)?
-                    .iter()
-                    .map(|r| f64::from(r.strain_pct)),
-            );
+            let reading = mean_strain(ticks.get(at..at + 10)?);
             Some((s.command_g, reading - offset))
         })
         .collect()
@@ -109,16 +100,8 @@ pub fn residual_deformation(ticks: &[TickRecord]) -> Vec<(f32, f64)> {
         .filter_map(|(i, s)| {
             let before = segs.get(i.checked_sub(1)?)?;
             let after = segs.get(i + 1)?;
-            let b = mean(
-                ticks[before.end.saturating_sub(200)..before.end]
-                    .iter()
-                    .map(|r| f64::from(r.strain_pct)),
-            );
-            let a = mean(
-                ticks[after.end.saturating_sub(200)..after.end]
-                    .iter()
-                    .map(|r| f64::from(r.strain_pct)),
-            );
+            let b = mean_strain(ticks.get(before.end.saturating_sub(200)..before.end)?);
+            let a = mean_strain(ticks.get(after.end.saturating_sub(200)..after.end)?);
             Some((s.command_g, a - b))
         })
         .collect()
@@ -132,6 +115,11 @@ pub fn rms(
 ) -> f64 {
     let n = ticks.len().max(1) as f64;
     (ticks.iter().map(|r| (a(r) - b(r)).powi(2)).sum::<f64>() / n).sqrt()
+}
+
+/// Mean strain of a window of ticks.
+fn mean_strain(window: &[TickRecord]) -> f64 {
+    mean(window.iter().map(|r| f64::from(r.strain_pct)))
 }
 
 pub fn mean(xs: impl Iterator<Item = f64>) -> f64 {

@@ -3,8 +3,8 @@
 //! RAM against the budget. Ignored in plain `cargo test` (a second target's build);
 //! `scripts/test-all.sh` runs it with `--ignored`.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::build_firmware;
 
 use object::{Object, ObjectSection, ObjectSymbol};
 
@@ -13,29 +13,10 @@ const RAM: std::ops::Range<u64> = 0x2000_0000..0x2002_0000;
 const FLASH_BUDGET: u64 = 64 * 1024;
 const STATIC_RAM_BUDGET: u64 = 32 * 1024;
 
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn build() -> PathBuf {
-    let target_dir = std::env::var_os("TACTILE_FW_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| workspace().join("target/fw"));
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(workspace())
-        .env("CARGO_TARGET_DIR", &target_dir)
-        .arg("fw-f407")
-        .status()
-        .expect("cargo runs");
-    assert!(status.success(), "the STM32F407 firmware does not build");
-    target_dir.join("thumbv7em-none-eabihf/release/tactile-f407")
-}
-
 #[test]
 #[ignore = "builds the board firmware: scripts/test-all.sh runs it with --ignored"]
 fn f407_firmware_elf_has_its_parts_and_fits_the_budget() {
-    let path = build();
+    let path = build_firmware("fw-f407", "tactile-f407");
     let data = std::fs::read(&path).expect("ELF readable");
     let elf = object::File::parse(&*data).expect("an ELF");
     assert_eq!(elf.architecture(), object::Architecture::Arm);

@@ -6,7 +6,10 @@
 //! `scripts/test-all.sh` runs it with `--ignored`. Without `qemu-system-arm` it says so loudly
 //! and passes; the test script installs QEMU first, so in CI it always runs.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::{build_firmware, workspace};
+
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -21,10 +24,6 @@ use tactile_firmware::{FilRun, FIL_SESSION};
 const QEMU: &str = "qemu-system-arm";
 const QEMU_TIMEOUT: Duration = Duration::from_secs(150);
 
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
 fn qemu_present() -> bool {
     Command::new(QEMU)
         .arg("--version")
@@ -32,22 +31,6 @@ fn qemu_present() -> bool {
         .stderr(Stdio::null())
         .status()
         .is_ok_and(|s| s.success())
-}
-
-/// Builds the firmware into its own target directory (the outer `cargo test` holds its own).
-fn build_firmware() -> PathBuf {
-    let target_dir = std::env::var_os("TACTILE_FW_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| workspace().join("target/fw"));
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(workspace())
-        .env("CARGO_TARGET_DIR", &target_dir)
-        .arg("fw-qemu")
-        .status()
-        .expect("cargo runs");
-    assert!(status.success(), "the QEMU firmware does not build");
-    target_dir.join("thumbv7em-none-eabihf/release/tactile-qemu")
 }
 
 /// Runs the firmware to its semihosting exit with `append` as its command line, writing the
@@ -249,7 +232,7 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         );
         return;
     }
-    let elf = build_firmware();
+    let elf = build_firmware("fw-qemu", "tactile-qemu");
     let dir = workspace().join("target/qemu-fil");
     std::fs::create_dir_all(&dir).expect("output directory");
     let log = dir.join("session.defmt");
@@ -398,7 +381,7 @@ fn a_panic_and_a_hardfault_zero_the_actuator_before_reporting() {
         );
         return;
     }
-    let elf = build_firmware();
+    let elf = build_firmware("fw-qemu", "tactile-qemu");
     let dir = workspace().join("target/qemu-fil");
     std::fs::create_dir_all(&dir).expect("output directory");
     let zero = ActuatorConfig::MEMO.zero_code().0;

@@ -151,6 +151,17 @@ fn print_and_write(
     }
 }
 
+/// A record read strictly and split for fitting; on error, says why and gives exit code 1.
+fn read_series(file: &std::path::Path) -> Result<sim_host::fit::Series, ExitCode> {
+    match sim_host::record::read_record(file) {
+        Ok(r) => Ok(sim_host::fit::Series::from_record(&r)),
+        Err(e) => {
+            eprintln!("tactile: {e}");
+            Err(ExitCode::from(1))
+        }
+    }
+}
+
 fn usage_error(message: &str) -> ExitCode {
     eprintln!("tactile: {message}");
     ExitCode::from(2)
@@ -233,14 +244,10 @@ fn main() -> ExitCode {
                 Ok(b) => b,
                 Err(e) => return usage_error(&e),
             };
-            let record = match sim_host::record::read_record(&file) {
-                Ok(r) => r,
-                Err(e) => {
-                    eprintln!("tactile: {e}");
-                    return ExitCode::from(1);
-                }
+            let series = match read_series(&file) {
+                Ok(s) => s,
+                Err(code) => return code,
             };
-            let series = sim_host::fit::Series::from_record(&record);
             let start = std::time::Instant::now();
             let Some(fit) = sim_host::fit::fit(&sim_host::fit::ModelSpec::new(base), &series, &[])
             else {
@@ -266,14 +273,10 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Command::Diagnose { file, json, report } => {
-            let record = match sim_host::record::read_record(&file) {
-                Ok(r) => r,
-                Err(e) => {
-                    eprintln!("tactile: {e}");
-                    return ExitCode::from(1);
-                }
+            let series = match read_series(&file) {
+                Ok(s) => s,
+                Err(code) => return code,
             };
-            let series = sim_host::fit::Series::from_record(&record);
             let start = std::time::Instant::now();
             let Some(d) = sim_host::diagnose::diagnose(&series) else {
                 eprintln!(
