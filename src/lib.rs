@@ -9,6 +9,8 @@
 //! - [`tactile`]: the 8×8 scan sequencer, the capacitive element and its read-out amplifier.
 //! - [`viscoelastic`]: elastic, Maxwell–Kelvin, modified Maxwell–Kelvin and second-order
 //!   models, forward (strain from stress) and inverse (stress from strain).
+//! - [`calibration`]: the per-taxel calibration table (bytes the firmware checks at start-up).
+//! - [`estimator`]: force estimators per taxel at the scan rate (scheduled inverse, observer).
 //! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
 //! - [`supervisor`]: the force loop (command check, slew, A1, filter, DAC) and its fault table.
 //! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
@@ -27,7 +29,9 @@
     )
 )]
 
+pub mod calibration;
 pub mod control;
+pub mod estimator;
 pub mod filter;
 pub mod gauge;
 pub mod profile;
