@@ -84,7 +84,11 @@ impl TaxelModel {
         let _ = values.extend_from_slice(&[self.strain_offset_pct, self.elastic_g_per_pct]);
         let _ = values.extend_from_slice(&so(&self.second_order));
         for k in 0..SCHEDULE_POINTS {
-            let (load, s) = self.schedule.get(k).copied().unwrap_or((0.0, SecondOrder::MEMO_FIT));
+            let (load, s) = self
+                .schedule
+                .get(k)
+                .copied()
+                .unwrap_or((0.0, SecondOrder::MEMO_FIT));
             let _ = values.push(f64::from(load));
             let _ = values.extend_from_slice(&so(&s));
         }
@@ -155,19 +159,36 @@ impl TaxelModel {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum TableError {
     /// Fewer bytes than the header and the records it announces.
-    TooShort { bytes: usize, needed: usize },
+    TooShort {
+        bytes: usize,
+        needed: usize,
+    },
     /// Not a table (an erased flash sector reads `0xFF…`).
     BadMagic,
-    UnsupportedVersion { found: u16 },
+    UnsupportedVersion {
+        found: u16,
+    },
     /// The stored checksum does not match the contents.
-    Checksum { stored: u32, computed: u32 },
+    Checksum {
+        stored: u32,
+        computed: u32,
+    },
     /// More taxels than the array has, or the same taxel twice.
-    BadCount { count: u16 },
-    DuplicateTaxel { row: u8, col: u8 },
+    BadCount {
+        count: u16,
+    },
+    DuplicateTaxel {
+        row: u8,
+        col: u8,
+    },
     /// A record with a position off the array, a non-finite value or a bad schedule length.
-    BadRecord { index: u16 },
+    BadRecord {
+        index: u16,
+    },
     /// The output buffer is too small to hold the table.
-    BufferTooSmall { needed: usize },
+    BufferTooSmall {
+        needed: usize,
+    },
 }
 
 impl core::fmt::Display for TableError {
@@ -300,7 +321,10 @@ impl CalibrationTable {
                 return Err(TableError::DuplicateTaxel { row, col });
             }
             let mut floats = [0.0f32; RECORD_FLOATS];
-            for (v, b) in floats.iter_mut().zip(record.get(4..).unwrap_or(&[]).chunks_exact(4)) {
+            for (v, b) in floats
+                .iter_mut()
+                .zip(record.get(4..).unwrap_or(&[]).chunks_exact(4))
+            {
                 *v = f32::from_le_bytes([
                     b.first().copied().unwrap_or(0),
                     b.get(1).copied().unwrap_or(0),
@@ -309,7 +333,10 @@ impl CalibrationTable {
                 ]);
             }
             let model = TaxelModel::from_floats(taxel, usize::from(len), &floats).ok_or(bad)?;
-            table.taxels.push(model).map_err(|_| TableError::BadCount { count })?;
+            table
+                .taxels
+                .push(model)
+                .map_err(|_| TableError::BadCount { count })?;
         }
         Ok(table)
     }
@@ -377,7 +404,10 @@ mod tests {
             let mut bad = good.clone();
             bad[i] ^= 0x10;
             assert!(
-                matches!(CalibrationTable::decode(&bad), Err(TableError::Checksum { .. })),
+                matches!(
+                    CalibrationTable::decode(&bad),
+                    Err(TableError::Checksum { .. })
+                ),
                 "byte {i}"
             );
         }

@@ -14,7 +14,8 @@
 //! Everything on the update path is `f32`, allocation-free and panic-free; construction (once,
 //! at start-up) may use `f64`.
 
-use crate::viscoelastic::{ModelError, NonlinearMk, SecondOrder, SpringLaw};
+use crate::calibration::TaxelModel;
+use crate::viscoelastic::{InverseEstimator, ModelError, NonlinearMk, SecondOrder, SpringLaw};
 
 /// Most load levels a [`Schedule`] holds.
 pub const SCHEDULE_POINTS: usize = 4;
@@ -85,7 +86,10 @@ impl ChainStep {
             load_g: l(self.load_g, other.load_g),
             g0: l(self.g0, other.g0),
             phi: [l(self.phi[0], other.phi[0]), l(self.phi[1], other.phi[1])],
-            gain: [l(self.gain[0], other.gain[0]), l(self.gain[1], other.gain[1])],
+            gain: [
+                l(self.gain[0], other.gain[0]),
+                l(self.gain[1], other.gain[1]),
+            ],
         }
     }
 }
@@ -449,6 +453,148 @@ impl MkObserver {
     }
 }
 
+/// The estimators a taxel can run, in the order [`TaxelEstimators::update`] reports them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EstimatorKind {
+    /// σ = G (ε − ε₀), clamped at zero.
+    Elastic,
+    /// The memo's inverted second-order model (Table IV, or the taxel's own fit).
+    SecondOrderInverse,
+    /// [`ScheduledInverse`].
+    ScheduledInverse,
+    /// [`MkObserver`].
+    Observer,
+}
+
+impl EstimatorKind {
+    pub const ALL: [EstimatorKind; 4] = [
+        EstimatorKind::Elastic,
+        EstimatorKind::SecondOrderInverse,
+        EstimatorKind::ScheduledInverse,
+        EstimatorKind::Observer,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            EstimatorKind::Elastic => "elastic",
+            EstimatorKind::SecondOrderInverse => "second-order inverse",
+            EstimatorKind::ScheduledInverse => "scheduled inverse",
+            EstimatorKind::Observer => "observer (EKF)",
+        }
+    }
+}
+
+/// One taxel's estimator, of one kind, built from its calibration for an update period.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TaxelEstimator {
+    Elastic { g_per_pct: f32 },
+    SecondOrderInverse(InverseEstimator),
+    ScheduledInverse(ScheduledInverse),
+    Observer(MkObserver),
+}
+
+impl TaxelEstimator {
+    pub fn new(kind: EstimatorKind, model: &TaxelModel, dt_s: f64) -> Result<Self, ModelError> {
+        Ok(match kind {
+            EstimatorKind::Elastic => {
+                let g = model.elastic_g_per_pct;
+                if !(g.is_finite() && g > 0.0) {
+                    return Err(ModelError::InvalidParameter);
+                }
+                TaxelEstimator::Elastic {
+                    g_per_pct: g as f32,
+                }
+            }
+            EstimatorKind::SecondOrderInverse => TaxelEstimator::SecondOrderInverse(
+                InverseEstimator::new(model.second_order.inverse(dt_s)?),
+            ),
+            EstimatorKind::ScheduledInverse => {
+                let mut fits = [(0.0f32, SecondOrder::MEMO_FIT); SCHEDULE_POINTS];
+                for (slot, fit) in fits.iter_mut().zip(&model.schedule) {
+                    *slot = *fit;
+                }
+                let n = model.schedule.len();
+                let schedule = Schedule::new(fits.get(..n).unwrap_or(&[]), dt_s)?;
+                TaxelEstimator::ScheduledInverse(ScheduledInverse::new(schedule))
+            }
+            EstimatorKind::Observer => TaxelEstimator::Observer(MkObserver::new(
+                &model.element,
+                dt_s,
+                ObserverTuning::DESIGN,
+            )?),
+        })
+    }
+
+    /// Force from the latest strain of the taxel (its calibration's offset already removed).
+    #[inline]
+    pub fn force_g(&mut self, strain_pct: f32) -> f32 {
+        match self {
+            TaxelEstimator::Elastic { g_per_pct } => {
+                let f = *g_per_pct * strain_pct;
+                if f.is_finite() {
+                    f.max(0.0)
+                } else {
+                    0.0
+                }
+            }
+            TaxelEstimator::SecondOrderInverse(e) => e.force_g(strain_pct),
+            TaxelEstimator::ScheduledInverse(e) => e.force_g(strain_pct),
+            TaxelEstimator::Observer(e) => e.force_g(strain_pct),
+        }
+    }
+}
+
+/// Every estimator side by side on one taxel (the probed one, for the comparison stream).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaxelEstimators {
+    strain_offset_pct: f32,
+    estimators: [TaxelEstimator; 4],
+}
+
+impl TaxelEstimators {
+    pub fn new(model: &TaxelModel, dt_s: f64) -> Result<Self, ModelError> {
+        let e = |k| TaxelEstimator::new(k, model, dt_s);
+        Ok(Self {
+            strain_offset_pct: model.strain_offset_pct as f32,
+            estimators: [
+                e(EstimatorKind::Elastic)?,
+                e(EstimatorKind::SecondOrderInverse)?,
+                e(EstimatorKind::ScheduledInverse)?,
+                e(EstimatorKind::Observer)?,
+            ],
+        })
+    }
+
+    /// The strain the estimators see: the read-out's, less the calibration's offset.
+    #[inline]
+    pub fn corrected(&self, strain_pct: f32) -> f32 {
+        strain_pct - self.strain_offset_pct
+    }
+
+    /// Each estimator's force, in [`EstimatorKind::ALL`]'s order.
+    pub fn update(&mut self, strain_pct: f32) -> [f32; 4] {
+        let e = self.corrected(strain_pct);
+        let mut out = [0.0; 4];
+        for (o, est) in out.iter_mut().zip(self.estimators.iter_mut()) {
+            *o = est.force_g(e);
+        }
+        out
+    }
+
+    /// One estimator, by kind (for timing them one at a time).
+    #[inline]
+    pub fn estimator_mut(&mut self, kind: EstimatorKind) -> &mut TaxelEstimator {
+        let [a, b, c, d] = &mut self.estimators;
+        match kind {
+            EstimatorKind::Elastic => a,
+            EstimatorKind::SecondOrderInverse => b,
+            EstimatorKind::ScheduledInverse => c,
+            EstimatorKind::Observer => d,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -500,10 +646,16 @@ mod tests {
         assert!((c.g0 - 5.81).abs() < 1e-6);
         let p1 = -f64::from(c.phi[0]).ln();
         let p2 = -f64::from(c.phi[1]).ln();
-        assert!((p1 - 0.21015).abs() < 2e-5 && (p2 - 2.07212).abs() < 2e-5, "{p1} {p2}");
+        assert!(
+            (p1 - 0.21015).abs() < 2e-5 && (p2 - 2.07212).abs() < 2e-5,
+            "{p1} {p2}"
+        );
         let r1 = f64::from(c.gain[0]) * p1 / (1.0 - f64::from(c.phi[0]));
         let r2 = f64::from(c.gain[1]) * p2 / (1.0 - f64::from(c.phi[1]));
-        assert!((r1 - 0.018082).abs() < 2e-5 && (r2 - 0.107172).abs() < 2e-5, "{r1} {r2}");
+        assert!(
+            (r1 - 0.018082).abs() < 2e-5 && (r2 - 0.107172).abs() < 2e-5,
+            "{r1} {r2}"
+        );
         // DC compliance 1/b₀ + r₁/p₁ + r₂/p₂ = a₂/b₂.
         let so = SecondOrder::MEMO_FIT;
         let dc = 1.0 / so.b0 + r1 / p1 + r2 / p2;
@@ -545,11 +697,7 @@ mod tests {
 
     #[test]
     fn schedule_interpolates_between_loads_and_holds_beyond() {
-        let at = |load: f64| {
-            NonlinearMk::ELEMENT_4_2
-                .linearized(load)
-                .second_order()
-        };
+        let at = |load: f64| NonlinearMk::ELEMENT_4_2.linearized(load).second_order();
         let mk = |load: f64| MaxwellKelvin {
             alpha: 5.0,
             ..NonlinearMk::ELEMENT_4_2.linearized(load)
@@ -587,11 +735,16 @@ mod tests {
                 .sum();
             (sum / stress.len() as f64).sqrt()
         };
-        let scheduled = rms(ScheduledInverse::new(Schedule::new(&fits, FRAME_S).unwrap()));
+        let scheduled = rms(ScheduledInverse::new(
+            Schedule::new(&fits, FRAME_S).unwrap(),
+        ));
         let single = rms(ScheduledInverse::new(
             Schedule::new(&fits[1..2], FRAME_S).unwrap(),
         ));
-        assert!(scheduled < 0.5 && scheduled < 0.25 * single, "{scheduled} vs {single}");
+        assert!(
+            scheduled < 0.5 && scheduled < 0.25 * single,
+            "{scheduled} vs {single}"
+        );
     }
 
     #[test]

@@ -67,10 +67,20 @@ pub enum Protocol {
     /// A bench record like `../shared/data`'s: 80 s of the memo's sum of sinusoids about
     /// 25 g, 80 s of pseudo-random steps in 40–60 g, 20 s at rest.
     BenchRecord { seed: u64 },
+    /// Dynamic calibration of one taxel (issue 7): the memo's sum of sinusoids about each of
+    /// [`CALIBRATION_OFFSETS_G`] in turn, `per_offset_s` each, the sinusoids' amplitude
+    /// [`CALIBRATION_AMPLITUDE`] of the offset (so the load never leaves the finger), slewed
+    /// from one offset to the next; then 2 s at rest.
+    Calibration { seed: u64, per_offset_s: f32 },
     /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
     /// each applied from rest (1 s at zero) and held `hold_s`.
     LowForce { hold_s: f32 },
 }
+
+/// Load levels the dynamic calibration excites, grams (the scheduled inverse's table).
+pub const CALIBRATION_OFFSETS_G: [f32; 4] = [12.0, 25.0, 45.0, 70.0];
+/// Each sinusoid's amplitude as a fraction of its offset (the memo: 4 g at 25 g).
+pub const CALIBRATION_AMPLITUDE: f32 = 0.12;
 
 const STEP_LOADS_G: [f32; 4] = [10.0, 30.0, 50.0, 80.0];
 const LOW_FORCE_G: [f32; 4] = [8.0, 6.0, 4.0, 2.0];
@@ -103,6 +113,11 @@ impl Protocol {
             duration_s,
         }
     }
+    /// The calibration run of the firmware and the simulator: 15 s about each offset.
+    pub const CALIBRATION: Protocol = Protocol::Calibration {
+        seed: 17,
+        per_offset_s: 15.0,
+    };
     pub const SINES_MEMO: Protocol = Protocol::Sines {
         seed: 138,
         offset_g: 25.0,
@@ -144,6 +159,9 @@ impl Protocol {
             }
             Protocol::LowForce { hold_s } => LOW_FORCE_G.len() as f32 * (1.0 + hold_s),
             Protocol::BenchRecord { .. } => 180.0,
+            Protocol::Calibration { per_offset_s, .. } => {
+                CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s + 2.0
+            }
         }
     }
 }
@@ -163,7 +181,8 @@ impl CommandSource {
         let seed = match protocol {
             Protocol::PseudoRandom { seed, .. }
             | Protocol::Sines { seed, .. }
-            | Protocol::BenchRecord { seed } => seed,
+            | Protocol::BenchRecord { seed }
+            | Protocol::Calibration { seed, .. } => seed,
             _ => 0,
         };
         let mut rng = Xoshiro128PlusPlus::seed_from_u64(seed);
@@ -321,6 +340,13 @@ impl CommandSource {
                     0.0
                 }
             }
+            Protocol::Calibration { per_offset_s, .. } => {
+                let k = libm::floorf(t_s / per_offset_s);
+                match CALIBRATION_OFFSETS_G.get(k as usize) {
+                    Some(&offset) => self.sines(offset, CALIBRATION_AMPLITUDE * offset, t_s),
+                    None => 0.0,
+                }
+            }
             Protocol::LowForce { hold_s } => {
                 let period = 1.0 + hold_s;
                 let k = libm::floorf(t_s / period);
@@ -374,6 +400,29 @@ mod tests {
         assert_eq!(s.command_g(5.6), 90.0);
         assert_eq!(s.command_g(10.4), 0.0);
         assert!((Protocol::FORCE_STEPS_MEMO.duration_s() - 10.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn calibration_visits_each_offset_and_stays_on_the_finger() {
+        let mut s = CommandSource::new(Protocol::CALIBRATION);
+        assert!((Protocol::CALIBRATION.duration_s() - 62.0).abs() < 1e-6);
+        for (k, offset) in CALIBRATION_OFFSETS_G.iter().enumerate() {
+            let t0 = 15.0 * k as f32;
+            let (mut sum, mut lo, mut hi) = (0.0f32, f32::MAX, f32::MIN);
+            for i in 0..15_000 {
+                let c = s.command_g(t0 + i as f32 * 1e-3);
+                sum += c;
+                lo = lo.min(c);
+                hi = hi.max(c);
+            }
+            let mean = sum / 15_000.0;
+            // Six sinusoids of 12 % of the offset: the mean near the offset, never off the
+            // finger, never above the applicator's 120 g.
+            assert!((mean - offset).abs() < 0.25 * offset, "{offset}: {mean}");
+            assert!(lo > 0.0 && hi < 120.0, "{offset}: {lo}..{hi}");
+            assert!(hi - lo > 0.5 * offset, "{offset}: {lo}..{hi}");
+        }
+        assert_eq!(s.command_g(61.0), 0.0);
     }
 
     #[test]

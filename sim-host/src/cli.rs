@@ -11,6 +11,7 @@ use crate::metrics;
 use crate::record::{write_frames, write_record};
 use crate::rig::{RigConfig, TICK_S};
 use crate::scenario::{self, Run, ScenarioOptions, SCENARIOS};
+use tactile_core::tactile::TaxelId;
 
 /// Effects the command line can switch on, with what their strength means.
 pub const EFFECTS: [(&str, &str); 6] = [
@@ -358,11 +359,154 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
     report.push_str(&crate::tables::render(&crate::tables::reproduce(seed)?));
     report.push_str("\n# Force estimators (`tactile estimators`)\n\n");
     report.push_str(&crate::estimators::render(&crate::estimators::compare(
-        seed,
+        crate::calibrate::FINGER_SEED,
     )?));
     report.push('\n');
     report.push_str(&details);
     let path = out.join("report.md");
     std::fs::write(&path, report)?;
     Ok(path)
+}
+
+/// Why `tactile calibrate` stopped: bad arguments (exit 2) or a failure while fitting (exit 1).
+#[derive(Debug)]
+pub enum CalibrateError {
+    Usage(String),
+    Failed(String),
+}
+
+/// `ROW,COL=FILE` → the taxel and the file.
+pub fn parse_taxel_record(arg: &str) -> Result<(TaxelId, PathBuf), String> {
+    let usage =
+        || format!("'{arg}': expected ROW,COL=FILE with ROW and COL in 0..8 (e.g. 3,2=taxel.csv)");
+    let (pos, file) = arg.split_once('=').ok_or_else(usage)?;
+    let (r, c) = pos.split_once(',').ok_or_else(usage)?;
+    let (r, c): (usize, usize) = (
+        r.trim().parse().map_err(|_| usage())?,
+        c.trim().parse().map_err(|_| usage())?,
+    );
+    let taxel = TaxelId::new(r, c).ok_or_else(usage)?;
+    if file.is_empty() {
+        return Err(usage());
+    }
+    Ok((taxel, PathBuf::from(file)))
+}
+
+/// `tactile calibrate`: fits each record (or the simulated finger's four calibration taxels),
+/// writes the table, and returns a summary.
+pub fn calibrate(records: &[String], out: &Path, seed: u64) -> Result<String, CalibrateError> {
+    use crate::calibrate::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS};
+    use CalibrateError::{Failed, Usage};
+    let (table, reports, source) = if records.is_empty() {
+        let (t, r) = calibrate_simulated(&CALIBRATION_TAXELS, seed, 1.0).map_err(Failed)?;
+        (t, r, format!("the simulated finger (seed {seed})"))
+    } else {
+        let mut table = tactile_core::calibration::CalibrationTable::default();
+        let mut reports = Vec::new();
+        for arg in records {
+            let (taxel, path) = parse_taxel_record(arg).map_err(Usage)?;
+            if table.get(taxel).is_some() {
+                return Err(Usage(format!(
+                    "taxel ({}, {}) given twice",
+                    taxel.row(),
+                    taxel.col()
+                )));
+            }
+            let r = crate::record::read_record(&path).map_err(|e| Failed(e.to_string()))?;
+            let dt = r.sample_period_s().ok_or_else(|| {
+                Failed(format!(
+                    "{}: too short to have a sample period",
+                    path.display()
+                ))
+            })?;
+            let (model, report) = fit_taxel(
+                taxel,
+                tactile_core::profile::Protocol::CALIBRATION,
+                dt,
+                &r.force_g,
+                &r.strain_pct,
+            )
+            .map_err(|e| Failed(format!("{}: {e}", path.display())))?;
+            table
+                .taxels
+                .push(model)
+                .map_err(|_| Usage("more taxels than the array has".into()))?;
+            reports.push(report);
+        }
+        (table, reports, format!("{} record(s)", records.len()))
+    };
+    let mut bytes = vec![0u8; table.encoded_len()];
+    let n = table
+        .encode(&mut bytes)
+        .map_err(|e| Failed(e.to_string()))?;
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| Failed(format!("{}: {e}", dir.display())))?;
+    }
+    std::fs::write(out, &bytes[..n]).map_err(|e| Failed(format!("{}: {e}", out.display())))?;
+    let json = out.with_extension("json");
+    let summary = serde_json::json!({ "taxels": reports, "table_bytes": n });
+    std::fs::write(
+        &json,
+        serde_json::to_string_pretty(&summary).unwrap_or_default(),
+    )
+    .map_err(|e| Failed(format!("{}: {e}", json.display())))?;
+    let mut text = format!(
+        "calibrated {} taxel(s) from {source}\n\n| taxel | strain offset (%) | G1(30 g) | N1 | alpha | N2 | G2(30 g) | load levels (g) | RMS_n elastic / second order / mk-nonlinear (g) |\n|---|---|---|---|---|---|---|---|---|\n",
+        table.taxels.len()
+    );
+    for (m, r) in table.taxels.iter().zip(&reports) {
+        let e = &m.element;
+        let _ = writeln!(
+            text,
+            "| ({}, {}) | {:.3} | {:.2} | {:.0} | {:.2} | {:.0} | {:.1} | {} | {} |",
+            m.taxel.row(),
+            m.taxel.col(),
+            m.strain_offset_pct,
+            e.g1.stiffness(30.0),
+            e.n1,
+            e.alpha,
+            e.n2,
+            e.g2.stiffness(30.0),
+            r.levels
+                .iter()
+                .map(|l| format!("{l:.1}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            r.fit_rms_g.map(|v| format!("{v:.3}")).join(" / ")
+        );
+    }
+    let _ = write!(
+        text,
+        "\nwrote {} ({n} bytes) and {}",
+        out.display(),
+        json.display()
+    );
+    Ok(text)
+}
+
+#[cfg(test)]
+mod calibrate_tests {
+    use super::*;
+
+    #[test]
+    fn taxel_record_arguments_are_checked() {
+        let (t, f) = parse_taxel_record("3,2=rec.csv").unwrap();
+        assert_eq!((t.row(), t.col(), f), (3, 2, PathBuf::from("rec.csv")));
+        for bad in ["3,2", "8,0=a.csv", "3=a.csv", "a,b=c.csv", "3,2="] {
+            let e = parse_taxel_record(bad).unwrap_err();
+            assert!(e.contains("ROW,COL=FILE"), "{bad}: {e}");
+        }
+        let e = calibrate(
+            &["1,1=/nonexistent/x.csv".into()],
+            Path::new("/tmp/t.bin"),
+            1,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, CalibrateError::Failed(ref m) if m.contains("x.csv")),
+            "{e:?}"
+        );
+        let e = calibrate(&["9,9=x.csv".into()], Path::new("/tmp/t.bin"), 1).unwrap_err();
+        assert!(matches!(e, CalibrateError::Usage(_)), "{e:?}");
+    }
 }

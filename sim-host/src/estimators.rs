@@ -1,243 +1,213 @@
-//! Force estimators side by side on the simulator (issue 7, first part): the elastic model, the
-//! memo's inverted second-order model, the same refitted here, and the structural inverse of the
-//! modified Maxwell–Kelvin element with load-dependent springs — each run on the probed element's
-//! 1 kHz strain exactly as the chip would.
+//! Force estimators side by side on the simulator (issue 7): the elastic model, the memo's
+//! inverted second-order model, the scheduled inverse and the observer — the core's
+//! [`TaxelEstimators`], exactly as the firmware runs them per taxel at the scan rate — with
+//! the memo's nominal models and with each taxel's own dynamic calibration, on four taxels of
+//! one simulated finger. The structural inverse (the calibrated eq. 14 element run backwards,
+//! `f64`, host only) is the reference.
 
 use std::fmt::Write as _;
 
 use serde::Serialize;
-use tactile_core::viscoelastic::{InverseEstimator, NonlinearMk, SecondOrder, StructuralInverse};
+use tactile_core::calibration::{CalibrationTable, TaxelModel};
+use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
+use tactile_core::profile::Protocol;
+use tactile_core::tactile::{ScanConfig, TaxelId};
+use tactile_core::viscoelastic::StructuralInverse;
 
-use crate::fit::{fit, Base, ModelSpec, Series};
-use crate::rig::{TickRecord, TICK_S};
-use crate::scenario::{probe_run, ScenarioError, ScenarioOptions};
+use crate::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS};
+use crate::rig::{RigConfig, TickRecord};
+use crate::scenario::{protocol, run_protocol, ScenarioError, ScenarioOptions};
 
-pub const ESTIMATORS: [&str; 5] = [
-    "elastic",
-    "memo inverse (Table IV fit)",
-    "second-order inverse, refitted",
-    "structural inverse (eq. 14, nominal)",
-    "structural inverse, parameters 15-30 % off",
-];
-
-/// The element 4,2 model with every parameter off, as an uncalibrated taxel would be.
-fn mistuned() -> NonlinearMk {
-    let m = NonlinearMk::ELEMENT_4_2;
-    let scale =
-        |l: tactile_core::viscoelastic::SpringLaw, k: f64| tactile_core::viscoelastic::SpringLaw {
-            base: l.base * k,
-            sqrt_coeff: l.sqrt_coeff * k,
-            linear_coeff: l.linear_coeff * k,
-        };
-    NonlinearMk {
-        g1: scale(m.g1, 1.15),
-        n1: m.n1 * 1.3,
-        alpha: m.alpha,
-        n2: m.n2 * 0.8,
-        g2: scale(m.g2, 0.85),
-    }
-}
+/// The protocols of the table: the memo's pseudo-random record, its four step loads, its sum
+/// of sinusoids.
 pub const PROTOCOLS: [&str; 3] = ["pseudo-random", "step-loads", "sines"];
+
+/// Control ticks per scan frame: each taxel is sampled once a frame (16 ms).
+pub const TICKS_PER_FRAME: usize = 16;
+
+/// Columns: the four on-chip estimators, then the host-only structural inverse.
+pub const COLUMNS: usize = 5;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct EstimatorTable {
-    /// `rms_g[protocol][estimator]`: RMS of estimate − true contact force, grams.
-    pub rms_g: Vec<[f64; 5]>,
-    /// Largest estimate above 30 g in the first 5 s of a 30 g step, per estimator.
-    pub overshoot_30g_rise_g: [f64; 5],
-    /// A taxel unlike element 4,2 (its springs' load dependence 1.4× the memo's): RMS per
-    /// protocol of the structural inverse with element 4,2's law, and with the law fitted to a
-    /// 180 s calibration record of that taxel (`mk-nonlinear`).
-    pub other_taxel_rms_g: Vec<[f64; 2]>,
+    pub taxels: Vec<(usize, usize)>,
+    /// `nominal_g[protocol][column]`, `calibrated_g[protocol][column]`: RMS of estimate − true
+    /// contact force (g), mean over the taxels.
+    pub nominal_g: Vec<[f64; COLUMNS]>,
+    pub calibrated_g: Vec<[f64; COLUMNS]>,
+    /// Pseudo-random, calibrated, per taxel.
+    pub pseudo_random_per_taxel_g: Vec<[f64; COLUMNS]>,
+    /// Largest estimate above 30 g in the first 5 s of a 30 g step, worst over the taxels,
+    /// calibrated.
+    pub overshoot_30g_rise_g: [f64; COLUMNS],
+    pub fits: Vec<TaxelFitReport>,
 }
 
-/// Load dependence of the springs of the "other taxel", relative to the memo's.
-pub const OTHER_TAXEL_STIFFENING: f64 = 1.4;
-
-/// Dynamic calibration of one taxel: fit eq. 14 with load-dependent springs to a bench record
-/// (sinusoids about 25 g, steps in 40–60 g, rest) sampled at 200 Hz; returns the element law
-/// and the strain offset.
-pub fn calibrate(ticks: &[TickRecord]) -> Option<(NonlinearMk, f64)> {
-    let (force, strain): (Vec<f64>, Vec<f64>) = ticks
-        .iter()
-        .skip(4)
-        .step_by(5)
-        .map(|t| (f64::from(t.sensed_g), f64::from(t.strain_pct)))
-        .unzip();
-    let data = Series::whole(0.005, force, strain);
-    let spec = ModelSpec::new(Base::MkNonlinear);
-    let f = fit(&spec, &data, &[])?;
-    Some((spec.nonlinear_element(&f.theta)?, f.physical[7]))
+pub fn column_names() -> [&'static str; COLUMNS] {
+    let k = EstimatorKind::ALL.map(EstimatorKind::name);
+    [k[0], k[1], k[2], k[3], "structural inverse (host, f64)"]
 }
 
-fn run(name: &str, options: ScenarioOptions, seed: u64) -> Result<Vec<TickRecord>, ScenarioError> {
-    probe_run(name, options, seed, 1.0)
-}
-
-/// The four estimates of one record.
+/// Each column's estimate at each frame of a run (the probed taxel sampled every 16 ticks).
 fn estimates(
     ticks: &[TickRecord],
-    elastic_g: f64,
-    elastic_offset: f64,
-    refit: &SecondOrder,
-    refit_offset: f64,
-) -> [Vec<f64>; 5] {
-    let strain: Vec<f32> = ticks.iter().map(|t| t.strain_pct).collect();
-    let elastic = strain
+    model: &TaxelModel,
+    frame_s: f64,
+) -> Result<Vec<[f64; COLUMNS]>, String> {
+    let mut chip = TaxelEstimators::new(model, frame_s)
+        .map_err(|e| format!("taxel {:?}: {e:?}", model.taxel))?;
+    let mut structural = StructuralInverse::new(model.element, frame_s);
+    Ok(frames(ticks)
+        .map(|t| {
+            let f = chip.update(t.strain_pct);
+            let s = structural.force_g(chip.corrected(t.strain_pct));
+            [f[0], f[1], f[2], f[3], s].map(f64::from)
+        })
+        .collect())
+}
+
+fn frames(ticks: &[TickRecord]) -> impl Iterator<Item = &TickRecord> {
+    ticks
         .iter()
-        .map(|e| (elastic_g * (f64::from(*e) - elastic_offset)).max(0.0))
-        .collect();
-    let inverse = |so: &SecondOrder, offset: f64| -> Vec<f64> {
-        match so.inverse::<f32>(TICK_S) {
-            Ok(model) => {
-                let mut est = InverseEstimator::new(model);
-                strain
-                    .iter()
-                    .map(|e| f64::from(est.force_g(e - offset as f32)))
-                    .collect()
+        .skip(TICKS_PER_FRAME - 1)
+        .step_by(TICKS_PER_FRAME)
+}
+
+fn rms(est: &[[f64; COLUMNS]], ticks: &[TickRecord]) -> [f64; COLUMNS] {
+    let mut sum = [0.0; COLUMNS];
+    for (e, t) in est.iter().zip(frames(ticks)) {
+        for (s, v) in sum.iter_mut().zip(e) {
+            *s += (v - f64::from(t.true_force_g)).powi(2);
+        }
+    }
+    sum.map(|s| (s / est.len().max(1) as f64).sqrt())
+}
+
+fn run_on(
+    taxel: TaxelId,
+    seed: u64,
+    p: Protocol,
+    name: &str,
+) -> Result<Vec<TickRecord>, ScenarioError> {
+    let config = RigConfig {
+        seed,
+        probe: taxel,
+        scan_array: false,
+        ..RigConfig::default()
+    };
+    Ok(run_protocol(name, p, config, false, |_| {})?.ticks)
+}
+
+/// Calibrates the four taxels of the simulated finger `finger_seed` (`FINGER_SEED` in the
+/// report), then scores every estimator on each.
+pub fn compare(finger_seed: u64) -> Result<EstimatorTable, String> {
+    let (table, fits) = calibrate_simulated(&CALIBRATION_TAXELS, finger_seed, 1.0)?;
+    compare_with(&table, fits, finger_seed)
+}
+
+/// Scores every estimator on the taxels of `table`, nominal and calibrated.
+pub fn compare_with(
+    table: &CalibrationTable,
+    fits: Vec<TaxelFitReport>,
+    finger_seed: u64,
+) -> Result<EstimatorTable, String> {
+    let frame_s = f64::from(ScanConfig::DESIGN.frame_period_s());
+    let n = table.taxels.len().max(1) as f64;
+    let mut out = EstimatorTable {
+        taxels: table
+            .taxels
+            .iter()
+            .map(|m| (m.taxel.row(), m.taxel.col()))
+            .collect(),
+        nominal_g: vec![[0.0; COLUMNS]; PROTOCOLS.len()],
+        calibrated_g: vec![[0.0; COLUMNS]; PROTOCOLS.len()],
+        pseudo_random_per_taxel_g: Vec::new(),
+        overshoot_30g_rise_g: [f64::MIN; COLUMNS],
+        fits,
+    };
+    let options = ScenarioOptions::default();
+    for model in &table.taxels {
+        // Element 4,2's models; the strain offset is the rest calibration's (none).
+        let nominal = TaxelModel::nominal(model.taxel);
+        for (k, name) in PROTOCOLS.iter().enumerate() {
+            let p = protocol(name, &options).map_err(|e| e.to_string())?;
+            let ticks = run_on(model.taxel, finger_seed, p, name).map_err(|e| e.to_string())?;
+            let cal = rms(&estimates(&ticks, model, frame_s)?, &ticks);
+            let nom = rms(&estimates(&ticks, &nominal, frame_s)?, &ticks);
+            for c in 0..COLUMNS {
+                out.calibrated_g[k][c] += cal[c] / n;
+                out.nominal_g[k][c] += nom[c] / n;
             }
-            Err(_) => vec![f64::NAN; strain.len()],
+            if k == 0 {
+                out.pseudo_random_per_taxel_g.push(cal);
+            }
         }
-    };
-    let structural = |model: NonlinearMk| -> Vec<f64> {
-        let mut inv = StructuralInverse::new(model, TICK_S);
-        strain.iter().map(|e| f64::from(inv.force_g(*e))).collect()
-    };
-    [
-        elastic,
-        inverse(&SecondOrder::MEMO_FIT, 0.0),
-        inverse(refit, refit_offset),
-        structural(NonlinearMk::ELEMENT_4_2),
-        structural(mistuned()),
-    ]
-}
-
-fn rms(est: &[f64], ticks: &[TickRecord]) -> f64 {
-    (est.iter()
-        .zip(ticks)
-        .map(|(e, t)| (e - f64::from(t.true_force_g)).powi(2))
-        .sum::<f64>()
-        / est.len().max(1) as f64)
-        .sqrt()
-}
-
-/// Runs the protocols and scores the estimators.
-pub fn compare(seed: u64) -> Result<EstimatorTable, ScenarioError> {
-    // Calibration as the memo did it: elastic and second-order models fitted to the sum of
-    // sinusoids (10 Hz samples), then used unchanged.
-    let sines = run("sines", ScenarioOptions::default(), seed + 2)?;
-    let (f, e): (Vec<f64>, Vec<f64>) = sines
-        .iter()
-        .skip(99)
-        .step_by(100)
-        .map(|t| (f64::from(t.sensed_g), f64::from(t.strain_pct)))
-        .unzip();
-    let cal = Series::whole(0.1, f, e);
-    let elastic = fit(&ModelSpec::new(Base::Elastic), &cal, &[])
-        .ok_or_else(|| ScenarioError::Unknown("elastic calibration fit failed".into()))?;
-    let so = fit(&ModelSpec::new(Base::SecondOrder), &cal, &[])
-        .ok_or_else(|| ScenarioError::Unknown("second-order calibration fit failed".into()))?;
-    let p = &so.physical;
-    let refit = Base::SecondOrder
-        .second_order(p)
-        .ok_or_else(|| ScenarioError::Unknown("second-order fit has too few parameters".into()))?;
-    let mut table = EstimatorTable {
-        rms_g: Vec::new(),
-        overshoot_30g_rise_g: [0.0; 5],
-        other_taxel_rms_g: Vec::new(),
-    };
-    for (k, name) in PROTOCOLS.iter().enumerate() {
-        let ticks = if *name == "sines" {
-            sines.clone()
-        } else {
-            run(name, ScenarioOptions::default(), seed + 10 + k as u64)?
-        };
-        let est = estimates(
-            &ticks,
-            elastic.physical[0],
-            elastic.physical[1],
-            &refit,
-            p[5],
-        );
-        let mut row = [0.0; 5];
-        for (r, e) in row.iter_mut().zip(&est) {
-            *r = rms(e, &ticks);
-        }
-        table.rms_g.push(row);
-    }
-    // Another taxel: the nominal law against the calibrated one.
-    let cal_ticks = probe_run(
-        "bench-record",
-        ScenarioOptions::default(),
-        seed + 30,
-        OTHER_TAXEL_STIFFENING,
-    )?;
-    let (law, offset) = calibrate(&cal_ticks)
-        .ok_or_else(|| ScenarioError::Unknown("calibration fit failed".into()))?;
-    for (k, name) in PROTOCOLS.iter().enumerate() {
-        let ticks = probe_run(
-            name,
-            ScenarioOptions::default(),
-            seed + 40 + k as u64,
-            OTHER_TAXEL_STIFFENING,
-        )?;
-        let score = |model: NonlinearMk, offset: f64| {
-            let mut inv = StructuralInverse::new(model, TICK_S);
-            let est: Vec<f64> = ticks
-                .iter()
-                .map(|t| f64::from(inv.force_g(t.strain_pct - offset as f32)))
-                .collect();
-            rms(&est, &ticks)
-        };
-        table
-            .other_taxel_rms_g
-            .push([score(NonlinearMk::ELEMENT_4_2, 0.0), score(law, offset)]);
-    }
-    let step = run(
-        "step",
-        ScenarioOptions {
+        let step = Protocol::Step {
             load_g: 30.0,
-            ..Default::default()
-        },
-        seed + 20,
-    )?;
-    let est = estimates(
-        &step,
-        elastic.physical[0],
-        elastic.physical[1],
-        &refit,
-        p[5],
-    );
-    // The step is applied at 2 s; look at its first 5 s.
-    let window = (2.0 / TICK_S) as usize..(7.0 / TICK_S) as usize;
-    for (o, e) in table.overshoot_30g_rise_g.iter_mut().zip(&est) {
-        *o = e[window.clone()].iter().fold(f64::MIN, |m, v| m.max(*v)) - 30.0;
+            lead_s: 2.0,
+            on_s: 50.0,
+            off_s: 25.0,
+        };
+        let ticks = run_on(model.taxel, finger_seed, step, "step").map_err(|e| e.to_string())?;
+        let est = estimates(&ticks, model, frame_s)?;
+        // The step is applied at 2 s: its first 5 s, in frames.
+        let window = (2.0 / frame_s) as usize..(7.0 / frame_s) as usize;
+        for c in 0..COLUMNS {
+            let peak = est[window.clone()]
+                .iter()
+                .fold(f64::MIN, |m, e| m.max(e[c]));
+            out.overshoot_30g_rise_g[c] = out.overshoot_30g_rise_g[c].max(peak - 30.0);
+        }
     }
-    Ok(table)
+    Ok(out)
 }
 
 pub fn render(t: &EstimatorTable) -> String {
-    let mut s = String::from("| protocol | ");
-    s.push_str(&ESTIMATORS.join(" | "));
-    s.push_str(" |\n|---|---|---|---|---|---|\n");
-    for (name, row) in PROTOCOLS.iter().zip(&t.rms_g) {
+    let names = column_names();
+    let mut s = format!(
+        "RMS of estimate − true contact force (g), mean over taxels {:?} of one simulated finger, each estimator run on the probed taxel at the scan rate (62.5 frames/s) as the firmware runs it. \"nominal\": the memo's models for element 4,2 (Table IV's fit, Table I's rows, FACTS.md's laws); \"calibrated\": the taxel's own fit of the calibration protocol (`tactile calibrate`). The memo's inverse had 2.23 g on its pseudo-random record.\n\n| protocol |",
+        t.taxels
+    );
+    for n in names {
+        let _ = write!(s, " {n}, nominal | {n}, calibrated |");
+    }
+    s.push_str("\n|---|");
+    s.push_str(&"---|".repeat(2 * COLUMNS));
+    s.push('\n');
+    for (k, name) in PROTOCOLS.iter().enumerate() {
+        let _ = write!(s, "| {name} |");
+        for c in 0..COLUMNS {
+            let _ = write!(
+                s,
+                " {:.3} | {:.3} |",
+                t.nominal_g[k][c], t.calibrated_g[k][c]
+            );
+        }
+        s.push('\n');
+    }
+    let _ = write!(s, "\nPseudo-random, calibrated, per taxel:\n\n| taxel |");
+    for n in names {
+        let _ = write!(s, " {n} |");
+    }
+    s.push_str("\n|---|");
+    s.push_str(&"---|".repeat(COLUMNS));
+    s.push('\n');
+    for (taxel, row) in t.taxels.iter().zip(&t.pseudo_random_per_taxel_g) {
         let _ = writeln!(
             s,
-            "| {name} | {} |",
+            "| {taxel:?} | {} |",
             row.map(|v| format!("{v:.3}")).join(" | ")
         );
     }
     let _ = writeln!(
         s,
-        "| overshoot on a 30 g rise (g) | {} |",
-        t.overshoot_30g_rise_g
-            .map(|v| format!("{v:+.2}"))
-            .join(" | ")
+        "\nOvershoot on the memo's 30 g rise (largest estimate − 30 g in the 5 s after the step, worst taxel, calibrated): {}",
+        names
+            .iter()
+            .zip(t.overshoot_30g_rise_g)
+            .map(|(n, v)| format!("{n} {v:+.2} g"))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
-    let _ = writeln!(s, "\nA taxel unlike element 4,2 (springs' load dependence {OTHER_TAXEL_STIFFENING}× the memo's):\n\n| protocol | structural inverse, element 4,2 law | structural inverse, calibrated (mk-nonlinear fit of a 180 s bench record) |\n|---|---|---|");
-    for (name, row) in PROTOCOLS.iter().zip(&t.other_taxel_rms_g) {
-        let _ = writeln!(s, "| {name} | {:.3} | {:.3} |", row[0], row[1]);
-    }
-    s.push_str("\nRMS of estimate − true contact force (g), probed element at 1 kHz (the memo's Table IV inverse: 2.23 g). \"Nominal\" is the simulator's own element 4,2 law, so that column is the noise floor of an exactly calibrated taxel; the last column is what the same estimator does with the parameters off by 15–30 %, as an uncalibrated taxel would be. Calibrating a taxel fits the same law to a 180 s bench record of it (`tactile fit FILE --model mk-nonlinear`).\n");
     s
 }

@@ -7,7 +7,7 @@ use crate::finger::StrainGrid;
 use crate::rig::{Rig, RigConfig, RigError, TickRecord};
 
 /// The named scenarios, in the order `tactile` lists them.
-pub const SCENARIOS: [&str; 11] = [
+pub const SCENARIOS: [&str; 12] = [
     "force-steps",
     "step",
     "step-loads",
@@ -19,6 +19,7 @@ pub const SCENARIOS: [&str; 11] = [
     "sines",
     "low-force",
     "bench-record",
+    "calibration",
 ];
 
 /// Options a scenario takes from the command line.
@@ -105,6 +106,10 @@ pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioErr
         "low-force" => Protocol::LowForce { hold_s: 3.0 },
         "bench-record" => Protocol::BenchRecord {
             seed: o.protocol_seed,
+        },
+        "calibration" => Protocol::Calibration {
+            seed: o.protocol_seed,
+            per_offset_s: 15.0,
         },
         other => return Err(ScenarioError::Unknown(other.to_string())),
     })

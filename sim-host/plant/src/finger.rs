@@ -71,6 +71,10 @@ fn scale_law(law: SpringLaw, s: f64) -> SpringLaw {
     }
 }
 
+/// The taxel with element 4,2's parameters (the memo's element, row 4 column 2 counted from
+/// one): the simulator's default probe position.
+pub const NOMINAL_TAXEL: TaxelId = TaxelId::from_index(3 * COLS + 2);
+
 /// Play-operator radii of the hysteresis model, grams.
 const PLAY_RADII_G: [f64; 3] = [2.0, 5.0, 10.0];
 /// Longest read-out delay the ring buffer holds, in control ticks.
@@ -155,15 +159,16 @@ pub struct Finger {
 }
 
 impl Finger {
-    /// A finger with per-taxel variation drawn from `seed`; the taxel under the probe keeps the
-    /// nominal element 4,2 parameters so experiments compare with the memo's tables.
+    /// A finger with per-taxel variation drawn from `seed`; [`NOMINAL_TAXEL`] keeps the nominal
+    /// element 4,2 parameters, so experiments with the probe there (the default) compare with
+    /// the memo's tables, and a probe moved elsewhere meets a taxel of its own.
     pub fn new(seed: u64, probe: TaxelId, effects: Effects, readout: ReadoutParams) -> Self {
         let mut rng = Noise::new(seed ^ 0x7461_7869);
         let mut vary = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
         let nominal = NonlinearMk::ELEMENT_4_2;
         let taxels = core::array::from_fn(|i| {
-            let is_probe = i == probe.index();
-            let mut f = |lo: f64, hi: f64| if is_probe { 1.0 } else { vary(lo, hi) };
+            let is_nominal = i == NOMINAL_TAXEL.index();
+            let mut f = |lo: f64, hi: f64| if is_nominal { 1.0 } else { vary(lo, hi) };
             let (k1, k2, kn1, kn2) = (f(0.8, 1.3), f(0.8, 1.3), f(0.8, 1.4), f(0.7, 1.3));
             let (kv, kpf, trim_err) = (f(0.9, 1.1), f(0.95, 1.05), f(0.95, 1.05));
             let scale = |l: SpringLaw, k: f64| SpringLaw {

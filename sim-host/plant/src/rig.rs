@@ -133,7 +133,7 @@ impl Default for RigConfig {
             gauge_noise_g: 0.14 * libm::sqrt(8.0),
             effects: Effects::MEMO,
             readout: ReadoutParams::default(),
-            probe: TaxelId::from_index(3 * 8 + 2),
+            probe: crate::finger::NOMINAL_TAXEL,
             estimator: SecondOrder::MEMO_FIT,
             scan_array: true,
             supervisor: SupervisorConfig::DESIGN,

@@ -4,6 +4,8 @@
 //! tactile list
 //! tactile experiment NAME [--out DIR] [--seed N] [--load G] [--fixed-gains] [--duration S]
 //!                         [--record-hz HZ] [--effect NAME=VALUE]... [--no-plot]
+//! tactile calibrate [ROW,COL=FILE]... [--out TABLE.bin] [--seed N]
+//! tactile estimators [--out DIR] [--seed N]
 //! tactile demo [--out DIR] [--seed N]
 //! ```
 //! Exit codes: 0 done, 1 failed while running, 2 bad usage (unknown scenario, effect, option).
@@ -92,11 +94,25 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
-    /// Compare the force estimators on the simulator's protocols.
+    /// Compare the force estimators on the simulator's protocols, nominal and calibrated.
     Estimators {
         #[arg(long, default_value = "out/estimators")]
         out: PathBuf,
-        #[arg(long, default_value_t = 1)]
+        /// Seed of the simulated finger whose four taxels are calibrated and scored.
+        #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
+        seed: u64,
+    },
+    /// Dynamic calibration: fit each taxel's models to its record of the calibration protocol
+    /// and write the table the firmware reads at start-up. Without records, calibrates four
+    /// taxels of the simulated finger.
+    Calibrate {
+        /// ROW,COL=FILE: a taxel (from zero) and its record of the calibration protocol.
+        records: Vec<String>,
+        /// The table (binary, what the firmware's calibration sector holds).
+        #[arg(long, default_value = "out/calibration/table.bin")]
+        out: PathBuf,
+        /// Seed of the simulated finger (without records).
+        #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
         seed: u64,
     },
     /// The main job without a board: the memo's experiment set, plots and a report.
@@ -316,6 +332,20 @@ fn main() -> ExitCode {
             Ok(t) => print_and_write(&out, "estimators", &sim_host::estimators::render(&t), &t),
             Err(e) => {
                 eprintln!("tactile: {e}");
+                ExitCode::from(1)
+            }
+        },
+        Command::Calibrate { records, out, seed } => match cli::calibrate(&records, &out, seed) {
+            Ok(text) => {
+                outln!("{text}");
+                ExitCode::SUCCESS
+            }
+            Err(cli::CalibrateError::Usage(e)) => {
+                eprintln!("tactile calibrate: {e}");
+                ExitCode::from(2)
+            }
+            Err(cli::CalibrateError::Failed(e)) => {
+                eprintln!("tactile calibrate: {e}");
                 ExitCode::from(1)
             }
         },
