@@ -270,6 +270,30 @@ impl CalibrationTable {
     /// Reads a table, checking everything before trusting any of it. Bytes after the table
     /// (the rest of a flash sector) are ignored.
     pub fn decode(bytes: &[u8]) -> Result<CalibrationTable, TableError> {
+        let view = TableView::check(bytes)?;
+        let mut table = CalibrationTable::default();
+        for model in view.models() {
+            table
+                .taxels
+                .push(model)
+                .map_err(|_| TableError::BadCount { count: view.count })?;
+        }
+        Ok(table)
+    }
+}
+
+/// A checked table read in place (the firmware's view of its calibration sector: no copy of
+/// the whole table on the stack).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableView<'a> {
+    records: &'a [u8],
+    count: u16,
+}
+
+impl<'a> TableView<'a> {
+    /// Checks header, length, checksum and every record (positions on the array, no taxel
+    /// twice, finite values, schedule lengths).
+    pub fn check(bytes: &'a [u8]) -> Result<TableView<'a>, TableError> {
         let too_short = |needed| TableError::TooShort {
             bytes: bytes.len(),
             needed,
@@ -306,39 +330,69 @@ impl CalibrationTable {
         if stored != computed {
             return Err(TableError::Checksum { stored, computed });
         }
-        let mut table = CalibrationTable::default();
-        let records = contents.get(HEADER_BYTES..).unwrap_or(&[]);
-        for (index, record) in records.chunks_exact(RECORD_BYTES).enumerate() {
-            let bad = TableError::BadRecord {
+        let view = TableView {
+            records: contents.get(HEADER_BYTES..).unwrap_or(&[]),
+            count,
+        };
+        let mut seen = 0u64;
+        for index in 0..usize::from(count) {
+            let model = view.record(index).ok_or(TableError::BadRecord {
                 index: index as u16,
-            };
-            let (row, col, len) = match record {
-                [row, col, len, 0, ..] => (*row, *col, *len),
-                _ => return Err(bad),
-            };
-            let taxel = TaxelId::new(usize::from(row), usize::from(col)).ok_or(bad)?;
-            if table.get(taxel).is_some() {
-                return Err(TableError::DuplicateTaxel { row, col });
+            })?;
+            let bit = 1u64 << model.taxel.index();
+            if seen & bit != 0 {
+                return Err(TableError::DuplicateTaxel {
+                    row: model.taxel.row() as u8,
+                    col: model.taxel.col() as u8,
+                });
             }
-            let mut floats = [0.0f32; RECORD_FLOATS];
-            for (v, b) in floats
-                .iter_mut()
-                .zip(record.get(4..).unwrap_or(&[]).chunks_exact(4))
-            {
-                *v = f32::from_le_bytes([
-                    b.first().copied().unwrap_or(0),
-                    b.get(1).copied().unwrap_or(0),
-                    b.get(2).copied().unwrap_or(0),
-                    b.get(3).copied().unwrap_or(0),
-                ]);
-            }
-            let model = TaxelModel::from_floats(taxel, usize::from(len), &floats).ok_or(bad)?;
-            table
-                .taxels
-                .push(model)
-                .map_err(|_| TableError::BadCount { count })?;
+            seen |= bit;
         }
-        Ok(table)
+        Ok(view)
+    }
+
+    /// Taxels in the table.
+    pub fn len(&self) -> usize {
+        usize::from(self.count)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Record `index`, `None` if out of range or malformed.
+    fn record(&self, index: usize) -> Option<TaxelModel> {
+        let record = self
+            .records
+            .get(index * RECORD_BYTES..(index + 1) * RECORD_BYTES)?;
+        let (row, col, len) = match record {
+            [row, col, len, 0, ..] => (*row, *col, *len),
+            _ => return None,
+        };
+        let taxel = TaxelId::new(usize::from(row), usize::from(col))?;
+        let mut floats = [0.0f32; RECORD_FLOATS];
+        for (v, b) in floats
+            .iter_mut()
+            .zip(record.get(4..).unwrap_or(&[]).chunks_exact(4))
+        {
+            *v = f32::from_le_bytes([
+                b.first().copied().unwrap_or(0),
+                b.get(1).copied().unwrap_or(0),
+                b.get(2).copied().unwrap_or(0),
+                b.get(3).copied().unwrap_or(0),
+            ]);
+        }
+        TaxelModel::from_floats(taxel, usize::from(len), &floats)
+    }
+
+    /// Every model, in table order.
+    pub fn models(&self) -> impl Iterator<Item = TaxelModel> + '_ {
+        (0..self.len()).filter_map(|i| self.record(i))
+    }
+
+    /// The calibration of `taxel`, if the table has one.
+    pub fn get(&self, taxel: TaxelId) -> Option<TaxelModel> {
+        self.models().find(|m| m.taxel == taxel)
     }
 }
 

@@ -46,3 +46,24 @@ fn calibrated_estimators_beat_the_memos_and_the_best_reaches_half_a_gram() {
         );
     }
 }
+
+/// The table the firmware build carries is what `tactile calibrate` writes for the simulated
+/// finger today (regenerate it with `cargo run --release -p sim-host --bin tactile --
+/// calibrate --out boards/calibration/table.bin` when the calibration changes).
+#[test]
+fn the_committed_calibration_table_is_the_simulators() {
+    use sim_host::calibrate::{calibrate_simulated, CALIBRATION_TAXELS};
+    let committed = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../boards/calibration/table.bin"),
+    )
+    .unwrap();
+    let (table, _) = calibrate_simulated(&CALIBRATION_TAXELS, FINGER_SEED, 1.0).unwrap();
+    let mut fresh = vec![0u8; table.encoded_len()];
+    table.encode(&mut fresh).unwrap();
+    assert!(
+        committed == fresh,
+        "boards/calibration/table.bin is stale: regenerate it with `tactile calibrate`"
+    );
+    let decoded = tactile_core::calibration::CalibrationTable::decode(&committed).unwrap();
+    assert_eq!(decoded.taxels.len(), 4);
+}

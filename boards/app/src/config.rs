@@ -1,6 +1,7 @@
 //! What a firmware build runs with.
 
 use tactile_core::control::{ActuatorConfig, ForceLawConfig};
+use tactile_core::estimator::EstimatorKind;
 use tactile_core::filter::{FilterError, LowpassNotchConfig};
 use tactile_core::gauge::{AdcScale, GaugeConfig};
 use tactile_core::supervisor::SupervisorConfig;
@@ -27,7 +28,20 @@ pub struct FirmwareConfig {
     pub estimator: SecondOrder,
     /// The force loop's fault thresholds.
     pub supervisor: SupervisorConfig,
+    /// The per-taxel calibration table, checked at start-up; a refused table leaves every
+    /// taxel on the nominal models and the scanner reports why.
+    pub calibration: &'static [u8],
+    /// The estimator every taxel of the array runs (the probed taxel also runs all four side
+    /// by side, for the comparison stream).
+    pub array_estimator: EstimatorKind,
 }
+
+/// The calibration table this build carries: `tactile calibrate --out
+/// boards/calibration/table.bin` writes it (from a board's calibration records, or the
+/// simulated finger's); the committed one is the simulated finger's four taxels. A board keeps
+/// it in flash at a fixed place ([`CALIBRATION_TABLE`] is linked there on the F407).
+pub static CALIBRATION_TABLE: [u8; include_bytes!("../../calibration/table.bin").len()] =
+    *include_bytes!("../../calibration/table.bin");
 
 impl FirmwareConfig {
     /// A real board: the memo's law as built (K_e = 1; see the README's design decisions for
@@ -43,6 +57,8 @@ impl FirmwareConfig {
         probe: TaxelId::from_index(3 * 8 + 2),
         estimator: SecondOrder::MEMO_FIT,
         supervisor: SupervisorConfig::DESIGN,
+        calibration: &CALIBRATION_TABLE,
+        array_estimator: EstimatorKind::Observer,
     };
 }
 

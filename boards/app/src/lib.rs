@@ -41,5 +41,5 @@ pub use board::{ControlIo, ScanIo};
 pub use config::{ConfigError, FirmwareConfig, CONTROL_PERIOD_S};
 pub use control::Controller;
 pub use safety::{CheckIns, ResetCause, SafeStop};
-pub use scan::{ArrayEstimate, ScanReport, Scanner};
+pub use scan::{ArrayEstimate, CalibrationStatus, ScanReport, Scanner};
 pub use telemetry::{Message, Numbered, Outbox, RunEnd, RunStart};

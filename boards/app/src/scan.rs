@@ -5,13 +5,13 @@
 //! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
+use tactile_core::calibration::{TableError, TableView, TaxelModel};
+use tactile_core::estimator::{TaxelEstimator, TaxelEstimators};
 use tactile_core::gauge::AdcScale;
 use tactile_core::tactile::{
-    ArrayFrame, ScanConfig, ScanSequencer, StrainForm, TaxelCalibration, TaxelId, COLS, ROWS,
-    TAXELS,
+    ArrayFrame, ScanSequencer, StrainForm, TaxelCalibration, TaxelId, COLS, ROWS, TAXELS,
 };
 use tactile_core::telemetry::TaxelFrame;
-use tactile_core::viscoelastic::{InverseEstimator, SecondOrder};
 
 use crate::board::ScanIo;
 use crate::config::{ConfigError, FirmwareConfig};
@@ -32,6 +32,19 @@ pub struct ArrayEstimate {
     pub centroid_col: f32,
     /// The probed element's force from the scan (frame rate), grams.
     pub probe_force_g: f32,
+    /// The probed element's force by every estimator, side by side (elastic, second-order
+    /// inverse, scheduled inverse, observer), grams.
+    pub probe_estimates_g: [f32; 4],
+}
+
+/// What the scanner made of the calibration table at start-up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CalibrationStatus {
+    /// Taxels running their own calibration (the rest run the nominal models).
+    pub calibrated_taxels: u8,
+    /// Why the table was refused, if it was.
+    pub refused: Option<TableError>,
 }
 
 /// A completed frame.
@@ -50,18 +63,61 @@ pub struct Scanner {
     probe: TaxelId,
     strain_pct: ArrayFrame<f32>,
     force_g: ArrayFrame<f32>,
-    estimators: [InverseEstimator; TAXELS],
+    estimators: [TaxelEstimator; TAXELS],
+    /// Each taxel's strain offset from its calibration, percent.
+    offsets_pct: [f32; TAXELS],
+    probe_bench: TaxelEstimators,
+    probe_estimates_g: [f32; 4],
+    status: CalibrationStatus,
     bad_taxels: u64,
 }
 
 impl Scanner {
-    /// A scanner with each taxel's rest calibration; the per-taxel inverse is discretized at
-    /// the frame period (each taxel is sampled once per frame).
+    /// A scanner with each taxel's rest calibration and, from the configuration's table, its
+    /// dynamic calibration (nominal models where the table has none, or when it is refused);
+    /// every estimator is discretized at the frame period (each taxel is sampled once a frame).
     pub fn new(
         config: &FirmwareConfig,
         calibration: [TaxelCalibration; TAXELS],
     ) -> Result<Self, ConfigError> {
-        let model = Self::frame_model(&config.estimator, &config.scan)?;
+        let frame_s = f64::from(config.scan.frame_period_s());
+        let (view, status) = match TableView::check(config.calibration) {
+            Ok(v) => (
+                Some(v),
+                CalibrationStatus {
+                    calibrated_taxels: v.len() as u8,
+                    refused: None,
+                },
+            ),
+            Err(e) => (
+                None,
+                CalibrationStatus {
+                    calibrated_taxels: 0,
+                    refused: Some(e),
+                },
+            ),
+        };
+        let model = |taxel: TaxelId| {
+            view.and_then(|v| v.get(taxel))
+                .unwrap_or_else(|| TaxelModel::nominal(taxel))
+        };
+        let probe_model = model(config.probe);
+        let probe_bench =
+            TaxelEstimators::new(&probe_model, frame_s).map_err(ConfigError::Estimator)?;
+        let first = TaxelEstimator::new(config.array_estimator, &probe_model, frame_s)
+            .map_err(ConfigError::Estimator)?;
+        let mut estimators = [first; TAXELS];
+        let mut offsets_pct = [0.0f32; TAXELS];
+        for (i, (est, offset)) in estimators
+            .iter_mut()
+            .zip(offsets_pct.iter_mut())
+            .enumerate()
+        {
+            let m = model(TaxelId::from_index(i));
+            *est = TaxelEstimator::new(config.array_estimator, &m, frame_s)
+                .map_err(ConfigError::Estimator)?;
+            *offset = m.strain_offset_pct as f32;
+        }
         Ok(Self {
             sequencer: ScanSequencer::new(),
             calibration,
@@ -69,18 +125,28 @@ impl Scanner {
             probe: config.probe,
             strain_pct: ArrayFrame::default(),
             force_g: ArrayFrame::default(),
-            estimators: [InverseEstimator::new(model); TAXELS],
+            estimators,
+            offsets_pct,
+            probe_bench,
+            probe_estimates_g: [0.0; 4],
+            status,
             bad_taxels: 0,
         })
     }
 
-    fn frame_model(
-        estimator: &SecondOrder,
-        scan: &ScanConfig,
-    ) -> Result<tactile_core::viscoelastic::Discrete2<f32>, ConfigError> {
-        estimator
-            .inverse(f64::from(scan.frame_period_s()))
-            .map_err(ConfigError::Estimator)
+    /// The probed taxel's side-by-side estimators (a copy, to time each on its own).
+    pub fn probe_bench(&self) -> TaxelEstimators {
+        self.probe_bench
+    }
+
+    /// The probed taxel's latest strain, percent.
+    pub fn probe_strain_pct(&self) -> f32 {
+        self.strain_pct.get(self.probe).unwrap_or(0.0)
+    }
+
+    /// What the scanner made of the calibration table.
+    pub fn calibration_status(&self) -> CalibrationStatus {
+        self.status
     }
 
     /// Selects the first taxel (call once before the first dwell).
@@ -106,11 +172,15 @@ impl Scanner {
             cal.strain_pct(self.adc.volts(code), StrainForm::Exact)
         });
         self.strain_pct.set(taxel, strain);
+        let offset = self.offsets_pct.get(taxel.index()).copied().unwrap_or(0.0);
         let force = self
             .estimators
             .get_mut(taxel.index())
-            .map_or(0.0, |e| e.force_g(strain));
+            .map_or(0.0, |e| e.force_g(strain - offset));
         self.force_g.set(taxel, force);
+        if taxel == self.probe {
+            self.probe_estimates_g = self.probe_bench.update(strain);
+        }
         step.frame_complete.then(|| self.report(board_tick))
     }
 
@@ -154,6 +224,7 @@ impl Scanner {
                 centroid_row,
                 centroid_col,
                 probe_force_g: self.force_g.get(self.probe).unwrap_or(0.0),
+                probe_estimates_g: self.probe_estimates_g,
             },
         }
     }
@@ -167,6 +238,7 @@ impl Scanner {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::CALIBRATION_TABLE;
     use tactile_core::gauge::AdcCode;
 
     /// A fake multiplexer: per-taxel output volts, converted by the memo's converter.
@@ -195,10 +267,21 @@ mod tests {
 
     #[test]
     fn one_pressed_taxel_puts_the_centroid_on_it_and_a_railed_one_is_left_out() {
-        let config = FirmwareConfig::BOARD;
+        // Nominal models everywhere (no table), so every unpressed taxel reads zero force.
+        let config = FirmwareConfig {
+            calibration: &[],
+            ..FirmwareConfig::BOARD
+        };
         // The rest output as the converter reads it, so unpressed taxels read zero strain.
         let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
         let mut scanner = Scanner::new(&config, calibration(rest_v)).unwrap();
+        assert_eq!(
+            scanner.calibration_status().refused,
+            Some(TableError::TooShort {
+                bytes: 0,
+                needed: 8
+            })
+        );
         let mut panel = Panel {
             volts: [4.0; TAXELS],
             selected: TaxelId::default(),
@@ -232,5 +315,35 @@ mod tests {
             .find_map(|k| quiet.step(&mut panel, k as u32))
             .unwrap();
         assert!(r.estimate.centroid_row.is_nan() && r.estimate.total_force_g.abs() < 0.5);
+    }
+
+    #[test]
+    fn the_build_carries_a_table_of_four_calibrated_taxels_and_a_damaged_one_is_refused() {
+        let rest = [TaxelCalibration {
+            amplifier: tactile_core::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
+            rest_output_v: 4.0,
+            gain: 1.0,
+        }; TAXELS];
+        let scanner = Scanner::new(&FirmwareConfig::BOARD, rest).unwrap();
+        assert_eq!(
+            scanner.calibration_status(),
+            CalibrationStatus {
+                calibrated_taxels: 4,
+                refused: None
+            }
+        );
+        let mut damaged = CALIBRATION_TABLE.to_vec();
+        damaged[100] ^= 1;
+        let leaked: &'static [u8] = Box::leak(damaged.into_boxed_slice());
+        let config = FirmwareConfig {
+            calibration: leaked,
+            ..FirmwareConfig::BOARD
+        };
+        let status = Scanner::new(&config, rest).unwrap().calibration_status();
+        assert!(
+            matches!(status.refused, Some(TableError::Checksum { .. })),
+            "{status:?}"
+        );
+        assert_eq!(status.calibrated_taxels, 0);
     }
 }

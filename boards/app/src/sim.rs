@@ -25,6 +25,7 @@ impl FirmwareConfig {
             probe: rig.probe,
             estimator: rig.estimator,
             supervisor: rig.supervisor,
+            ..FirmwareConfig::BOARD
         }
     }
 }

@@ -308,6 +308,12 @@ fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
         centroid_row: f.num("centroid_row")?,
         centroid_col: f.num("centroid_col")?,
         probe_force_g: f.num("probe_force_g")?,
+        probe_estimates_g: {
+            let v: Vec<f32> = f.numbers("probe_estimates_g")?;
+            v.try_into().map_err(|v: Vec<f32>| {
+                format!("probe_estimates_g: {} values, expected 4", v.len())
+            })?
+        },
     })
 }
 
@@ -425,18 +431,19 @@ pub fn write_run(
     }
     writeln!(
         w,
-        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g"
+        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g,probe_elastic_g,probe_second_order_g,probe_scheduled_g,probe_observer_g"
     )?;
     for (f, e) in &run.frames {
         if let Some(e) = e {
             writeln!(
                 w,
-                "{:.4},{:.3},{:.3},{:.3},{:.3}",
+                "{:.4},{:.3},{:.3},{:.3},{:.3},{}",
                 run.tick_time_s(f.tick) + TICK_S,
                 e.total_force_g,
                 e.centroid_row,
                 e.centroid_col,
-                e.probe_force_g
+                e.probe_force_g,
+                e.probe_estimates_g.map(|v| format!("{v:.3}")).join(",")
             )?;
         }
     }

@@ -70,6 +70,7 @@ mod app {
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::{SCB, SYST};
     use heapless::spsc::{Consumer, Queue};
+    use tactile_core::estimator::EstimatorKind;
     use tactile_firmware::{Controller, Message, Outbox, RunEnd, RunStart, Scanner};
     use tactile_plant::hardware::SimHardware;
     use tactile_plant::rig::InjectedFault;
@@ -279,7 +280,8 @@ mod app {
         }
     }
 
-    #[task(priority = 2, shared = [hw, cost], local = [scanner, taxel_out, started: bool = false])]
+    #[task(priority = 2, shared = [hw, cost], local = [scanner, taxel_out, started: bool = false,
+           bench: Option<tactile_core::estimator::TaxelEstimators> = None])]
     async fn scan(mut cx: scan::Context, tick: u32) {
         let local = cx.local;
         if session::RESET_SCANNER.swap(false, Ordering::AcqRel) {
@@ -290,6 +292,11 @@ mod app {
             }
             *local.started = false;
         }
+        let bench = local.bench.get_or_insert_with(|| {
+            let status = local.scanner.calibration_status();
+            defmt::info!("{}", status);
+            local.scanner.probe_bench()
+        });
         for _ in 0..SCAN_STEPS_PER_TICK {
             let scanner = &mut **local.scanner;
             let started = &mut *local.started;
@@ -308,11 +315,29 @@ mod app {
                 let t1 = SYST::get_current();
                 (report, elapsed(t0, t1))
             });
+            // Once a frame, each estimator's update on the probed taxel's strain, timed alone.
+            let mut per_estimator = [None; 4];
+            if report.is_some() {
+                let strain = bench.corrected(scanner.probe_strain_pct());
+                for (slot, kind) in per_estimator.iter_mut().zip(EstimatorKind::ALL) {
+                    let estimator = bench.estimator_mut(kind);
+                    let t0 = SYST::get_current();
+                    let force = estimator.force_g(strain);
+                    let t1 = SYST::get_current();
+                    core::hint::black_box(force);
+                    *slot = Some(elapsed(t0, t1));
+                }
+            }
             cx.shared.cost.lock(|c| {
                 if report.is_some() {
                     c.scan_frame_step.observe(counts);
                 } else {
                     c.scan_step.observe(counts);
+                }
+                for (span, counts) in c.estimator_update.iter_mut().zip(per_estimator) {
+                    if let Some(n) = counts {
+                        span.observe(n);
+                    }
                 }
             });
             if let Some(r) = report {

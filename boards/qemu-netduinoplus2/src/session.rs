@@ -146,6 +146,9 @@ pub struct Cost {
     pub scan_step: Span,
     /// The scan step that completes a frame (adds the array sums and the frame).
     pub scan_frame_step: Span,
+    /// One taxel update of each estimator (elastic, second-order inverse, scheduled inverse,
+    /// observer), timed one at a time on the probed taxel's strain.
+    pub estimator_update: [Span; 4],
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, defmt::Format)]
@@ -161,6 +164,8 @@ pub struct InstructionCounts {
     pub control_tick: InstructionSpan,
     pub scan_step: InstructionSpan,
     pub scan_frame_step: InstructionSpan,
+    /// Per taxel update: elastic, second-order inverse, scheduled inverse, observer.
+    pub estimator_update: [InstructionSpan; 4],
     pub simulated_plant_ms: InstructionSpan,
 }
 
@@ -170,6 +175,7 @@ impl Cost {
             control_tick: self.control.instructions(),
             scan_step: self.scan_step.instructions(),
             scan_frame_step: self.scan_frame_step.instructions(),
+            estimator_update: self.estimator_update.map(|s| s.instructions()),
             simulated_plant_ms: self.physics.instructions(),
         }
     }
