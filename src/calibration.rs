@@ -15,6 +15,14 @@ use crate::estimator::SCHEDULE_POINTS;
 use crate::tactile::{TaxelId, TAXELS};
 use crate::viscoelastic::{MaxwellKelvin, NonlinearMk, SecondOrder, SpringLaw};
 
+/// CRC-32 (IEEE, as zlib and Ethernet compute it), bit by bit: a lookup table would cost
+/// the firmware 1–16 KB of flash to check a 700-byte table once at start-up.
+fn crc32(bytes: &[u8]) -> u32 {
+    const CRC: crc::Crc<u32, crc::NoTable> =
+        crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
+    CRC.checksum(bytes)
+}
+
 pub const MAGIC: [u8; 4] = *b"TCAL";
 pub const VERSION: u16 = 1;
 const HEADER_BYTES: usize = 8;
@@ -260,7 +268,7 @@ impl CalibrationTable {
             }
         }
         let body = needed - CRC_BYTES;
-        let crc = crc32fast::hash(buf.get(..body).unwrap_or(&[]));
+        let crc = crc32(buf.get(..body).unwrap_or(&[]));
         if let Some(slot) = buf.get_mut(body..needed) {
             slot.copy_from_slice(&crc.to_le_bytes());
         }
@@ -326,7 +334,7 @@ impl<'a> TableView<'a> {
             stored.get(2).copied().unwrap_or(0),
             stored.get(3).copied().unwrap_or(0),
         ]);
-        let computed = crc32fast::hash(contents);
+        let computed = crc32(contents);
         if stored != computed {
             return Err(TableError::Checksum { stored, computed });
         }
@@ -474,7 +482,7 @@ mod tests {
         // Well-formed but wrong inside (checksum recomputed): a position off the array.
         let mut off = good.clone();
         off[8] = 9;
-        let crc = crc32fast::hash(&off[..n - 4]);
+        let crc = crc32(&off[..n - 4]);
         off[n - 4..].copy_from_slice(&crc.to_le_bytes());
         assert_eq!(
             CalibrationTable::decode(&off),
@@ -492,6 +500,12 @@ mod tests {
             Err(TableError::BufferTooSmall { .. })
         ));
         assert!(TableError::BadMagic.to_string().contains("TCAL"));
+    }
+
+    #[test]
+    fn crc_is_the_ieee_check_value() {
+        // The CRC catalogue's check value of CRC-32/ISO-HDLC for "123456789".
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     }
 
     #[test]

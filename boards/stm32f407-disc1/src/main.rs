@@ -157,6 +157,9 @@ mod app {
             board: &mut scan_board,
         });
         defmt::info!("tactile-f407: protocol {=str}", PROTOCOL_NAME);
+        // The dynamic calibration table (boards/calibration/table.bin, compiled in): how many
+        // taxels run their own models, or why the table was refused (then all run nominal).
+        defmt::info!("{}", scanner.calibration_status());
 
         let (control_tx, control_rx) = cx.local.control_queue.split();
         let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
