@@ -255,15 +255,24 @@ impl CalibrationTable {
             .get_mut(..needed)
             .ok_or(TableError::BufferTooSmall { needed })?;
         let (header, rest) = buf.split_at_mut(HEADER_BYTES);
-        header[..4].copy_from_slice(&MAGIC);
-        header[4..6].copy_from_slice(&VERSION.to_le_bytes());
-        header[6..8].copy_from_slice(&(self.taxels.len() as u16).to_le_bytes());
+        let (version, count) = (
+            VERSION.to_le_bytes(),
+            (self.taxels.len() as u16).to_le_bytes(),
+        );
+        let head = MAGIC.iter().chain(&version).chain(&count);
+        for (slot, b) in header.iter_mut().zip(head) {
+            *slot = *b;
+        }
         for (record, model) in rest.chunks_exact_mut(RECORD_BYTES).zip(&self.taxels) {
-            record[0] = model.taxel.row() as u8;
-            record[1] = model.taxel.col() as u8;
-            record[2] = model.schedule.len() as u8;
-            record[3] = 0;
-            for (slot, v) in record[4..].chunks_exact_mut(4).zip(model.floats()) {
+            let (lead, floats) = record.split_at_mut(4);
+            let position = [
+                model.taxel.row() as u8,
+                model.taxel.col() as u8,
+                model.schedule.len() as u8,
+                0,
+            ];
+            lead.copy_from_slice(&position);
+            for (slot, v) in floats.chunks_exact_mut(4).zip(model.floats()) {
                 slot.copy_from_slice(&v.to_le_bytes());
             }
         }

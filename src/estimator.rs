@@ -61,17 +61,14 @@ impl ChainStep {
         let p = [(e1 - root) / 2.0, (e1 + root) / 2.0];
         // Strictly proper remainder (n₁s + n₀)/(b₀(s + p₁)(s + p₂)).
         let (n1, n0) = (so.a1 - e1, so.a2 - e0);
-        let residue = |i: usize| {
-            let (pi, pj) = (p[i], p[1 - i]);
-            (n1 * -pi + n0) / (so.b0 * (pj - pi))
+        let [p1, p2] = p;
+        let residue = |pi: f64, pj: f64| (n1 * -pi + n0) / (so.b0 * (pj - pi));
+        let branch = |pi: f64, pj: f64| {
+            let decay = libm::exp(-pi * dt_s);
+            (decay as f32, (residue(pi, pj) * (1.0 - decay) / pi) as f32)
         };
-        let mut phi = [0.0f32; 2];
-        let mut gain = [0.0f32; 2];
-        for i in 0..2 {
-            let decay = libm::exp(-p[i] * dt_s);
-            phi[i] = decay as f32;
-            gain[i] = (residue(i) * (1.0 - decay) / p[i]) as f32;
-        }
+        let ((phi1, gain1), (phi2, gain2)) = (branch(p1, p2), branch(p2, p1));
+        let (phi, gain) = ([phi1, phi2], [gain1, gain2]);
         Ok(ChainStep {
             load_g,
             g0: so.b0 as f32,
@@ -116,13 +113,9 @@ impl Schedule {
             *slot = ChainStep::from_second_order(*load, so, dt_s)?;
         }
         s.len = fits.len();
-        // Insertion sort by load (four entries at most).
-        for i in 1..s.len {
-            let mut j = i;
-            while j > 0 && s.points[j - 1].load_g > s.points[j].load_g {
-                s.points.swap(j - 1, j);
-                j -= 1;
-            }
+        // Sorted by load (NaN was refused above, so the order is total).
+        if let Some(used) = s.points.get_mut(..fits.len()) {
+            used.sort_unstable_by(|a, b| a.load_g.total_cmp(&b.load_g));
         }
         Ok(s)
     }
@@ -138,7 +131,7 @@ impl Schedule {
         let (Some(first), Some(last)) = (pts.first(), pts.last()) else {
             return ChainStep::default();
         };
-        if !(load_g > first.load_g) {
+        if load_g.is_nan() || load_g <= first.load_g {
             return *first;
         }
         if load_g >= last.load_g {
@@ -374,7 +367,7 @@ impl MkObserver {
         // P hᵀ with h = [1, 1, 1].
         let ph = [pss + psk + psm, psk + pkk + pkm, psm + pkm + pmm];
         let innovation_var = ph[0] + ph[1] + ph[2] + self.r;
-        if !(innovation_var > 0.0) {
+        if innovation_var.is_nan() || innovation_var <= 0.0 {
             return;
         }
         let gain = ph.map(|v| v / innovation_var);
@@ -398,7 +391,7 @@ impl MkObserver {
     fn project_nonnegative(&mut self) {
         let s = self.x[0];
         let [pss, psk, psm, pkk, pkm, pmm] = self.p;
-        if s >= 0.0 || !(pss > 0.0) {
+        if s >= 0.0 || pss.is_nan() || pss <= 0.0 {
             return;
         }
         self.x = [0.0, self.x[1] - psk / pss * s, self.x[2] - psm / pss * s];

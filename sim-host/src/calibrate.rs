@@ -57,7 +57,7 @@ pub fn fit_taxel(
     let Protocol::Calibration { per_offset_s, .. } = protocol else {
         return Err("a taxel is calibrated from a record of the calibration protocol".into());
     };
-    if force_g.len() != strain_pct.len() || !(dt_s > 0.0) {
+    if force_g.len() != strain_pct.len() || dt_s.is_nan() || dt_s <= 0.0 {
         return Err("force and strain must have the same, evenly sampled length".into());
     }
     let needed_s = f64::from(per_offset_s) * CALIBRATION_OFFSETS_G.len() as f64;
