@@ -23,17 +23,7 @@ pub const FIT_DT_S: f64 = 0.005;
 /// Time left out at the start of each load level (the slew and the transient), s.
 const SETTLE_S: f64 = 2.0;
 
-/// The taxels the simulator and the QEMU firmware calibrate: the nominal element 4,2 (row 3,
-/// column 2 from zero) and three others of the simulated finger's spread.
-pub const CALIBRATION_TAXELS: [TaxelId; 4] = [
-    TaxelId::from_index(3 * 8 + 2),
-    TaxelId::from_index(8 + 5),
-    TaxelId::from_index(5 * 8 + 1),
-    TaxelId::from_index(6 * 8 + 6),
-];
-
-/// Seed of the simulated finger the calibration examples and tests use.
-pub const FINGER_SEED: u64 = 7;
+pub use crate::finger::{CALIBRATION_FINGER_SEED as FINGER_SEED, CALIBRATION_TAXELS};
 
 /// What a taxel's calibration fitted, for the report.
 #[derive(Clone, Debug, serde::Serialize)]

@@ -35,7 +35,9 @@ pub mod telemetry;
 #[cfg(any(test, feature = "sim"))]
 pub mod sim;
 #[cfg(any(test, feature = "sim"))]
-pub use sim::{DeliberateCrash, FilRun, FIL_SESSION};
+pub use sim::{
+    session_from_cmdline, DeliberateCrash, FilRun, Session, CALIBRATION_SESSION, FIL_SESSION,
+};
 
 pub use board::{ControlIo, ScanIo};
 pub use config::{ConfigError, FirmwareConfig, CONTROL_PERIOD_S};

@@ -5,6 +5,7 @@
 use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::TaxelId;
+use tactile_plant::finger::{CALIBRATION_FINGER_SEED, CALIBRATION_TAXELS};
 use tactile_plant::hardware::SimHardware;
 use tactile_plant::rig::{FaultInjection, InjectedFault, RigConfig};
 
@@ -39,15 +40,84 @@ pub struct FilRun {
     pub name: &'static str,
     pub protocol: Protocol,
     pub fault: Option<FaultInjection>,
+    /// The probe over another taxel of another finger (taxel, finger seed); the simulator's
+    /// default rig otherwise.
+    pub finger: Option<(TaxelId, u64)>,
 }
 
 impl FilRun {
-    /// The rig this run's board is built from (the simulator's own rig, plus the fault).
+    /// The rig this run's board is built from (the simulator's own rig, plus the fault and
+    /// the probe's place).
     pub fn rig(&self) -> RigConfig {
-        RigConfig {
+        let base = RigConfig {
             fault: self.fault,
             ..RigConfig::default()
+        };
+        match self.finger {
+            Some((probe, seed)) => RigConfig {
+                probe,
+                seed,
+                ..base
+            },
+            None => base,
         }
+    }
+}
+
+const fn calibration_run(name: &'static str, k: usize) -> FilRun {
+    FilRun {
+        name,
+        protocol: Protocol::CALIBRATION,
+        fault: None,
+        finger: Some((CALIBRATION_TAXELS[k], CALIBRATION_FINGER_SEED)),
+    }
+}
+
+/// The QEMU calibration session (`-append "session=calibration"`): the calibration protocol
+/// with the probe over each of the four calibration taxels of the simulated finger in turn,
+/// recorded over defmt for `tactile calibrate`.
+pub const CALIBRATION_SESSION: [FilRun; 4] = [
+    calibration_run("calibrate-3-2", 0),
+    calibration_run("calibrate-1-5", 1),
+    calibration_run("calibrate-5-1", 2),
+    calibration_run("calibrate-6-6", 3),
+];
+
+/// The sessions the QEMU firmware can run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Session {
+    /// [`FIL_SESSION`] (the default).
+    FirmwareInTheLoop,
+    /// [`CALIBRATION_SESSION`] (`session=calibration`).
+    Calibration,
+}
+
+impl Session {
+    pub fn runs(self) -> &'static [FilRun] {
+        match self {
+            Session::FirmwareInTheLoop => &FIL_SESSION,
+            Session::Calibration => &CALIBRATION_SESSION,
+        }
+    }
+}
+
+/// Which session the QEMU firmware runs, from its semihosting command line.
+pub fn session_from_cmdline(cmdline: &[u8]) -> Session {
+    let end = cmdline
+        .iter()
+        .position(|&b| b == 0)
+        .unwrap_or(cmdline.len());
+    let text = cmdline
+        .get(..end)
+        .and_then(|b| core::str::from_utf8(b).ok())
+        .unwrap_or("");
+    if text
+        .split_ascii_whitespace()
+        .any(|w| w == "session=calibration")
+    {
+        Session::Calibration
+    } else {
+        Session::FirmwareInTheLoop
     }
 }
 
@@ -73,6 +143,7 @@ const fn fault_run(name: &'static str, fault: InjectedFault) -> FilRun {
             fault,
             at_s: FIL_FAULT_AT_S,
         }),
+        finger: None,
     }
 }
 
@@ -86,11 +157,13 @@ pub const FIL_SESSION: [FilRun; 5] = [
         name: "force-steps",
         protocol: Protocol::FORCE_STEPS_MEMO,
         fault: None,
+        finger: None,
     },
     FilRun {
         name: "pseudo-random",
         protocol: pseudo_random(FIL_PSEUDO_RANDOM_S),
         fault: None,
+        finger: None,
     },
     fault_run("fault-gauge-disconnected", InjectedFault::GaugeDisconnected),
     fault_run("fault-force-spike", InjectedFault::ForceSpike { g: 80.0 }),
@@ -273,6 +346,28 @@ mod tests {
         assert_eq!(crash("fw panic-at-tick="), None);
         assert_eq!(crash(""), None);
         assert_eq!(DeliberateCrash::from_cmdline(&[0xff, 0xfe]), None);
+    }
+
+    #[test]
+    fn the_session_is_chosen_on_the_command_line() {
+        assert_eq!(session_from_cmdline(b"fw\0"), Session::FirmwareInTheLoop);
+        assert_eq!(
+            session_from_cmdline(b"fw session=calibration\0junk"),
+            Session::Calibration
+        );
+        assert_eq!(
+            session_from_cmdline(b"fw session=calib"),
+            Session::FirmwareInTheLoop
+        );
+        assert_eq!(Session::Calibration.runs(), &CALIBRATION_SESSION[..]);
+        // Each calibration run puts the probe over its own taxel of the calibration finger.
+        let probes: Vec<_> = CALIBRATION_SESSION.iter().map(|r| r.rig().probe).collect();
+        assert_eq!(probes, CALIBRATION_TAXELS);
+        for r in &CALIBRATION_SESSION {
+            let (row, col) = (r.rig().probe.row(), r.rig().probe.col());
+            assert_eq!(r.name, format!("calibrate-{row}-{col}"));
+            assert_eq!(r.rig().seed, CALIBRATION_FINGER_SEED);
+        }
     }
 
     #[test]

@@ -57,15 +57,21 @@ pub fn stop() -> ! {
 }
 
 /// The crash the command line asks for, if any.
-pub fn requested() -> Option<DeliberateCrash> {
+pub fn requested(cmdline: &[u8]) -> Option<DeliberateCrash> {
+    DeliberateCrash::from_cmdline(cmdline)
+}
+
+/// The semihosting command line (the ELF's path, then `-append`'s words), NUL-terminated;
+/// empty if the host gives none.
+pub fn cmdline() -> [u8; 256] {
     let mut cmdline = [0u8; 256];
     // SAFETY: SYS_GET_CMDLINE writes at most `len` bytes (NUL included) into the buffer.
     let status =
         unsafe { cortex_m_semihosting::syscall!(GET_CMDLINE, cmdline.as_mut_ptr(), cmdline.len()) };
     if status != 0 {
-        return None;
+        return [0u8; 256];
     }
-    DeliberateCrash::from_cmdline(&cmdline)
+    cmdline
 }
 
 /// Crashes as asked when the control task reaches the requested tick.

@@ -75,7 +75,7 @@ mod app {
     use tactile_plant::hardware::SimHardware;
     use tactile_plant::rig::InjectedFault;
 
-    use crate::session::{self, Cost, SimTruth, RUNS};
+    use crate::session::{self, runs, Cost, SimTruth};
     use core::mem::MaybeUninit;
 
     /// Core clock of the netduinoplus2 model (and of the F407 board), Hz.
@@ -127,11 +127,13 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         session::paint_stack();
-        defmt::info!("tactile-qemu: {=usize} runs", RUNS.len());
+        let cmdline = crate::crash::cmdline();
+        session::choose(&cmdline);
+        defmt::info!("tactile-qemu: {=usize} runs", runs().len());
         // Built straight into their statics: the stack never holds a whole board.
         let hw: &'static mut SimHardware =
             crate::crash::arm(cx.local.hw_slot.write(session::board()));
-        let crash = crate::crash::requested();
+        let crash = crate::crash::requested(&cmdline);
         if let Some(c) = crash {
             defmt::warn!("deliberate crash requested: {}", defmt::Debug2Format(&c));
         }
@@ -200,7 +202,7 @@ mod app {
             session::RESET_SCANNER.store(true, Ordering::Release);
         }
         if !core::mem::replace(local.started, true) {
-            if let Some(run) = RUNS.get(*local.run) {
+            if let Some(run) = runs().get(*local.run) {
                 local.control_out.send(Message::Start(RunStart {
                     name: run.name,
                     start_tick: tick,
@@ -250,7 +252,7 @@ mod app {
                 overruns: controller.overruns(),
             }));
             *local.run += 1;
-            if *local.run < RUNS.len() {
+            if *local.run < runs().len() {
                 // Swapped at the next tick, once this tick's scan has run on this board.
                 *local.pending_reset = true;
             } else {

@@ -1,7 +1,7 @@
 //! What the QEMU firmware runs: the protocols, a fresh simulated board and fresh task state per
 //! run, the simulator truth that rides with each control frame, and the instruction counts.
 
-use core::sync::atomic::AtomicBool;
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{TaxelCalibration, TAXELS};
@@ -9,8 +9,27 @@ use tactile_firmware::{Controller, FirmwareConfig, Scanner};
 use tactile_plant::hardware::SimHardware;
 use tactile_plant::rig::RigConfig;
 
-/// The session's runs (shared with the QEMU test, which replays them on the host simulator).
-pub use tactile_firmware::FIL_SESSION as RUNS;
+use tactile_firmware::FilRun;
+
+/// Set at start-up when the command line asks for the calibration session.
+static CALIBRATION: AtomicBool = AtomicBool::new(false);
+
+/// Chooses the session from the semihosting command line (call first in `init`).
+pub fn choose(cmdline: &[u8]) {
+    let calibration =
+        tactile_firmware::session_from_cmdline(cmdline) == tactile_firmware::Session::Calibration;
+    CALIBRATION.store(calibration, Ordering::Release);
+}
+
+/// The session's runs (shared with the QEMU test, which replays them on the host simulator):
+/// the firmware-in-the-loop session, or the calibration session.
+pub fn runs() -> &'static [FilRun] {
+    if CALIBRATION.load(Ordering::Acquire) {
+        tactile_firmware::Session::Calibration.runs()
+    } else {
+        tactile_firmware::Session::FirmwareInTheLoop.runs()
+    }
+}
 
 /// Set by `control` when it replaced the board: the scan task starts a fresh scanner.
 pub static RESET_SCANNER: AtomicBool = AtomicBool::new(false);
@@ -18,7 +37,7 @@ pub static RESET_SCANNER: AtomicBool = AtomicBool::new(false);
 /// The simulator's rig configuration for run `run`: the firmware runs exactly what the host
 /// simulator runs, with that run's injected fault on the board.
 fn rig(run: usize) -> RigConfig {
-    RUNS.get(run).map_or_else(RigConfig::default, |r| r.rig())
+    runs().get(run).map_or_else(RigConfig::default, |r| r.rig())
 }
 
 /// The board of the session's first run, as the simulator's rig builds it.
@@ -31,7 +50,7 @@ pub fn board() -> SimHardware {
 #[inline(never)]
 pub fn task_state(run: usize, hw: &SimHardware) -> (Controller, Scanner) {
     let fw = FirmwareConfig::from_rig(&rig(run));
-    let protocol = RUNS
+    let protocol = runs()
         .get(run)
         .map_or(Protocol::FORCE_STEPS_MEMO, |r| r.protocol);
     let calibration = *hw.calibration();
@@ -49,7 +68,7 @@ pub fn task_state(run: usize, hw: &SimHardware) -> (Controller, Scanner) {
 pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
     let config = rig(run);
     let fw = FirmwareConfig::from_rig(&config);
-    let protocol = RUNS
+    let protocol = runs()
         .get(run)
         .map_or(Protocol::FORCE_STEPS_MEMO, |r| r.protocol);
     *hw = SimHardware::new(&config);

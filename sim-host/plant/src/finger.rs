@@ -75,6 +75,18 @@ fn scale_law(law: SpringLaw, s: f64) -> SpringLaw {
 /// one): the simulator's default probe position.
 pub const NOMINAL_TAXEL: TaxelId = TaxelId::from_index(3 * COLS + 2);
 
+/// The taxels the dynamic calibration visits, on the simulator and on the QEMU firmware: the
+/// nominal element and three others of the finger's spread.
+pub const CALIBRATION_TAXELS: [TaxelId; 4] = [
+    NOMINAL_TAXEL,
+    TaxelId::from_index(COLS + 5),
+    TaxelId::from_index(5 * COLS + 1),
+    TaxelId::from_index(6 * COLS + 6),
+];
+
+/// Seed of the simulated finger those calibrations run on.
+pub const CALIBRATION_FINGER_SEED: u64 = 7;
+
 /// Play-operator radii of the hysteresis model, grams.
 const PLAY_RADII_G: [f64; 3] = [2.0, 5.0, 10.0];
 /// Longest read-out delay the ring buffer holds, in control ticks.
