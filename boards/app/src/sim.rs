@@ -64,24 +64,27 @@ impl FilRun {
     }
 }
 
-const fn calibration_run(name: &'static str, k: usize) -> FilRun {
+const fn calibration_run(name: &'static str, taxel: TaxelId) -> FilRun {
     FilRun {
         name,
         protocol: Protocol::CALIBRATION,
         fault: None,
-        finger: Some((CALIBRATION_TAXELS[k], CALIBRATION_FINGER_SEED)),
+        finger: Some((taxel, CALIBRATION_FINGER_SEED)),
     }
 }
 
 /// The QEMU calibration session (`-append "session=calibration"`): the calibration protocol
 /// with the probe over each of the four calibration taxels of the simulated finger in turn,
 /// recorded over defmt for `tactile calibrate`.
-pub const CALIBRATION_SESSION: [FilRun; 4] = [
-    calibration_run("calibrate-3-2", 0),
-    calibration_run("calibrate-1-5", 1),
-    calibration_run("calibrate-5-1", 2),
-    calibration_run("calibrate-6-6", 3),
-];
+pub const CALIBRATION_SESSION: [FilRun; 4] = {
+    let [a, b, c, d] = CALIBRATION_TAXELS;
+    [
+        calibration_run("calibrate-3-2", a),
+        calibration_run("calibrate-1-5", b),
+        calibration_run("calibrate-5-1", c),
+        calibration_run("calibrate-6-6", d),
+    ]
+};
 
 /// The sessions the QEMU firmware can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
