@@ -595,26 +595,9 @@ mod tests {
 
     const FRAME_S: f64 = 0.016;
 
-    /// Steps in 20–40 g every 2–8 s (xorshift), sampled every `dt`.
+    /// Steps in 20–40 g every 2–8 s, sampled every `dt`.
     fn pseudo_random_stress(n: usize, dt: f64) -> Vec<f64> {
-        let mut state: u64 = 0x2545_F491_4F6C_DD1D;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let (mut level, mut until) = (30.0, 0.0);
-        (0..n)
-            .map(|k| {
-                let t = k as f64 * dt;
-                if t >= until {
-                    level = (level + 40.0 * next() - 20.0).clamp(20.0, 40.0);
-                    until = t + 2.0 + 6.0 * next();
-                }
-                level
-            })
-            .collect()
+        crate::test_support::pseudo_random_steps(n, dt, 0x2545_F491_4F6C_DD1D, 2.0, 6.0)
     }
 
     /// The element's strain under `stress` held over each frame (the form it is exact for).

@@ -47,3 +47,36 @@ pub mod viscoelastic;
 pub(crate) fn limit(x: f32, lo: f32, hi: f32) -> f32 {
     x.max(lo).min(hi)
 }
+
+/// Signals the unit tests share.
+#[cfg(test)]
+pub(crate) mod test_support {
+    /// Load steps in 20–40 g (each change uniform in ±20 g, clamped), held `dwell_min_s` plus
+    /// up to `dwell_span_s` (xorshift from `seed`), sampled every `dt_s`.
+    pub fn pseudo_random_steps(
+        n: usize,
+        dt_s: f64,
+        seed: u64,
+        dwell_min_s: f64,
+        dwell_span_s: f64,
+    ) -> Vec<f64> {
+        let mut state = seed;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut level, mut until) = (30.0, 0.0);
+        (0..n)
+            .map(|k| {
+                let t = k as f64 * dt_s;
+                if t >= until {
+                    level = (level + 40.0 * next() - 20.0).clamp(20.0, 40.0);
+                    until = t + dwell_min_s + dwell_span_s * next();
+                }
+                level
+            })
+            .collect()
+    }
+}

@@ -654,24 +654,9 @@ mod tests {
 
     /// A deterministic pseudo-random step sequence in 20–40 g (xorshift).
     fn pseudo_random_stress(n: usize, dt: f64) -> Vec<f32> {
-        let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let mut level = 30.0;
-        let mut until = 0.0;
-        (0..n)
-            .map(|k| {
-                let t = k as f64 * dt;
-                if t >= until {
-                    level = (level + 40.0 * next() - 20.0).clamp(20.0, 40.0);
-                    until = t + 0.5 + 4.0 * next();
-                }
-                level as f32
-            })
+        crate::test_support::pseudo_random_steps(n, dt, 0x9E37_79B9_7F4A_7C15, 0.5, 4.0)
+            .into_iter()
+            .map(|s| s as f32)
             .collect()
     }
 

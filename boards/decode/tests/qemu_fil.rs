@@ -89,6 +89,21 @@ fn run_qemu_for(elf: &Path, log: &Path, append: &str, timeout: Duration) -> bool
     }
 }
 
+/// The firmware built and an output folder, or `None` (said loudly) without QEMU.
+fn firmware_for(what: &str) -> Option<(std::path::PathBuf, std::path::PathBuf)> {
+    if !qemu_present() {
+        eprintln!(
+            "\n!!!!!!!! SKIPPED: {QEMU} is not installed, the {what} did NOT run \
+             (apt-get install -y qemu-system-arm; scripts/test-all.sh does this) !!!!!!!!\n"
+        );
+        return None;
+    }
+    let elf = build_firmware("fw-qemu", "tactile-qemu");
+    let dir = workspace().join("target/qemu-fil");
+    std::fs::create_dir_all(&dir).expect("output directory");
+    Some((elf, dir))
+}
+
 fn decode_log(elf: &Path, log: &Path) -> tactile_decode::Session {
     tactile_decode::decode(
         &std::fs::read(elf).expect("elf"),
@@ -231,16 +246,9 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn firmware_in_the_loop_tracks_like_the_simulator() {
-    if !qemu_present() {
-        eprintln!(
-            "\n!!!!!!!! SKIPPED: {QEMU} is not installed, the firmware-in-the-loop test did NOT run \
-             (apt-get install -y qemu-system-arm; scripts/test-all.sh does this) !!!!!!!!\n"
-        );
+    let Some((elf, dir)) = firmware_for("firmware-in-the-loop test") else {
         return;
-    }
-    let elf = build_firmware("fw-qemu", "tactile-qemu");
-    let dir = workspace().join("target/qemu-fil");
-    std::fs::create_dir_all(&dir).expect("output directory");
+    };
     let log = dir.join("session.defmt");
     assert!(
         run_qemu(&elf, &log, ""),
@@ -425,15 +433,9 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn a_panic_and_a_hardfault_zero_the_actuator_before_reporting() {
-    if !qemu_present() {
-        eprintln!(
-            "\n!!!!!!!! SKIPPED: {QEMU} is not installed, the crash test did NOT run !!!!!!!!\n"
-        );
+    let Some((elf, dir)) = firmware_for("crash test") else {
         return;
-    }
-    let elf = build_firmware("fw-qemu", "tactile-qemu");
-    let dir = workspace().join("target/qemu-fil");
-    std::fs::create_dir_all(&dir).expect("output directory");
+    };
     let zero = ActuatorConfig::MEMO.zero_code().0;
     // 1.2 s into force-steps: the first 10 g step is on.
     const CRASH_TICK: u32 = 1200;
@@ -487,15 +489,9 @@ fn calibration_on_the_firmware_end_to_end() {
     use tactile_core::calibration::CalibrationTable;
     use tactile_core::profile::Protocol;
     use tactile_firmware::CALIBRATION_SESSION;
-    if !qemu_present() {
-        eprintln!(
-            "\n!!!!!!!! SKIPPED: {QEMU} is not installed, the calibration test did NOT run !!!!!!!!\n"
-        );
+    let Some((elf, dir)) = firmware_for("calibration test") else {
         return;
-    }
-    let elf = build_firmware("fw-qemu", "tactile-qemu");
-    let dir = workspace().join("target/qemu-fil");
-    std::fs::create_dir_all(&dir).expect("output directory");
+    };
     let log = dir.join("calibration.defmt");
     assert!(
         run_qemu_for(&elf, &log, "session=calibration", CALIBRATION_TIMEOUT),
