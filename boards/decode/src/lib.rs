@@ -301,6 +301,36 @@ fn taxel_frame(f: &Fields) -> Result<TaxelFrame, String> {
     Ok(frame)
 }
 
+impl Session {
+    /// The estimators' figures of a firmware-in-the-loop session: their RMS on the
+    /// pseudo-random run (after its first second, the probe's approach) and the instructions
+    /// per taxel update the firmware measured. `None` without both.
+    pub fn estimator_figures(&self) -> Option<sim_host::estimators::FirmwareFigures> {
+        let run = self.run("pseudo-random")?;
+        let (rms_g, frames) = run.probe_estimator_rms(1.0);
+        let counts = self
+            .notes
+            .iter()
+            .flat_map(|n| text::parse_structs(n))
+            .find(|s| s.name == "InstructionCounts")?;
+        let f = counts.fields();
+        let spans: Vec<(u32, u32)> = text::parse_structs(f.text("estimator_update").ok()?)
+            .iter()
+            .filter(|s| s.name == "InstructionSpan")
+            .filter_map(|s| {
+                let f = s.fields();
+                Some((f.num("min").ok()?, f.num("max").ok()?))
+            })
+            .collect();
+        Some(sim_host::estimators::FirmwareFigures {
+            protocol: format!("pseudo-random, {:.0} s", run.duration_s),
+            frames,
+            rms_g,
+            instructions: spans.try_into().ok()?,
+        })
+    }
+}
+
 fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
     Ok(ArrayEstimate {
         tick: f.num("tick")?,
@@ -318,6 +348,32 @@ fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
 }
 
 impl Run {
+    /// RMS of each estimator of the probed taxel against the simulator's true force at the
+    /// instant the scan sampled it (the truth riding with the next control tick), over the
+    /// frames after `after_s`; with the number of frames scored.
+    pub fn probe_estimator_rms(&self, after_s: f64) -> ([f64; 4], usize) {
+        let truth: std::collections::HashMap<u32, f32> = self
+            .ticks
+            .iter()
+            .filter_map(|t| Some((t.frame.tick, t.true_force_g?)))
+            .collect();
+        let mut sums = [0.0f64; 4];
+        let mut n = 0usize;
+        for (frame, estimate) in &self.frames {
+            let (Some(e), Some(&f)) = (estimate, truth.get(&frame.tick.wrapping_add(1))) else {
+                continue;
+            };
+            if self.tick_time_s(frame.tick) < after_s {
+                continue;
+            }
+            for (s, v) in sums.iter_mut().zip(e.probe_estimates_g) {
+                *s += f64::from(v - f).powi(2);
+            }
+            n += 1;
+        }
+        (sums.map(|s| (s / n.max(1) as f64).sqrt()), n)
+    }
+
     /// Seconds since the run started for a control tick: the frame's readings were sampled
     /// at the start of its tick, i.e. at the end of the period before it.
     pub fn tick_time_s(&self, tick: u32) -> f64 {

@@ -368,28 +368,10 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     // The estimators on the chip (issue 7): the probed taxel (element 4,2, calibrated in the
     // build's table) by every estimator at the scan rate, against the simulator's true force at
     // the instant the scan sampled it (the truth that rides with the next control tick).
-    let run = session.run("pseudo-random").expect("pseudo-random");
-    let truth: std::collections::HashMap<u32, f32> = run
-        .ticks
-        .iter()
-        .filter_map(|t| Some((t.frame.tick, t.true_force_g?)))
-        .collect();
-    let mut sums = [0.0f64; 4];
-    let mut n = 0usize;
-    for (frame, estimate) in &run.frames {
-        let (Some(e), Some(&f)) = (estimate, truth.get(&frame.tick.wrapping_add(1))) else {
-            continue;
-        };
-        // After the first second (the probe's approach).
-        if run.tick_time_s(frame.tick) < 1.0 {
-            continue;
-        }
-        for (s, v) in sums.iter_mut().zip(e.probe_estimates_g) {
-            *s += f64::from(v - f).powi(2);
-        }
-        n += 1;
-    }
-    let rms = sums.map(|s| (s / n.max(1) as f64).sqrt());
+    let (rms, n) = session
+        .run("pseudo-random")
+        .expect("pseudo-random")
+        .probe_estimator_rms(1.0);
     eprintln!(
         "pseudo-random on the firmware, probed taxel, calibrated, {n} frames: RMS elastic {:.3} g, \
          second-order inverse {:.3} g, scheduled inverse {:.3} g, observer {:.3} g",
@@ -399,6 +381,16 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     assert!(
         rms[3] <= 0.5 && rms[3] < rms[1] && rms[1] < rms[0],
         "{rms:?}"
+    );
+    let figures = session.estimator_figures().expect("estimator figures");
+    assert_eq!(figures.rms_g, rms);
+    eprint!("{}", sim_host::estimators::render_firmware(&figures));
+    // Instructions per taxel update: elastic < inverse < scheduled < observer, the observer
+    // under 1 000 (the budget: 8 400 a millisecond for control and four taxel updates).
+    let worst: Vec<u32> = figures.instructions.iter().map(|(_, hi)| *hi).collect();
+    assert!(
+        worst.windows(2).all(|w| w[0] < w[1]) && worst[3] < 1000,
+        "{worst:?}"
     );
     assert!(
         session

@@ -101,6 +101,10 @@ enum Command {
         /// Seed of the simulated finger whose four taxels are calibrated and scored.
         #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
         seed: u64,
+        /// Also the firmware's row: a folder `tactile-decode` wrote from a QEMU session
+        /// (`boards/qemu-netduinoplus2/run.sh DIR`), with its `estimators.json`.
+        #[arg(long)]
+        qemu: Option<PathBuf>,
     },
     /// Dynamic calibration: fit each taxel's models to its record of the calibration protocol
     /// and write the table the firmware reads at start-up. Without records, calibrates four
@@ -139,6 +143,21 @@ macro_rules! out {
 }
 
 /// Prints a Markdown report and writes it, with its data as JSON, as `out/NAME.{md,json}`.
+/// The firmware's estimator figures from a decoded QEMU session's folder.
+fn read_firmware_figures(
+    dir: &std::path::Path,
+) -> Result<sim_host::estimators::FirmwareFigures, String> {
+    let path = dir.join("estimators.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        format!(
+            "{}: {e} (write it with boards/qemu-netduinoplus2/run.sh {})",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 fn print_and_write(
     out: &std::path::Path,
     name: &str,
@@ -328,13 +347,30 @@ fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         },
-        Command::Estimators { out, seed } => match sim_host::estimators::compare(seed) {
-            Ok(t) => print_and_write(&out, "estimators", &sim_host::estimators::render(&t), &t),
-            Err(e) => {
-                eprintln!("tactile: {e}");
-                ExitCode::from(1)
+        Command::Estimators { out, seed, qemu } => {
+            let firmware = match qemu.map(|dir| read_firmware_figures(&dir)).transpose() {
+                Ok(f) => f,
+                Err(e) => {
+                    eprintln!("tactile estimators: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            match sim_host::estimators::compare(seed) {
+                Ok(t) => {
+                    let mut text = sim_host::estimators::render(&t);
+                    if let Some(f) = &firmware {
+                        text.push('\n');
+                        text.push_str(&sim_host::estimators::render_firmware(f));
+                    }
+                    let data = serde_json::json!({ "simulator": t, "firmware": firmware });
+                    print_and_write(&out, "estimators", &text, &data)
+                }
+                Err(e) => {
+                    eprintln!("tactile: {e}");
+                    ExitCode::from(1)
+                }
             }
-        },
+        }
         Command::Calibrate { records, out, seed } => match cli::calibrate(&records, &out, seed) {
             Ok(text) => {
                 outln!("{text}");

@@ -86,6 +86,16 @@ fn run(elf: &Path, log: &Path, out: &Path) -> Result<(), String> {
                 .map_or(String::new(), |f| f.display().to_string())
         );
     }
+    if let Some(figures) = session.estimator_figures() {
+        let path = out.join("estimators.json");
+        std::fs::write(
+            &path,
+            serde_json::to_string_pretty(&figures).unwrap_or_default(),
+        )
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        print!("{}", sim_host::estimators::render_firmware(&figures));
+        println!("-> {}", path.display());
+    }
     println!(
         "sequence: {} control frames received, {} missing; {} taxel frames received, {} missing; {} trailing bytes",
         session.control_seq.received(),
