@@ -568,6 +568,82 @@ fn force_estimate(baseline: &Fit, current: &Fit, data: &Series) -> ForceEstimate
     }
 }
 
+/// Load levels the exported schedule samples a stiffening law at, grams.
+pub const EXPORT_LOADS_G: [f64; 4] = [10.0, 25.0, 45.0, 70.0];
+
+/// The accepted model as a taxel's calibration, the table entry the firmware reads at start-up
+/// (`tactile diagnose FILE --table OUT.bin`): the base as eq. 17 with its strain offset; an
+/// accepted `load_dependent_stiffness` (ε = C(s)·σ/d(σ), d = 1 + κ√σ + λσ) becomes the
+/// scheduled inverse's table (the compliance divided by d at each of [`EXPORT_LOADS_G`]) and,
+/// for a Maxwell–Kelvin base, the observer's spring laws (G·d(σ)). The delay, the
+/// interference and the drift have no on-chip form yet: they stay in the JSON's
+/// `estimator_config`. `None` if the model has no eq. 17 form.
+pub fn taxel_model(
+    d: &Diagnosis,
+    taxel: tactile_core::tactile::TaxelId,
+) -> Option<tactile_core::calibration::TaxelModel> {
+    use tactile_core::calibration::TaxelModel;
+    use tactile_core::viscoelastic::{NonlinearMk, SecondOrder, SpringLaw};
+    let fit = d.final_fit.as_ref()?;
+    let base = fit.model.base;
+    let so = base.second_order(&fit.physical)?;
+    let offset = *fit.physical.get(base.parameter_count())?;
+    let (kappa, lambda) = fit
+        .model
+        .augment_values(&fit.theta)
+        .into_iter()
+        .find(|(name, _)| *name == "load_dependent_stiffness")
+        .and_then(|(_, v)| Some((*v.first()?, *v.get(1)?)))
+        .unwrap_or((0.0, 0.0));
+    let stiffening = |load: f64| (1.0 + kappa * load.sqrt() + lambda * load).max(0.05);
+    let scaled = |load: f64| {
+        let k = stiffening(load);
+        SecondOrder {
+            b0: so.b0 * k,
+            b1: so.b1 * k,
+            b2: so.b2 * k,
+            ..so
+        }
+    };
+    let mut schedule = heapless::Vec::new();
+    if kappa == 0.0 && lambda == 0.0 {
+        schedule.push((25.0, so)).ok()?;
+    } else {
+        for load in EXPORT_LOADS_G {
+            schedule.push((load as f32, scaled(load))).ok()?;
+        }
+    }
+    let law = |g: f64| SpringLaw {
+        base: g,
+        sqrt_coeff: g * kappa,
+        linear_coeff: g * lambda,
+    };
+    let p = &fit.physical;
+    let element = match base {
+        Base::MaxwellKelvin | Base::MkAlpha => NonlinearMk {
+            g1: law(*p.first()?),
+            n1: *p.get(1)?,
+            alpha: if base == Base::MkAlpha {
+                *p.get(4)?
+            } else {
+                0.0
+            },
+            n2: *p.get(2)?,
+            g2: law(*p.get(3)?),
+        },
+        _ => NonlinearMk::ELEMENT_4_2,
+    };
+    let at_25 = scaled(25.0);
+    Some(TaxelModel {
+        taxel,
+        strain_offset_pct: offset,
+        elastic_g_per_pct: at_25.b2 / at_25.a2,
+        second_order: so,
+        schedule,
+        element,
+    })
+}
+
 /// Solves u = σ/(1 + κ√σ + λσ) for σ ≥ 0: with x = √σ, (1 − λu)x² − κu·x − u = 0.
 pub fn invert_load_nonlinearity(u: f64, kappa: f64, lambda: f64) -> f64 {
     let a = 1.0 - lambda * u;

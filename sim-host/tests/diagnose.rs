@@ -147,3 +147,54 @@ fn the_shared_examples_get_their_labels() {
         check(&d, expected);
     }
 }
+
+/// The accepted stiffening travels to the chip (issue 4, step 6): the diagnosis of the shared
+/// stiffening example, exported as the firmware's calibration table, gives the core's scheduled
+/// inverse a schedule over load that estimates the record's force better than the same model
+/// without it.
+#[test]
+fn the_diagnosed_stiffening_reaches_the_on_chip_estimator() {
+    use tactile_core::calibration::{CalibrationTable, TaxelModel};
+    use tactile_core::estimator::TaxelEstimators;
+    use tactile_core::tactile::TaxelId;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/example_stiffening.csv");
+    let record = sim_host::record::read_record(&path).unwrap();
+    let series = sim_host::fit::Series::from_record(&record);
+    let d = sim_host::diagnose::diagnose(&series).unwrap();
+    assert_eq!(d.effect, "load_dependent_stiffness");
+    let taxel = TaxelId::new(3, 2).unwrap();
+    let model = sim_host::diagnose::taxel_model(&d, taxel).unwrap();
+    assert_eq!(model.schedule.len(), 4);
+    // Through the firmware's own bytes.
+    let mut table = CalibrationTable::default();
+    table.taxels.push(model.clone()).unwrap();
+    let mut bytes = vec![0u8; table.encoded_len()];
+    let n = table.encode(&mut bytes).unwrap();
+    let back = CalibrationTable::decode(&bytes[..n]).unwrap();
+    let model = back.get(taxel).unwrap().clone();
+    // Without the effect: the baseline model the diagnosis started from, as the chip would
+    // have run it.
+    let baseline = d.baseline_fit.as_ref().unwrap();
+    let base = baseline.model.base;
+    let baseline_so = base.second_order(&baseline.physical).unwrap();
+    let unscheduled = TaxelModel {
+        schedule: [(25.0, baseline_so)].into_iter().collect(),
+        second_order: baseline_so,
+        strain_offset_pct: baseline.physical[base.parameter_count()],
+        ..model.clone()
+    };
+    let score = |m: &TaxelModel| {
+        let mut est = TaxelEstimators::new(m, series.dt_s).unwrap();
+        let sum: f64 = series
+            .strain
+            .iter()
+            .zip(&series.force)
+            .map(|(e, f)| (f64::from(est.update(*e as f32)[2]) - f).powi(2))
+            .sum();
+        (sum / series.force.len() as f64).sqrt()
+    };
+    let (with, without) = (score(&model), score(&unscheduled));
+    eprintln!("scheduled inverse on the stiffening example: {with:.3} g with the diagnosed schedule, {without:.3} g with the baseline model (diagnosis: {:.3} → {:.3} g)", d.force_estimate.before_rms_g, d.force_estimate.after_rms_g);
+    assert!(with < 0.5 && with < 0.2 * without, "{with} vs {without}");
+}

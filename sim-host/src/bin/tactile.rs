@@ -86,6 +86,12 @@ enum Command {
         /// Write plots and a report into this folder.
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Write the accepted model as a calibration table for the firmware (one taxel).
+        #[arg(long)]
+        table: Option<PathBuf>,
+        /// The taxel the record is of, ROW,COL from zero (for --table).
+        #[arg(long, default_value = "3,2")]
+        taxel: String,
     },
     /// Reproduce the memo's Tables I–IV on the simulator, beside the memo's numbers.
     Tables {
@@ -307,7 +313,20 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Command::Diagnose { file, json, report } => {
+        Command::Diagnose {
+            file,
+            json,
+            report,
+            table,
+            taxel,
+        } => {
+            let taxel = match cli::parse_taxel_record(&format!("{taxel}=-")) {
+                Ok((t, _)) => t,
+                Err(_) => {
+                    eprintln!("tactile diagnose: --taxel '{taxel}': expected ROW,COL with ROW and COL in 0..8");
+                    return ExitCode::from(2);
+                }
+            };
             let series = match read_series(&file) {
                 Ok(s) => s,
                 Err(code) => return code,
@@ -327,6 +346,34 @@ fn main() -> ExitCode {
                 if let Err(e) = std::fs::write(&path, text) {
                     eprintln!("tactile: {}: {e}", path.display());
                     return ExitCode::from(1);
+                }
+            }
+            if let Some(path) = table {
+                let Some(model) = sim_host::diagnose::taxel_model(&d, taxel) else {
+                    eprintln!("tactile: the accepted model has no on-chip form (no eq. 17)");
+                    return ExitCode::from(1);
+                };
+                let mut t = tactile_core::calibration::CalibrationTable::default();
+                let _ = t.taxels.push(model);
+                let mut bytes = vec![0u8; t.encoded_len()];
+                let written = t
+                    .encode(&mut bytes)
+                    .map_err(|e| e.to_string())
+                    .and_then(|n| {
+                        std::fs::write(&path, &bytes[..n])
+                            .map_err(|e| format!("{}: {e}", path.display()))
+                    });
+                match written {
+                    Ok(()) => outln!(
+                        "  calibration table for taxel ({}, {}): {} (the firmware's format; merge or flash as boards/calibration/table.bin)",
+                        taxel.row(),
+                        taxel.col(),
+                        path.display()
+                    ),
+                    Err(e) => {
+                        eprintln!("tactile: {e}");
+                        return ExitCode::from(1);
+                    }
                 }
             }
             if let Some(dir) = report {
