@@ -361,7 +361,30 @@ pub fn diagnose(data: &Series) -> Option<Diagnosis> {
                                 }
                             }
                         }
-                        let outcome = crate::fit::fit_from(&spec, data, &starts).map(|f| {
+                        let mut outcome = crate::fit::fit_from(&spec, data, &starts);
+                        // Stiffening has a second form: eq. 14 with its own load-dependent
+                        // springs (G₁ = a + b√σ, G₂ = c + dσ, the memo's Table I), which a
+                        // common scale on the load cannot mimic when the two springs stiffen
+                        // differently. The better held-out error of the two stands for it.
+                        if aug == Augment::LoadDependentStiffness
+                            && current.model.base == Base::MkAlpha
+                        {
+                            let springs = ModelSpec {
+                                base: Base::MkNonlinear,
+                                augments: current.model.augments.clone(),
+                            };
+                            let mut nl_starts = springs.starts(data);
+                            nl_starts.extend(springs_start(current, &springs));
+                            if let Some(f) = crate::fit::fit_from(&springs, data, &nl_starts) {
+                                if outcome
+                                    .as_ref()
+                                    .is_none_or(|o| f.held_out_rms_pct < o.held_out_rms_pct)
+                                {
+                                    outcome = Some(f);
+                                }
+                            }
+                        }
+                        let outcome = outcome.map(|f| {
                             let tests = residual_tests(&residual_of(&f, data), data);
                             (f, tests)
                         });
@@ -489,6 +512,25 @@ pub fn diagnose(data: &Series) -> Option<Diagnosis> {
     })
 }
 
+/// A start for eq. 14 with load-dependent springs from a fitted eq. 14 (mk-alpha) and its
+/// augmentations: its springs as they are at 30 g, a little load dependence, the rest as fitted.
+fn springs_start(mk: &Fit, springs: &ModelSpec) -> Option<Vec<f64>> {
+    let p = &mk.physical;
+    let (g1, n1, n2, g2, alpha) = (*p.first()?, *p.get(1)?, *p.get(2)?, *p.get(3)?, *p.get(4)?);
+    let root = 30f64.sqrt();
+    let mut x = vec![
+        0.5 * g1,
+        0.5 * g1 / root,
+        n1,
+        alpha.min(29.0),
+        n2,
+        0.5 * g2,
+        0.5 * g2 / 30.0,
+    ];
+    x.extend_from_slice(p.get(5..)?);
+    Some(springs.internal(&x))
+}
+
 /// The base model's inverse (stress from strain) as the chip runs it.
 fn inverse_of(fit: &Fit, dt: f64) -> Option<tactile_core::viscoelastic::Discrete2<f64>> {
     fit.model.base.second_order(&fit.physical)?.inverse(dt).ok()
@@ -499,6 +541,14 @@ fn inverse_of(fit: &Fit, dt: f64) -> Option<tactile_core::viscoelastic::Discrete
 /// notch on the chip), the stiffening nonlinearity inverted, the delay accounted for.
 fn force_estimate(baseline: &Fit, current: &Fit, data: &Series) -> ForceEstimate {
     let run = |fit: &Fit, strain: &[f64]| -> Vec<f64> {
+        if let Some(element) = fit.model.nonlinear_element(&fit.theta) {
+            // Eq. 14 with load-dependent springs: run backwards, as the chip's observer does.
+            let mut inv = tactile_core::viscoelastic::StructuralInverse::new(element, data.dt_s);
+            return strain
+                .iter()
+                .map(|e| f64::from(inv.force_g(*e as f32)))
+                .collect();
+        }
         let Some(inv) = inverse_of(fit, data.dt_s) else {
             return vec![0.0; strain.len()];
         };
@@ -531,6 +581,11 @@ fn force_estimate(baseline: &Fit, current: &Fit, data: &Series) -> ForceEstimate
         .collect();
     let mut after = run(current, &corrected);
     let mut config = serde_json::json!({ "base": current.model.base.name(), "parameters": current.physical[..current.model.base.parameter_count()] });
+    if current.model.base == Base::MkNonlinear {
+        config["load_dependent_springs"] = serde_json::json!(
+            "G1 = G1_base + G1_sqrt·√σ, G2 = G2_base + G2_linear·σ (the parameters above)"
+        );
+    }
     let mut reference = data.force.clone();
     for (name, value) in current.model.augment_values(&current.theta) {
         match name {
@@ -586,8 +641,27 @@ pub fn taxel_model(
     use tactile_core::viscoelastic::{NonlinearMk, SecondOrder, SpringLaw};
     let fit = d.final_fit.as_ref()?;
     let base = fit.model.base;
-    let so = base.second_order(&fit.physical)?;
     let offset = *fit.physical.get(base.parameter_count())?;
+    if let Some(element) = fit.model.nonlinear_element(&fit.theta) {
+        // Stiffening as load-dependent springs: the observer runs the element itself, the
+        // schedule its secant springs at each load.
+        let mut schedule = heapless::Vec::new();
+        for load in EXPORT_LOADS_G {
+            schedule
+                .push((load as f32, element.linearized(load).second_order()))
+                .ok()?;
+        }
+        let at_25 = element.linearized(25.0).second_order();
+        return Some(TaxelModel {
+            taxel,
+            strain_offset_pct: offset,
+            elastic_g_per_pct: at_25.b2 / at_25.a2,
+            second_order: at_25,
+            schedule,
+            element,
+        });
+    }
+    let so = base.second_order(&fit.physical)?;
     let (kappa, lambda) = fit
         .model
         .augment_values(&fit.theta)

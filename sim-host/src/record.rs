@@ -160,14 +160,14 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
                 err(
                     Some(n),
                     Some(name.clone()),
-                    format!("'{cell}' is not a number"),
+                    format!("'{}' is not a number", shown(cell)),
                 )
             })?;
             if !v.is_finite() {
                 return Err(err(
                     Some(n),
                     Some(name.clone()),
-                    format!("'{cell}' is not finite"),
+                    format!("'{}' is not finite", shown(cell)),
                 ));
             }
             values.push(v);
@@ -292,6 +292,16 @@ pub fn write_frames(
     w.flush()
 }
 
+/// A cell as an error message shows it: at most 40 characters, control characters escaped
+/// (a damaged file can hold a megabyte of NULs in one cell).
+fn shown(cell: &str) -> String {
+    let mut out: String = cell.chars().take(40).flat_map(char::escape_debug).collect();
+    if cell.chars().count() > 40 {
+        out.push_str(&format!("… ({} characters)", cell.chars().count()));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -316,6 +326,17 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "mem.csv:3: column 'force_g': 'abc' is not a number"
+        );
+        // A damaged cell is shown short and escaped, not echoed whole.
+        let long = format!(
+            "t_s,force_g,strain_pct\n0.0,1.0,0.5\n0.005,30.{},0.6\n",
+            "\0".repeat(5000)
+        );
+        let e = parse(&long).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.len() < 200 && text.contains("\\0") && text.contains("5003 characters"),
+            "{text}"
         );
         let e = parse("t_s,force_g,strain_pct\n0.0,1.0,NaN\n0.005,1,1\n").unwrap_err();
         assert_eq!((e.line, e.column.as_deref()), (Some(2), Some("strain_pct")));

@@ -15,12 +15,22 @@ use sim_host::rig::RigConfig;
 use sim_host::scenario::{run_named, ScenarioOptions};
 
 fn bench_record(effects: &[&str], seed: u64) -> Series {
+    bench_record_of(
+        tactile_plant::finger::NOMINAL_TAXEL,
+        &[&["stiffening=0"], effects].concat(),
+        seed,
+    )
+}
+
+/// A bench record of the probe over `taxel` (its own parameters away from element 4,2's) with
+/// `effects` applied over the memo's physics.
+fn bench_record_of(taxel: tactile_core::tactile::TaxelId, effects: &[&str], seed: u64) -> Series {
     let mut config = RigConfig {
         seed,
+        probe: taxel,
         scan_array: false,
         ..Default::default()
     };
-    apply_effect(&mut config.effects, "stiffening=0").unwrap();
     for e in effects {
         apply_effect(&mut config.effects, e).unwrap();
     }
@@ -31,7 +41,8 @@ fn bench_record(effects: &[&str], seed: u64) -> Series {
     let run = run_named("bench-record", &options, config, |_| {}).unwrap();
     // Through the record format, as a user's file would come.
     let path = std::env::temp_dir().join(format!(
-        "diagnose_test_{seed}_{}.csv",
+        "diagnose_test_{seed}_{}_{}.csv",
+        taxel.index(),
         effects.join("_").replace(['=', '@', '.'], "-")
     ));
     write_record(
@@ -61,6 +72,31 @@ fn check(d: &Diagnosis, expected: &str) {
     } else {
         assert!(d.effects.is_empty(), "{}", d.summary);
     }
+}
+
+/// Other taxels of other fingers (their springs and dashpots 0.7–1.4× element 4,2's, each
+/// its own way): a linear one gets `none`; the memo's stiffening gets that effect alone, with the
+/// residual left at the read-out's noise — no second effect made up from a stiffening model of
+/// the wrong shape.
+#[test]
+fn other_taxels_get_their_verdicts_and_nothing_more() {
+    use tactile_core::tactile::TaxelId;
+    let linear = diagnose(&bench_record_of(
+        TaxelId::new(1, 5).unwrap(),
+        &["stiffening=0"],
+        7,
+    ))
+    .unwrap();
+    check(&linear, "none");
+    let stiff = diagnose(&bench_record_of(TaxelId::new(6, 6).unwrap(), &[], 3)).unwrap();
+    check(&stiff, "load_dependent_stiffness");
+    assert_eq!(
+        stiff.effects,
+        ["load_dependent_stiffness"],
+        "{}",
+        stiff.summary
+    );
+    assert!(stiff.after.held_out_rms_g < 0.25, "{}", stiff.summary);
 }
 
 #[test]
@@ -184,17 +220,21 @@ fn the_diagnosed_stiffening_reaches_the_on_chip_estimator() {
         strain_offset_pct: baseline.physical[base.parameter_count()],
         ..model.clone()
     };
-    let score = |m: &TaxelModel| {
+    // RMS against the record's force of estimator `k` (2: scheduled inverse, 3: observer).
+    let score = |m: &TaxelModel, k: usize| {
         let mut est = TaxelEstimators::new(m, series.dt_s).unwrap();
         let sum: f64 = series
             .strain
             .iter()
             .zip(&series.force)
-            .map(|(e, f)| (f64::from(est.update(*e as f32)[2]) - f).powi(2))
+            .map(|(e, f)| (f64::from(est.update(*e as f32)[k]) - f).powi(2))
             .sum();
         (sum / series.force.len() as f64).sqrt()
     };
-    let (with, without) = (score(&model), score(&unscheduled));
+    let (with, without) = (score(&model, 2), score(&unscheduled, 2));
+    let observer = score(&model, 3);
+    eprintln!("observer with the diagnosed springs: {observer:.3} g");
+    assert!(observer < 0.3, "{observer}");
     eprintln!("scheduled inverse on the stiffening example: {with:.3} g with the diagnosed schedule, {without:.3} g with the baseline model (diagnosis: {:.3} → {:.3} g)", d.force_estimate.before_rms_g, d.force_estimate.after_rms_g);
     assert!(with < 0.5 && with < 0.2 * without, "{with} vs {without}");
 }
