@@ -7,7 +7,8 @@
 //! row `u8`, column `u8`, schedule length `u8`, a zero byte; strain offset (%), elastic spring
 //! (g/%); the whole-record second-order fit a₁ a₂ b₀ b₁ b₂; [`SCHEDULE_POINTS`] schedule
 //! entries of load (g) and a₁ a₂ b₀ b₁ b₂; the element law G₁ (base, √, linear), N₁, α, N₂,
-//! G₂ (base, √, linear) — all `f32`.
+//! G₂ (base, √, linear); the notch frequency (Hz, 0 for none) — all `f32`. Version 2 added
+//! the notch.
 
 use heapless::Vec;
 
@@ -24,11 +25,11 @@ fn crc32(bytes: &[u8]) -> u32 {
 }
 
 pub const MAGIC: [u8; 4] = *b"TCAL";
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 const HEADER_BYTES: usize = 8;
 const CRC_BYTES: usize = 4;
 /// Floats in a record after its four leading bytes.
-const RECORD_FLOATS: usize = 2 + 5 + SCHEDULE_POINTS * 6 + 9;
+const RECORD_FLOATS: usize = 2 + 5 + SCHEDULE_POINTS * 6 + 9 + 1;
 pub const RECORD_BYTES: usize = 4 + 4 * RECORD_FLOATS;
 /// The largest table: every taxel of the array.
 pub const MAX_TABLE_BYTES: usize = HEADER_BYTES + TAXELS * RECORD_BYTES + CRC_BYTES;
@@ -47,6 +48,8 @@ pub struct TaxelModel {
     pub schedule: Vec<(f32, SecondOrder), SCHEDULE_POINTS>,
     /// Eq. 14 with load-dependent springs (the observer's model).
     pub element: NonlinearMk,
+    /// A periodic interference on the strain, notched before every estimator, Hz (0: none).
+    pub notch_hz: f64,
 }
 
 impl TaxelModel {
@@ -82,6 +85,7 @@ impl TaxelModel {
             second_order: so,
             schedule,
             element: NonlinearMk::ELEMENT_4_2,
+            notch_hz: 0.0,
         }
     }
 
@@ -111,6 +115,7 @@ impl TaxelModel {
             e.g2.base,
             e.g2.sqrt_coeff,
             e.g2.linear_coeff,
+            self.notch_hz,
         ]);
         for (slot, x) in v.iter_mut().zip(values) {
             *slot = x as f32;
@@ -158,6 +163,7 @@ impl TaxelModel {
                 n2: d(e + 5),
                 g2: law(e + 6),
             },
+            notch_hz: d(e + 9),
         })
     }
 }
@@ -440,7 +446,7 @@ mod tests {
         let mut buf = [0u8; MAX_TABLE_BYTES];
         let n = t.encode(&mut buf).unwrap();
         assert_eq!(n, 8 + 3 * RECORD_BYTES + 4);
-        assert_eq!(RECORD_BYTES, 164);
+        assert_eq!(RECORD_BYTES, 168);
         // Trailing bytes (the rest of a sector) are ignored.
         let back = CalibrationTable::decode(&buf[..n + 100]).unwrap();
         assert_eq!(back.taxels.len(), 3);
@@ -482,11 +488,11 @@ mod tests {
                 "byte {i}"
             );
         }
-        let mut v2 = good.clone();
-        v2[4] = 2;
+        let mut v1 = good.clone();
+        v1[4] = 1;
         assert_eq!(
-            CalibrationTable::decode(&v2),
-            Err(TableError::UnsupportedVersion { found: 2 })
+            CalibrationTable::decode(&v1),
+            Err(TableError::UnsupportedVersion { found: 1 })
         );
         // Well-formed but wrong inside (checksum recomputed): a position off the array.
         let mut off = good.clone();

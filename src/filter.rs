@@ -49,6 +49,34 @@ impl Biquad {
         y
     }
 
+    /// A notch at `f0_hz` for samples every `dt_s` (RBJ's bilinear notch with the centre
+    /// prewarped): unity gain away from it, zero at it, −3 dB at f0 ± f0/(2q). A tone above
+    /// Nyquist is notched where it aliases to. `None` when that falls within 2 % of DC or of
+    /// Nyquist (a notch there would take the signal), or for non-finite or non-positive
+    /// arguments.
+    pub fn notch(f0_hz: f64, q: f64, dt_s: f64) -> Option<Biquad> {
+        if !(f0_hz.is_finite() && q.is_finite() && dt_s.is_finite())
+            || f0_hz <= 0.0
+            || q <= 0.0
+            || dt_s <= 0.0
+        {
+            return None;
+        }
+        let fs = 1.0 / dt_s;
+        let alias = (f0_hz - libm::round(f0_hz / fs) * fs).abs();
+        if alias < 0.01 * fs || alias > 0.49 * fs {
+            return None;
+        }
+        let w0 = 2.0 * core::f64::consts::PI * alias * dt_s;
+        let alpha = libm::sin(w0) / (2.0 * q);
+        let cos = libm::cos(w0);
+        let a0 = 1.0 + alpha;
+        Some(Biquad {
+            b: [1.0 / a0, -2.0 * cos / a0, 1.0 / a0].map(|v| v as f32),
+            a: [-2.0 * cos / a0, (1.0 - alpha) / a0].map(|v| v as f32),
+        })
+    }
+
     /// True when both poles lie strictly inside the unit circle (the stability triangle).
     pub fn is_stable(&self) -> bool {
         let [a1, a2] = self.a;
@@ -349,5 +377,25 @@ mod tests {
             let filter = config.discretize().unwrap();
             proptest::prop_assert!(filter.is_stable(), "{:?}", filter);
         }
+    }
+
+    #[test]
+    fn notch_takes_its_tone_and_passes_the_rest() {
+        let dt = 1.0 / 62.5;
+        let n = Biquad::notch(7.3, 2.0, dt).unwrap();
+        assert!(n.is_stable());
+        let gain = |hz: f64| magnitude(n.response(2.0 * core::f64::consts::PI * hz * dt));
+        assert!(gain(7.3) < 1e-3, "{}", gain(7.3));
+        assert!((gain(0.0) - 1.0).abs() < 1e-6);
+        assert!((gain(0.5) - 1.0).abs() < 0.01, "{}", gain(0.5));
+        // −3 dB at f0 ± f0/(2q), here about ±1.8 Hz.
+        assert!((gain(7.3 + 1.9) - 0.707).abs() < 0.1, "{}", gain(9.2));
+        // 50 Hz mains sampled at 62.5 Hz lands at 12.5 Hz: notched there.
+        let mains = Biquad::notch(50.0, 2.0, dt).unwrap();
+        let g = |hz: f64| magnitude(mains.response(2.0 * core::f64::consts::PI * hz * dt));
+        assert!(g(12.5) < 1e-3);
+        // A tone on a multiple of the sample rate is DC: refused.
+        assert!(Biquad::notch(62.5, 2.0, dt).is_none());
+        assert!(Biquad::notch(f64::NAN, 2.0, dt).is_none());
     }
 }

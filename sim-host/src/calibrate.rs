@@ -125,6 +125,7 @@ pub fn fit_taxel(
         second_order,
         schedule,
         element,
+        notch_hz: 0.0,
     };
     let report = TaxelFitReport {
         taxel: (taxel.row(), taxel.col()),

@@ -630,9 +630,9 @@ pub const EXPORT_LOADS_G: [f64; 4] = [10.0, 25.0, 45.0, 70.0];
 /// (`tactile diagnose FILE --table OUT.bin`): the base as eq. 17 with its strain offset; an
 /// accepted `load_dependent_stiffness` (ε = C(s)·σ/d(σ), d = 1 + κ√σ + λσ) becomes the
 /// scheduled inverse's table (the compliance divided by d at each of [`EXPORT_LOADS_G`]) and,
-/// for a Maxwell–Kelvin base, the observer's spring laws (G·d(σ)). The delay, the
-/// interference and the drift have no on-chip form yet: they stay in the JSON's
-/// `estimator_config`. `None` if the model has no eq. 17 form.
+/// for a Maxwell–Kelvin base, the observer's spring laws (G·d(σ)); an accepted
+/// `periodic_interference` becomes a notch at its frequency on the strain. The delay and the
+/// drift have no on-chip form yet: they stay in the JSON's `estimator_config`. `None` if the model has no eq. 17 form.
 pub fn taxel_model(
     d: &Diagnosis,
     taxel: tactile_core::tactile::TaxelId,
@@ -642,6 +642,14 @@ pub fn taxel_model(
     let fit = d.final_fit.as_ref()?;
     let base = fit.model.base;
     let offset = *fit.physical.get(base.parameter_count())?;
+    // An accepted interference: its frequency, notched on the chip.
+    let notch_hz = fit
+        .model
+        .augment_values(&fit.theta)
+        .into_iter()
+        .find(|(name, _)| *name == "periodic_interference")
+        .and_then(|(_, v)| v.get(3).copied())
+        .unwrap_or(0.0);
     if let Some(element) = fit.model.nonlinear_element(&fit.theta) {
         // Stiffening as load-dependent springs: the observer runs the element itself, the
         // schedule its secant springs at each load.
@@ -659,6 +667,7 @@ pub fn taxel_model(
             second_order: at_25,
             schedule,
             element,
+            notch_hz,
         });
     }
     let so = base.second_order(&fit.physical)?;
@@ -715,6 +724,7 @@ pub fn taxel_model(
         second_order: so,
         schedule,
         element,
+        notch_hz,
     })
 }
 

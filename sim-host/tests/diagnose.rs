@@ -148,6 +148,29 @@ fn periodic_interference_is_found_at_its_frequency() {
             .as_f64()
             .unwrap();
         assert!((notch - hz).abs() < 0.05, "notch at {notch} Hz for {hz} Hz");
+        // On the chip: the exported table's notch takes the tone off the strain before the
+        // estimators; the same table without it leaves the tone in the force.
+        let model =
+            sim_host::diagnose::taxel_model(&d, tactile_core::tactile::TaxelId::default()).unwrap();
+        assert!((model.notch_hz - hz).abs() < 0.05, "{}", model.notch_hz);
+        let series = bench_record(&[strength], seed);
+        let without = tactile_core::calibration::TaxelModel {
+            notch_hz: 0.0,
+            ..model.clone()
+        };
+        let score = |m: &tactile_core::calibration::TaxelModel| {
+            let mut est = tactile_core::estimator::TaxelEstimators::new(m, series.dt_s).unwrap();
+            let sum: f64 = series
+                .strain
+                .iter()
+                .zip(&series.force)
+                .map(|(e, f)| (f64::from(est.update(*e as f32)[1]) - f).powi(2))
+                .sum();
+            (sum / series.force.len() as f64).sqrt()
+        };
+        let (with, without) = (score(&model), score(&without));
+        eprintln!("{strength}: on-chip inverse {with:.3} g with the notch, {without:.3} g without");
+        assert!(with < 0.75 * without, "{with} vs {without}");
     }
 }
 

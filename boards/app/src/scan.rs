@@ -6,7 +6,7 @@
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
 use tactile_core::calibration::{TableError, TableView, TaxelModel};
-use tactile_core::estimator::{TaxelEstimator, TaxelEstimators};
+use tactile_core::estimator::{StrainConditioner, TaxelEstimator, TaxelEstimators};
 use tactile_core::gauge::AdcScale;
 use tactile_core::tactile::{
     ArrayFrame, ScanSequencer, StrainForm, TaxelCalibration, TaxelId, COLS, ROWS, TAXELS,
@@ -64,8 +64,8 @@ pub struct Scanner {
     strain_pct: ArrayFrame<f32>,
     force_g: ArrayFrame<f32>,
     estimators: [TaxelEstimator; TAXELS],
-    /// Each taxel's strain offset from its calibration, percent.
-    offsets_pct: [f32; TAXELS],
+    /// Each taxel's strain conditioning from its calibration (offset, interference notch).
+    conditioners: [StrainConditioner; TAXELS],
     probe_bench: TaxelEstimators,
     probe_estimates_g: [f32; 4],
     status: CalibrationStatus,
@@ -107,16 +107,16 @@ impl Scanner {
         let first = TaxelEstimator::new(config.array_estimator, &probe_model, frame_s)
             .map_err(ConfigError::Estimator)?;
         let mut estimators = [first; TAXELS];
-        let mut offsets_pct = [0.0f32; TAXELS];
-        for (i, (est, offset)) in estimators
+        let mut conditioners = [StrainConditioner::default(); TAXELS];
+        for (i, (est, cond)) in estimators
             .iter_mut()
-            .zip(offsets_pct.iter_mut())
+            .zip(conditioners.iter_mut())
             .enumerate()
         {
             let m = model(TaxelId::from_index(i));
             *est = TaxelEstimator::new(config.array_estimator, &m, frame_s)
                 .map_err(ConfigError::Estimator)?;
-            *offset = m.strain_offset_pct as f32;
+            *cond = StrainConditioner::new(&m, frame_s);
         }
         Ok(Self {
             sequencer: ScanSequencer::new(),
@@ -126,7 +126,7 @@ impl Scanner {
             strain_pct: ArrayFrame::default(),
             force_g: ArrayFrame::default(),
             estimators,
-            offsets_pct,
+            conditioners,
             probe_bench,
             probe_estimates_g: [0.0; 4],
             status,
@@ -172,11 +172,14 @@ impl Scanner {
             cal.strain_pct(self.adc.volts(code), StrainForm::Exact)
         });
         self.strain_pct.set(taxel, strain);
-        let offset = self.offsets_pct.get(taxel.index()).copied().unwrap_or(0.0);
+        let conditioned = self
+            .conditioners
+            .get_mut(taxel.index())
+            .map_or(strain, |c| c.update(strain));
         let force = self
             .estimators
             .get_mut(taxel.index())
-            .map_or(0.0, |e| e.force_g(strain - offset));
+            .map_or(0.0, |e| e.force_g(conditioned));
         self.force_g.set(taxel, force);
         if taxel == self.probe {
             self.probe_estimates_g = self.probe_bench.update(strain);
