@@ -271,9 +271,16 @@ pub struct Diagnosis {
 }
 
 fn residual_of(fit: &Fit, data: &Series) -> Vec<f64> {
+    // Samples at the converter's rail carry no residual (they say nothing about the model).
     fit.model
         .simulate(&fit.theta, data)
-        .map(|p| p.iter().zip(&data.strain).map(|(a, b)| a - b).collect())
+        .map(|p| {
+            p.iter()
+                .zip(&data.strain)
+                .zip(&data.excluded)
+                .map(|((a, b), x)| if *x { 0.0 } else { a - b })
+                .collect()
+        })
         .unwrap_or_default()
 }
 
@@ -445,6 +452,19 @@ pub fn diagnose(data: &Series) -> Option<Diagnosis> {
         baseline.model.base.name(),
         data.held_out_description
     );
+    let railed = data.excluded.iter().filter(|x| **x).count();
+    if railed > 0 {
+        let _ = writeln!(
+            summary,
+            "  the strain sits at its converter's rail for {railed} samples ({:.1} % of the record, at {:.3} %): left out of every fit and score",
+            100.0 * railed as f64 / data.excluded.len().max(1) as f64,
+            data.strain
+                .iter()
+                .zip(&data.excluded)
+                .find(|(_, x)| **x)
+                .map_or(f64::NAN, |(v, _)| *v)
+        );
+    }
     let _ = writeln!(
         summary,
         "  RMS_n fitted {:.3} g, held out {:.3} g; residual Ljung–Box Q = {:.0} ({:.1}× the 5 % level), {:.0} % of 50 lags outside ±{:.4}",

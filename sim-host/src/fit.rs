@@ -594,7 +594,7 @@ fn grid_starts(data: &Series) -> Vec<Vec<f64>> {
             .collect()
     };
     let rows: Vec<usize> = (0..data.force.len())
-        .filter(|&i| data.in_fit[i])
+        .filter(|&i| data.in_fit[i] && !data.excluded.get(i).copied().unwrap_or(false))
         .step_by(4)
         .collect();
     let b = DVector::from_iterator(rows.len(), rows.iter().map(|&i| data.strain[i]));
@@ -661,7 +661,37 @@ pub struct Series {
     pub strain: Vec<f64>,
     /// true for samples the fit may see.
     pub in_fit: Vec<bool>,
+    /// true for samples neither fitted nor scored (the strain at its converter's rail).
+    pub excluded: Vec<bool>,
     pub held_out_description: String,
+}
+
+/// Samples at the strain's converter rail: the record's largest value, repeated for at least
+/// 1 % of the record and three times as often as the next value down (a held load spreads over
+/// a few codes with its largest a tail; a clipped one piles up on the rail). Beyond the rail the
+/// strain says nothing about the load, so fits and scores leave those samples out.
+pub fn at_top_rail(strain: &[f64]) -> Vec<bool> {
+    let none = vec![false; strain.len()];
+    let Some(top) = strain
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .reduce(f64::max)
+    else {
+        return none;
+    };
+    let at_top = strain.iter().filter(|v| **v == top).count();
+    let below = strain
+        .iter()
+        .copied()
+        .filter(|v| *v < top)
+        .reduce(f64::max)
+        .map_or(0, |next| strain.iter().filter(|v| **v == next).count());
+    if at_top >= 50 && at_top * 100 >= strain.len() && at_top >= 3 * below {
+        strain.iter().map(|v| *v == top).collect()
+    } else {
+        none
+    }
 }
 
 /// Length of the blocks of the split, seconds.
@@ -679,6 +709,7 @@ impl Series {
             force: r.force_g.clone(),
             strain: r.strain_pct.clone(),
             in_fit,
+            excluded: at_top_rail(&r.strain_pct),
             held_out_description: format!(
                 "every fourth {BLOCK_S:.0} s block (blocks 4, 8, 12, …: 25 % of the record)"
             ),
@@ -692,6 +723,7 @@ impl Series {
             force,
             strain,
             in_fit: vec![true; n],
+            excluded: vec![false; n],
             held_out_description: "none (the whole record is fitted, as in the memo)".into(),
         }
     }
@@ -802,8 +834,8 @@ fn rms_where(pred: &[f64], data: &Series, want: bool) -> f64 {
     let (s, n) = pred
         .iter()
         .zip(&data.strain)
-        .zip(&data.in_fit)
-        .filter(|(_, m)| **m == want)
+        .zip(data.in_fit.iter().zip(&data.excluded))
+        .filter(|(_, (m, x))| **m == want && !**x)
         .fold((0.0, 0usize), |(s, n), ((p, e), _)| {
             (s + (p - e).powi(2), n + 1)
         });
@@ -826,7 +858,9 @@ pub fn fit(spec: &ModelSpec, data: &Series, extra_starts: &[Vec<f64>]) -> Option
 
 /// Fits `spec` from exactly the given starts (internal parameter vectors).
 pub fn fit_from(spec: &ModelSpec, data: &Series, starts: &[Vec<f64>]) -> Option<Fit> {
-    let fit_index: Vec<usize> = (0..data.force.len()).filter(|&i| data.in_fit[i]).collect();
+    let fit_index: Vec<usize> = (0..data.force.len())
+        .filter(|&i| data.in_fit[i] && !data.excluded.get(i).copied().unwrap_or(false))
+        .collect();
     let mut best: Option<(f64, DVector<f64>, usize)> = None;
     let mut evaluations = 0;
     for start in starts.iter().cloned() {
@@ -1053,6 +1087,7 @@ mod tests {
             force,
             strain,
             in_fit: (0..n).map(|i| (i / block) % 4 != 3).collect(),
+            excluded: vec![false; n],
             held_out_description: "test".into(),
         }
     }
@@ -1096,5 +1131,22 @@ mod tests {
         let x = [0.0, 1.0, 2.0, 3.0];
         assert_eq!(delayed(&x, 1.5), vec![0.0, 0.0, 0.5, 1.5]);
         assert_eq!(delayed(&x, 0.0), x.to_vec());
+    }
+
+    #[test]
+    fn a_clipped_strain_is_found_at_its_rail_and_a_held_one_is_not() {
+        // A held load: a few codes about a level, its largest a tail.
+        let held: Vec<f64> = (0..10_000)
+            .map(|i| 10.0 + 0.011 * [0.0, 1.0, -1.0, 0.0, 2.0, 0.0, -1.0, 1.0][i % 8])
+            .collect();
+        assert!(at_top_rail(&held).iter().all(|x| !x));
+        // A load beyond the converter for 40 % of the record: every sample there on the rail.
+        let mut clipped = held.clone();
+        for v in clipped.iter_mut().take(4000) {
+            *v = 10.05;
+        }
+        let rail = at_top_rail(&clipped);
+        assert_eq!(rail.iter().filter(|x| **x).count(), 4000);
+        assert!(at_top_rail(&[]).is_empty());
     }
 }

@@ -99,6 +99,39 @@ fn other_taxels_get_their_verdicts_and_nothing_more() {
     assert!(stiff.after.held_out_rms_g < 0.25, "{}", stiff.summary);
 }
 
+/// The memo's step loads on a linear finger drive the strain onto its converter's rail at
+/// 50 and 80 g (25 % strain is beyond the ±10 V converter): those samples are left out and the
+/// verdict is `none`, not an effect made up to explain a clipped signal.
+#[test]
+fn a_clipped_record_is_judged_on_what_it_saw() {
+    let mut config = RigConfig {
+        seed: 5,
+        scan_array: false,
+        ..Default::default()
+    };
+    apply_effect(&mut config.effects, "stiffening=0").unwrap();
+    let run = run_named("step-loads", &ScenarioOptions::default(), config, |_| {}).unwrap();
+    let path = std::env::temp_dir().join("diagnose_test_clipped_step_loads.csv");
+    write_record(
+        &path,
+        &[("sample_rate_hz".into(), "200".into())],
+        &run.ticks,
+        5,
+    )
+    .unwrap();
+    let series = Series::from_record(&read_record(&path).unwrap());
+    let _ = std::fs::remove_file(&path);
+    let railed = series.excluded.iter().filter(|x| **x).count();
+    assert!(
+        railed > series.excluded.len() / 20,
+        "{railed} samples at the rail"
+    );
+    let d = diagnose(&series).unwrap();
+    check(&d, "none");
+    assert!(d.summary.contains("rail"), "{}", d.summary);
+    assert!(d.before.held_out_rms_g < 0.3, "{}", d.summary);
+}
+
 #[test]
 fn a_linear_finger_gets_none() {
     for seed in [11, 12] {
