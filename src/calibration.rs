@@ -24,6 +24,14 @@ fn crc32(bytes: &[u8]) -> u32 {
     CRC.checksum(bytes)
 }
 
+/// `N` bytes of `bytes` from `at` (zeros past the end: callers have checked the length).
+fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
+    bytes
+        .get(at..at + N)
+        .and_then(|b| b.try_into().ok())
+        .unwrap_or([0; N])
+}
+
 pub const MAGIC: [u8; 4] = *b"TCAL";
 pub const VERSION: u16 = 2;
 const HEADER_BYTES: usize = 8;
@@ -166,6 +174,20 @@ impl TaxelModel {
             notch_hz: d(e + 9),
         })
     }
+}
+
+/// The scheduled inverse's table from an element with load-dependent springs: its secant
+/// springs at each of `loads_g` as eq. 17 (Table I's rows, one per load, from one law). Loads
+/// beyond [`SCHEDULE_POINTS`] are left out.
+pub fn secant_schedule(
+    element: &NonlinearMk,
+    loads_g: &[f64],
+) -> Vec<(f32, SecondOrder), SCHEDULE_POINTS> {
+    loads_g
+        .iter()
+        .take(SCHEDULE_POINTS)
+        .map(|&load| (load as f32, element.linearized(load).second_order()))
+        .collect()
 }
 
 /// Why a table was refused (the firmware then runs the nominal models and says so).
@@ -325,12 +347,7 @@ impl<'a> TableView<'a> {
         if header.get(..4) != Some(&MAGIC[..]) {
             return Err(TableError::BadMagic);
         }
-        let u16_at = |i: usize| {
-            u16::from_le_bytes([
-                header.get(i).copied().unwrap_or(0),
-                header.get(i + 1).copied().unwrap_or(0),
-            ])
-        };
+        let u16_at = |i: usize| u16::from_le_bytes(bytes_at(header, i));
         let version = u16_at(4);
         if version != VERSION {
             return Err(TableError::UnsupportedVersion { found: version });
@@ -343,12 +360,7 @@ impl<'a> TableView<'a> {
         let needed = body + CRC_BYTES;
         let all = bytes.get(..needed).ok_or(too_short(needed))?;
         let (contents, stored) = all.split_at(body);
-        let stored = u32::from_le_bytes([
-            stored.first().copied().unwrap_or(0),
-            stored.get(1).copied().unwrap_or(0),
-            stored.get(2).copied().unwrap_or(0),
-            stored.get(3).copied().unwrap_or(0),
-        ]);
+        let stored = u32::from_le_bytes(bytes_at(stored, 0));
         let computed = crc32(contents);
         if stored != computed {
             return Err(TableError::Checksum { stored, computed });
@@ -398,12 +410,7 @@ impl<'a> TableView<'a> {
             .iter_mut()
             .zip(record.get(4..).unwrap_or(&[]).chunks_exact(4))
         {
-            *v = f32::from_le_bytes([
-                b.first().copied().unwrap_or(0),
-                b.get(1).copied().unwrap_or(0),
-                b.get(2).copied().unwrap_or(0),
-                b.get(3).copied().unwrap_or(0),
-            ]);
+            *v = f32::from_le_bytes(bytes_at(b, 0));
         }
         TaxelModel::from_floats(taxel, usize::from(len), &floats)
     }

@@ -504,12 +504,7 @@ impl TaxelEstimator {
                 InverseEstimator::new(model.second_order.inverse(dt_s)?),
             ),
             EstimatorKind::ScheduledInverse => {
-                let mut fits = [(0.0f32, SecondOrder::MEMO_FIT); SCHEDULE_POINTS];
-                for (slot, fit) in fits.iter_mut().zip(&model.schedule) {
-                    *slot = *fit;
-                }
-                let n = model.schedule.len();
-                let schedule = Schedule::new(fits.get(..n).unwrap_or(&[]), dt_s)?;
+                let schedule = Schedule::new(&model.schedule, dt_s)?;
                 TaxelEstimator::ScheduledInverse(ScheduledInverse::new(schedule))
             }
             EstimatorKind::Observer => TaxelEstimator::Observer(MkObserver::new(

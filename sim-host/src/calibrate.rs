@@ -9,7 +9,7 @@
 //! - the scheduled inverse's table: the calibrated element's secant springs at each load level
 //!   the protocol visited, as eq. 17 (Table I's rows, one per load, from one fit).
 
-use tactile_core::calibration::{CalibrationTable, TaxelModel};
+use tactile_core::calibration::{secant_schedule, CalibrationTable, TaxelModel};
 use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G};
 use tactile_core::tactile::TaxelId;
 use tactile_core::viscoelastic::SecondOrder;
@@ -93,25 +93,15 @@ pub fn fit_taxel(
     // alone cannot tell the permanent deformation's α and N₁ apart (the fits run to their
     // bounds) and gives tangent, not secant, springs; the whole record's nonlinear fit sees
     // every level at once.
-    let mut schedule = heapless::Vec::new();
-    let mut levels = Vec::new();
-    for k in 0..CALIBRATION_OFFSETS_G.len() {
-        let (load, _) = level_series(&whole, per_offset_s, k);
-        schedule
-            .push((load as f32, element.linearized(load).second_order()))
-            .map_err(|_| "too many load levels".to_string())?;
-        levels.push(load);
-    }
+    let levels: Vec<f64> = (0..CALIBRATION_OFFSETS_G.len())
+        .map(|k| level_series(&whole, per_offset_s, k).0)
+        .collect();
+    let schedule = secant_schedule(&element, &levels);
     // The linear models' intercepts made secant at their level's mean load, so they read zero
     // strain as zero force.
     let elastic_g = {
         let (g, c) = (elastic.physical[0], elastic.physical[1]);
-        let k = (memo_level_load / g + c) / (memo_level_load / g);
-        if k.is_finite() && k > 0.1 {
-            g / k
-        } else {
-            g
-        }
+        g / secant_factor(memo_level_load / g, c)
     };
     let second_order = secant(
         &second_order,
@@ -167,17 +157,36 @@ fn level_series(whole: &Series, per_offset_s: f32, k: usize) -> (f64, Series) {
 /// rescaled to pass through the same static point with none (the secant): its compliance
 /// scaled by (ε₀ + L/K)/(L/K), K its static stiffness b₂/a₂.
 fn secant(so: &SecondOrder, load_g: f64, intercept_pct: f64) -> SecondOrder {
-    let static_pct = load_g * so.a2 / so.b2;
-    let k = (static_pct + intercept_pct) / static_pct;
-    if !(k.is_finite() && k > 0.1 && k < 10.0) {
-        return *so;
-    }
+    let k = secant_factor(load_g * so.a2 / so.b2, intercept_pct);
     SecondOrder {
         b0: so.b0 / k,
         b1: so.b1 / k,
         b2: so.b2 / k,
         ..*so
     }
+}
+
+/// How much a model's compliance grows to pass through (load, strain at load with the
+/// intercept) with none: (ε_static + ε₀)/ε_static, or 1 where that is not a sensible scale
+/// (beyond 0.1–10, or not finite).
+fn secant_factor(static_pct: f64, intercept_pct: f64) -> f64 {
+    let k = (static_pct + intercept_pct) / static_pct;
+    if k.is_finite() && k > 0.1 && k < 10.0 {
+        k
+    } else {
+        1.0
+    }
+}
+
+/// Writes `table` to `path` as the firmware reads it; returns its length in bytes.
+pub fn write_table(path: &std::path::Path, table: &CalibrationTable) -> Result<usize, String> {
+    let mut bytes = vec![0u8; table.encoded_len()];
+    let n = table.encode(&mut bytes).map_err(|e| e.to_string())?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    std::fs::write(path, &bytes[..n]).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(n)
 }
 
 /// The calibration protocol run on the simulator with the probe over `taxel` of the finger

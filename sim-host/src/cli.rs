@@ -380,16 +380,17 @@ pub fn parse_taxel_record(arg: &str) -> Result<(TaxelId, PathBuf), String> {
     let usage =
         || format!("'{arg}': expected ROW,COL=FILE with ROW and COL in 0..8 (e.g. 3,2=taxel.csv)");
     let (pos, file) = arg.split_once('=').ok_or_else(usage)?;
-    let (r, c) = pos.split_once(',').ok_or_else(usage)?;
-    let (r, c): (usize, usize) = (
-        r.trim().parse().map_err(|_| usage())?,
-        c.trim().parse().map_err(|_| usage())?,
-    );
-    let taxel = TaxelId::new(r, c).ok_or_else(usage)?;
+    let taxel = parse_taxel(pos).ok_or_else(usage)?;
     if file.is_empty() {
         return Err(usage());
     }
     Ok((taxel, PathBuf::from(file)))
+}
+
+/// `ROW,COL` (from zero) → the taxel, `None` off the array or malformed.
+pub fn parse_taxel(pos: &str) -> Option<TaxelId> {
+    let (r, c) = pos.split_once(',')?;
+    TaxelId::new(r.trim().parse().ok()?, c.trim().parse().ok()?)
 }
 
 /// `tactile calibrate`: fits each record (or the simulated finger's four calibration taxels),
@@ -435,14 +436,7 @@ pub fn calibrate(records: &[String], out: &Path, seed: u64) -> Result<String, Ca
         }
         (table, reports, format!("{} record(s)", records.len()))
     };
-    let mut bytes = vec![0u8; table.encoded_len()];
-    let n = table
-        .encode(&mut bytes)
-        .map_err(|e| Failed(e.to_string()))?;
-    if let Some(dir) = out.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| Failed(format!("{}: {e}", dir.display())))?;
-    }
-    std::fs::write(out, &bytes[..n]).map_err(|e| Failed(format!("{}: {e}", out.display())))?;
+    let n = crate::calibrate::write_table(out, &table).map_err(Failed)?;
     let json = out.with_extension("json");
     let summary = serde_json::json!({ "taxels": reports, "table_bytes": n });
     std::fs::write(

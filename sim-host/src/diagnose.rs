@@ -673,12 +673,7 @@ pub fn taxel_model(
     if let Some(element) = fit.model.nonlinear_element(&fit.theta) {
         // Stiffening as load-dependent springs: the observer runs the element itself, the
         // schedule its secant springs at each load.
-        let mut schedule = heapless::Vec::new();
-        for load in EXPORT_LOADS_G {
-            schedule
-                .push((load as f32, element.linearized(load).second_order()))
-                .ok()?;
-        }
+        let schedule = tactile_core::calibration::secant_schedule(&element, &EXPORT_LOADS_G);
         let at_25 = element.linearized(25.0).second_order();
         return Some(TaxelModel {
             taxel,

@@ -104,9 +104,8 @@ impl Scanner {
         let probe_model = model(config.probe);
         let probe_bench =
             TaxelEstimators::new(&probe_model, frame_s).map_err(ConfigError::Estimator)?;
-        let first = TaxelEstimator::new(config.array_estimator, &probe_model, frame_s)
-            .map_err(ConfigError::Estimator)?;
-        let mut estimators = [first; TAXELS];
+        // Every entry is built in the loop below (or the scanner is refused).
+        let mut estimators = [TaxelEstimator::Elastic { g_per_pct: 0.0 }; TAXELS];
         let mut conditioners = [StrainConditioner::default(); TAXELS];
         for (i, (est, cond)) in estimators
             .iter_mut()

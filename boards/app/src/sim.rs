@@ -86,6 +86,20 @@ pub const CALIBRATION_SESSION: [FilRun; 4] = {
     ]
 };
 
+/// The words of a semihosting command line (the ELF's path, then `-append`'s words), up to its
+/// NUL; none if it is not UTF-8.
+fn cmdline_words(cmdline: &[u8]) -> impl Iterator<Item = &str> {
+    let end = cmdline
+        .iter()
+        .position(|&b| b == 0)
+        .unwrap_or(cmdline.len());
+    cmdline
+        .get(..end)
+        .and_then(|b| core::str::from_utf8(b).ok())
+        .unwrap_or("")
+        .split_ascii_whitespace()
+}
+
 /// The sessions the QEMU firmware can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Session {
@@ -106,18 +120,7 @@ impl Session {
 
 /// Which session the QEMU firmware runs, from its semihosting command line.
 pub fn session_from_cmdline(cmdline: &[u8]) -> Session {
-    let end = cmdline
-        .iter()
-        .position(|&b| b == 0)
-        .unwrap_or(cmdline.len());
-    let text = cmdline
-        .get(..end)
-        .and_then(|b| core::str::from_utf8(b).ok())
-        .unwrap_or("");
-    if text
-        .split_ascii_whitespace()
-        .any(|w| w == "session=calibration")
-    {
+    if cmdline_words(cmdline).any(|w| w == "session=calibration") {
         Session::Calibration
     } else {
         Session::FirmwareInTheLoop
@@ -198,12 +201,7 @@ impl DeliberateCrash {
     /// Reads the request from a semihosting command line (the ELF's path, then `-append`'s
     /// words, NUL-terminated). Unknown words are ignored; a malformed number is no request.
     pub fn from_cmdline(cmdline: &[u8]) -> Option<DeliberateCrash> {
-        let end = cmdline
-            .iter()
-            .position(|&b| b == 0)
-            .unwrap_or(cmdline.len());
-        let text = core::str::from_utf8(cmdline.get(..end)?).ok()?;
-        text.split_ascii_whitespace().find_map(|word| {
+        cmdline_words(cmdline).find_map(|word| {
             let (key, value) = word.split_once('=')?;
             let tick = value.parse().ok()?;
             match key {

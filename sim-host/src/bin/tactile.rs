@@ -320,9 +320,9 @@ fn main() -> ExitCode {
             table,
             taxel,
         } => {
-            let taxel = match cli::parse_taxel_record(&format!("{taxel}=-")) {
-                Ok((t, _)) => t,
-                Err(_) => {
+            let taxel = match cli::parse_taxel(&taxel) {
+                Some(t) => t,
+                None => {
                     eprintln!("tactile diagnose: --taxel '{taxel}': expected ROW,COL with ROW and COL in 0..8");
                     return ExitCode::from(2);
                 }
@@ -355,16 +355,8 @@ fn main() -> ExitCode {
                 };
                 let mut t = tactile_core::calibration::CalibrationTable::default();
                 let _ = t.taxels.push(model);
-                let mut bytes = vec![0u8; t.encoded_len()];
-                let written = t
-                    .encode(&mut bytes)
-                    .map_err(|e| e.to_string())
-                    .and_then(|n| {
-                        std::fs::write(&path, &bytes[..n])
-                            .map_err(|e| format!("{}: {e}", path.display()))
-                    });
-                match written {
-                    Ok(()) => outln!(
+                match sim_host::calibrate::write_table(&path, &t) {
+                    Ok(_) => outln!(
                         "  calibration table for taxel ({}, {}): {} (the firmware's format; merge or flash as boards/calibration/table.bin)",
                         taxel.row(),
                         taxel.col(),
