@@ -1,0 +1,25 @@
+//! `tactile-ident`: what a model of the sensor gets wrong, from a record of force and strain.
+//!
+//! The diagnosis ([`diagnose::diagnose`]) fits one model that is linear in its parameters — a
+//! generalized Maxwell–Kelvin finger (an elastic compliance and a Prony series of Kelvin
+//! branches over a log-spaced grid of time constants, plus the permanent-creep dashpot) — and
+//! adds each named effect as a group of regressors: a slower relaxation, a load basis
+//! (stiffening), play operators (hysteresis), a smooth drift in time, lines (interference), a
+//! fractional delay, a gain that changes with time. Every candidate is scored on the same
+//! contiguous folds ([`series::Folds`]); an effect is accepted when its held-out gain is
+//! consistent across the folds and it moves the residual toward white. Errors are in strain
+//! (what was measured) and in grams through one fixed secant stiffness per record.
+//!
+//! [`synth`] is a second record generator, different in form from the project's simulator,
+//! for tests and benchmarks.
+
+pub mod diagnose;
+pub mod residual;
+pub mod series;
+pub mod solve;
+pub mod stats;
+pub mod synth;
+pub mod terms;
+
+pub use diagnose::{diagnose, Diagnosis, Effect};
+pub use series::{Refusal, Series};

@@ -1,0 +1,191 @@
+//! What a residual looks like: how far from white, and where it lives (load, time, loading
+//! rate, direction, frequency), in numbers and in words.
+
+use serde::Serialize;
+
+use crate::stats;
+use crate::terms;
+
+/// Lags of the portmanteau (Ljung–Box) statistic.
+pub const PORTMANTEAU_LAGS: usize = 20;
+
+/// The residual tests.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ResidualTests {
+    pub rms_pct: f64,
+    /// Autocorrelation at lags 1..=50 and its 95 % bound ±1.96/√N.
+    pub acf: Vec<f64>,
+    pub acf_bound: f64,
+    /// Share of those lags outside the bound (about 0.05 for white noise).
+    pub acf_outside: f64,
+    /// Ljung–Box Q over [`PORTMANTEAU_LAGS`] lags, and Q over its 5 % critical value.
+    pub ljung_box: f64,
+    pub ljung_box_ratio: f64,
+    /// Share of the residual's variance that each explains: the load (10 bins), a smooth
+    /// function of time (8 half-cosines), the loading rate (10 bins of the force's rate),
+    /// the loading direction at equal load.
+    pub load_r2: f64,
+    pub time_r2: f64,
+    pub rate_r2: f64,
+    pub direction_r2: f64,
+    /// Strongest spectral line above 0.3 Hz (not a line of the force) and its height over the
+    /// local median of the spectrum.
+    pub line_hz: f64,
+    pub line_ratio: f64,
+    /// Share of the residual's power below 0.1 Hz, 0.1–1 Hz, 1–10 Hz and above 10 Hz.
+    pub band_shares: [f64; 4],
+}
+
+/// Share of the variance of `r` explained by bin means over `key` (`bins` equal-count bins).
+fn binned_r2(r: &[f64], key: &[f64], bins: usize) -> f64 {
+    let n = r.len();
+    if n < bins * 4 {
+        return 0.0;
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|a, b| key[*a].total_cmp(&key[*b]));
+    let m = stats::mean(r);
+    let var: f64 = r.iter().map(|v| (v - m) * (v - m)).sum();
+    if var <= 0.0 {
+        return 0.0;
+    }
+    let explained: f64 = order
+        .chunks(n.div_ceil(bins))
+        .map(|c| {
+            let bm = c.iter().map(|&i| r[i]).sum::<f64>() / c.len() as f64;
+            c.len() as f64 * (bm - m) * (bm - m)
+        })
+        .sum();
+    // Minus what `bins` means of pure noise explain by chance.
+    ((explained / var) - bins as f64 / n as f64).max(0.0)
+}
+
+/// Fastest rate the whiteness tests look at, Hz: a 1 kHz residual is averaged over 5 samples
+/// first, so 20 lags span the same 0.1 s at any rate and a fast record's sample-to-sample
+/// noise does not hide its structure.
+pub const WHITENESS_RATE_HZ: f64 = 200.0;
+
+/// `residual` averaged over blocks so its rate is at most [`WHITENESS_RATE_HZ`].
+pub fn on_common_scale(residual: &[f64], dt_s: f64) -> Vec<f64> {
+    let m = ((1.0 / dt_s) / WHITENESS_RATE_HZ).floor().max(1.0) as usize;
+    if m == 1 {
+        return residual.to_vec();
+    }
+    residual
+        .chunks_exact(m)
+        .map(|c| c.iter().sum::<f64>() / m as f64)
+        .collect()
+}
+
+/// Runs the tests on `residual` (model − strain) of a record with `force` sampled every `dt_s`.
+pub fn residual_tests(residual: &[f64], force: &[f64], dt_s: f64) -> ResidualTests {
+    let common = on_common_scale(residual, dt_s);
+    let n = common.len();
+    let acf = stats::acf(&common, 50);
+    let bound = 1.96 / (n.max(1) as f64).sqrt();
+    let outside = acf.iter().filter(|r| r.abs() > bound).count() as f64 / acf.len().max(1) as f64;
+    let (q, ratio) = stats::ljung_box(&acf, n, PORTMANTEAU_LAGS);
+    let load_r2 = binned_r2(residual, force, 10);
+    let time: Vec<f64> = (0..residual.len()).map(|i| i as f64).collect();
+    let time_r2 = {
+        // Least squares on 8 half-cosines is a smooth trend; the bins here are its proxy.
+        binned_r2(residual, &time, 16)
+    };
+    let w = ((0.05 / dt_s).round() as usize).max(1);
+    let smooth = stats::moving_mean(force, 2 * w + 1);
+    let rate = terms::derivative(&smooth, dt_s);
+    let abs_rate: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
+    let rate_r2 = binned_r2(residual, &abs_rate, 10);
+    // Direction at equal load: bins of (load, sign of rate) minus bins of load alone.
+    let range = 1e-9 + force.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let signed: Vec<f64> = force
+        .iter()
+        .zip(&rate)
+        .map(|(f, r)| f / range + if *r > 0.0 { 10.0 } else { 0.0 })
+        .collect();
+    let direction_r2 = (binned_r2(residual, &signed, 20) - load_r2).max(0.0);
+    let lines = terms::lines(residual, force, dt_s, 0.3, 1.0, 1);
+    let (line_hz, line_ratio) = lines.first().map_or((0.0, 0.0), |l| (l.hz, l.ratio));
+    let (df, p) = terms::periodogram(residual, dt_s);
+    let mut band_shares = [0.0; 4];
+    let total: f64 = p.iter().skip(1).sum::<f64>().max(f64::MIN_POSITIVE);
+    for (k, v) in p.iter().enumerate().skip(1) {
+        let hz = k as f64 * df;
+        let b = if hz < 0.1 {
+            0
+        } else if hz < 1.0 {
+            1
+        } else if hz < 10.0 {
+            2
+        } else {
+            3
+        };
+        band_shares[b] += v / total;
+    }
+    ResidualTests {
+        rms_pct: stats::rms(residual),
+        acf,
+        acf_bound: bound,
+        acf_outside: outside,
+        ljung_box: q,
+        ljung_box_ratio: ratio,
+        load_r2,
+        time_r2,
+        rate_r2,
+        direction_r2,
+        line_hz,
+        line_ratio,
+        band_shares,
+    }
+}
+
+impl ResidualTests {
+    /// Where the residual lives, in words with the numbers, strongest first.
+    pub fn describe(&self) -> String {
+        let mut parts: Vec<(f64, String)> = vec![
+            (
+                self.load_r2,
+                format!("the load explains {:.0} % of it", 100.0 * self.load_r2),
+            ),
+            (
+                self.time_r2,
+                format!("a slow function of time {:.0} %", 100.0 * self.time_r2),
+            ),
+            (
+                self.rate_r2,
+                format!("the loading rate {:.0} %", 100.0 * self.rate_r2),
+            ),
+            (
+                self.direction_r2,
+                format!(
+                    "the loading direction at equal load {:.0} %",
+                    100.0 * self.direction_r2
+                ),
+            ),
+        ];
+        parts.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let bands = ["below 0.1 Hz", "0.1–1 Hz", "1–10 Hz", "above 10 Hz"];
+        let (bi, bv) = self
+            .band_shares
+            .iter()
+            .enumerate()
+            .fold((0, 0.0), |m, (i, v)| if *v > m.1 { (i, *v) } else { m });
+        let mut s = parts
+            .into_iter()
+            .map(|p| p.1)
+            .collect::<Vec<_>>()
+            .join(", ");
+        s.push_str(&format!(
+            "; {:.0} % of its power is {}",
+            100.0 * bv,
+            bands[bi]
+        ));
+        if self.line_ratio > 20.0 {
+            s.push_str(&format!(
+                "; a line at {:.2} Hz stands {:.0}× over its neighbours",
+                self.line_hz, self.line_ratio
+            ));
+        }
+        s
+    }
+}

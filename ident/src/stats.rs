@@ -1,0 +1,239 @@
+//! The statistics the identification uses, each written once: RMS, autocorrelation and the
+//! Ljung–Box test, the paired test over folds, quantiles, a robust line, the noise floor.
+
+use statrs::distribution::{ChiSquared, ContinuousCDF, StudentsT};
+
+pub fn mean(x: &[f64]) -> f64 {
+    x.iter().sum::<f64>() / x.len().max(1) as f64
+}
+
+pub fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
+/// The `q` quantile (0..=1) by sorting a copy; 0 for an empty slice.
+pub fn quantile(x: &[f64], q: f64) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let mut v = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    let i = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    v[i.min(v.len() - 1)]
+}
+
+pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let (ma, mb) = (mean(a), mean(b));
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        ab += (x - ma) * (y - mb);
+        aa += (x - ma) * (x - ma);
+        bb += (y - mb) * (y - mb);
+    }
+    if aa > 0.0 && bb > 0.0 {
+        ab / (aa * bb).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// Centred moving mean over `w` samples (shorter at the ends).
+pub fn moving_mean(x: &[f64], w: usize) -> Vec<f64> {
+    let n = x.len();
+    let h = w / 2;
+    let mut prefix = vec![0.0; n + 1];
+    for i in 0..n {
+        prefix[i + 1] = prefix[i] + x[i];
+    }
+    (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(h), (i + h + 1).min(n));
+            (prefix[b] - prefix[a]) / (b - a) as f64
+        })
+        .collect()
+}
+
+/// Autocorrelation of `x` at lags `1..=lags`.
+pub fn acf(x: &[f64], lags: usize) -> Vec<f64> {
+    let m = mean(x);
+    let var: f64 = x.iter().map(|v| (v - m) * (v - m)).sum();
+    (1..=lags)
+        .map(|k| {
+            if var <= 0.0 || k >= x.len() {
+                return 0.0;
+            }
+            x.iter()
+                .zip(&x[k..])
+                .map(|(a, b)| (a - m) * (b - m))
+                .sum::<f64>()
+                / var
+        })
+        .collect()
+}
+
+/// Ljung–Box Q over the first `lags` autocorrelations of a series of `n`, and Q over its 5 %
+/// critical value (χ² with `lags` degrees of freedom): above 1, not white at that level.
+pub fn ljung_box(acf: &[f64], n: usize, lags: usize) -> (f64, f64) {
+    let n = n as f64;
+    let q = n
+        * (n + 2.0)
+        * acf
+            .iter()
+            .take(lags)
+            .enumerate()
+            .map(|(i, r)| r * r / (n - i as f64 - 1.0).max(1.0))
+            .sum::<f64>();
+    let critical = ChiSquared::new(lags as f64)
+        .map(|c| c.inverse_cdf(0.95))
+        .unwrap_or(31.41);
+    (q, q / critical)
+}
+
+/// Share of a series' variance left unpredicted by an autoregression on its past, from its
+/// autocorrelation at lags 1.. (Levinson–Durbin: the product of 1 − k² over the reflection
+/// coefficients). 1 for white noise, near 0 for a smooth signal.
+pub fn innovation_share(acf: &[f64]) -> f64 {
+    let p = acf.len();
+    let r = |k: usize| if k == 0 { 1.0 } else { acf[k - 1] };
+    let mut a = vec![0.0; p + 1];
+    let mut err = 1.0;
+    for m in 1..=p {
+        let mut acc = r(m);
+        for j in 1..m {
+            acc -= a[j] * r(m - j);
+        }
+        let k = (acc / err).clamp(-0.999_999, 0.999_999);
+        let prev = a.clone();
+        a[m] = k;
+        for j in 1..m {
+            a[j] = prev[j] - k * prev[m - j];
+        }
+        err *= 1.0 - k * k;
+    }
+    err
+}
+
+/// One-sided paired test that the gains `d` (one per fold) are positive: the p-value of
+/// Student's t with `d.len() − 1` degrees of freedom. Folds are contiguous blocks longer than
+/// the residual's correlation, so their gains are nearly independent even when the samples are
+/// not.
+pub fn paired_p_value(d: &[f64]) -> f64 {
+    let k = d.len();
+    if k < 2 {
+        return 1.0;
+    }
+    let m = mean(d);
+    let sd = (d.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (k - 1) as f64).sqrt();
+    if sd <= 0.0 {
+        return if m > 0.0 { 0.0 } else { 1.0 };
+    }
+    let t = m / (sd / (k as f64).sqrt());
+    StudentsT::new(0.0, 1.0, (k - 1) as f64)
+        .map(|dist| 1.0 - dist.cdf(t))
+        .unwrap_or(1.0)
+}
+
+/// A line y = a + b·x fitted robustly (Huber weights, ten reweightings): a few wild samples do
+/// not tilt it. Returns (a, b).
+pub fn robust_line(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let mut w = vec![1.0; x.len()];
+    let (mut a, mut b) = (0.0, 0.0);
+    for _ in 0..10 {
+        let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for ((xi, yi), wi) in x.iter().zip(y).zip(&w) {
+            sw += wi;
+            sx += wi * xi;
+            sy += wi * yi;
+            sxx += wi * xi * xi;
+            sxy += wi * xi * yi;
+        }
+        let det = sw * sxx - sx * sx;
+        if det.abs() <= f64::MIN_POSITIVE || sw <= 0.0 {
+            break;
+        }
+        b = (sw * sxy - sx * sy) / det;
+        a = (sy - b * sx) / sw;
+        let r: Vec<f64> = x.iter().zip(y).map(|(xi, yi)| yi - a - b * xi).collect();
+        let abs: Vec<f64> = r.iter().map(|v| v.abs()).collect();
+        let scale = 1.4826 * quantile(&abs, 0.5);
+        if scale <= 0.0 {
+            break;
+        }
+        let c = 1.345 * scale;
+        for (wi, ri) in w.iter_mut().zip(&r) {
+            *wi = if ri.abs() <= c { 1.0 } else { c / ri.abs() };
+        }
+    }
+    (a, b)
+}
+
+/// Variance of the white noise on `x`, from second differences (a smooth signal has almost
+/// none): over windows of `window` samples, mean (Δ²x)²/6, and the 10th percentile of the
+/// windows, so the quiet stretches of a record (rest, held loads) set it.
+pub fn noise_variance(x: &[f64], window: usize) -> f64 {
+    let window = window.max(8);
+    let d2: Vec<f64> = x.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
+    let per: Vec<f64> = d2
+        .chunks(window)
+        .filter(|c| c.len() >= window / 2)
+        .map(|c| c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64 / 6.0)
+        .collect();
+    quantile(&per, 0.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ljung_box_critical_value_is_the_chi_square_quantile() {
+        // χ²(20) at 5 % is 31.41 (tables).
+        let (q, ratio) = ljung_box(&[0.0; 20], 1000, 20);
+        assert_eq!(q, 0.0);
+        assert_eq!(ratio, 0.0);
+        let (q, ratio) = ljung_box(&[0.1; 20], 1000, 20);
+        assert!((q / ratio - 31.41).abs() < 0.01, "{}", q / ratio);
+    }
+
+    #[test]
+    fn paired_test_matches_students_t() {
+        // t = 2.0 with 9 dof: one-sided p = 0.0383 (tables).
+        let d = [1.0, 2.0, 3.0, 0.0, 1.0, 2.0, -1.0, 1.0, 0.0, 1.0];
+        let m = mean(&d);
+        let sd = (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 9.0).sqrt();
+        let t = m / (sd / 10f64.sqrt());
+        assert!((t - 2.7136).abs() < 1e-3, "{t}");
+        // t = 2.7136, 9 dof: p ≈ 0.0119.
+        assert!((paired_p_value(&d) - 0.0119).abs() < 5e-4, "{}", paired_p_value(&d));
+        assert!(paired_p_value(&[-1.0, -2.0, -1.5]) > 0.9);
+    }
+
+    #[test]
+    fn innovation_share_of_an_ar1_is_one_minus_phi_squared() {
+        // AR(1) with φ = 0.8: ρ_k = 0.8^k, innovation variance share 1 − 0.64.
+        let acf: Vec<f64> = (1..=20).map(|k| 0.8f64.powi(k)).collect();
+        assert!((innovation_share(&acf) - 0.36).abs() < 1e-9);
+        assert!((innovation_share(&[0.0; 20]) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn robust_line_ignores_wild_samples() {
+        let x: Vec<f64> = (0..200).map(|i| i as f64).collect();
+        let mut y: Vec<f64> = x.iter().map(|v| 1.0 + 0.25 * v).collect();
+        for i in (0..200).step_by(20) {
+            y[i] += 500.0;
+        }
+        let (a, b) = robust_line(&x, &y);
+        assert!((b - 0.25).abs() < 1e-3 && (a - 1.0).abs() < 0.2, "{a} {b}");
+    }
+
+    #[test]
+    fn noise_variance_of_white_noise_on_a_slow_signal() {
+        // Deterministic ±1 noise has variance 1; the slow sine adds almost nothing.
+        let x: Vec<f64> = (0..20_000)
+            .map(|i| (i as f64 * 1e-3).sin() * 50.0 + if (i * 7 + i / 3) % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let v = noise_variance(&x, 200);
+        assert!((0.5..2.0).contains(&v), "{v}");
+    }
+}

@@ -1,0 +1,272 @@
+//! Regressors: signals built from the force (and time) whose weighted sum models the strain.
+
+use rustfft::{num_complex::Complex, FftPlanner};
+
+/// First-order lowpass 1/(1 + sτ) of `x`, exact for an input that is linear between samples
+/// (so a sampled ramp is followed without the half-sample lag of a zero-order hold). Starts at
+/// rest at the first sample's value.
+pub fn lowpass(x: &[f64], tau_s: f64, dt_s: f64) -> Vec<f64> {
+    let h = dt_s / tau_s;
+    let a = (-h).exp();
+    // Input linear between samples: y[n] = a·y[n−1] + b0·x[n] + b1·x[n−1].
+    let g = if h > 1e-6 { (1.0 - a) / h } else { 1.0 - h / 2.0 };
+    let (b0, b1) = (1.0 - g, g - a);
+    let mut y = Vec::with_capacity(x.len());
+    let (mut prev_x, mut prev_y) = match x.first() {
+        Some(&v) => (v, v),
+        None => return y,
+    };
+    for &v in x {
+        prev_y = a * prev_y + b0 * v + b1 * prev_x;
+        prev_x = v;
+        y.push(prev_y);
+    }
+    y
+}
+
+/// Running integral of `x` (trapezoid), divided by `scale_s` so it stays of the order of `x`.
+pub fn integral(x: &[f64], dt_s: f64, scale_s: f64) -> Vec<f64> {
+    let mut s = 0.0;
+    let mut prev = x.first().copied().unwrap_or(0.0);
+    x.iter()
+        .map(|&v| {
+            s += 0.5 * (v + prev) * dt_s / scale_s;
+            prev = v;
+            s
+        })
+        .collect()
+}
+
+/// Prandtl–Ishlinskii play operator of radius `r`: the output follows the input only once the
+/// input has moved `r` away from it.
+pub fn play(x: &[f64], r: f64) -> Vec<f64> {
+    let mut y = x.first().copied().unwrap_or(0.0);
+    x.iter()
+        .map(|&v| {
+            y = y.clamp(v - r, v + r);
+            y
+        })
+        .collect()
+}
+
+/// A Prandtl–Ishlinskii operator: `w0`·x plus the plays of `radii` weighted by `weights`.
+pub fn play_sum(x: &[f64], radii: &[f64], weights: &[f64], w0: f64) -> Vec<f64> {
+    let mut states: Vec<f64> = radii.iter().map(|_| x.first().copied().unwrap_or(0.0)).collect();
+    x.iter()
+        .map(|&v| {
+            let mut y = w0 * v;
+            for ((s, r), w) in states.iter_mut().zip(radii).zip(weights) {
+                *s = s.clamp(v - r, v + r);
+                y += w * *s;
+            }
+            y
+        })
+        .collect()
+}
+
+/// cos(π·k·t/T) over the record (k = 1 is one half-period: a smooth step from one end to the
+/// other).
+pub fn cosine(n: usize, k: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| (std::f64::consts::PI * k as f64 * (i as f64 + 0.5) / n as f64).cos())
+        .collect()
+}
+
+/// Legendre polynomial of degree `k` (1 or 2) over the record, from −1 to 1: a gain that
+/// changes linearly or bends.
+pub fn legendre(n: usize, k: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| {
+            let x = 2.0 * (i as f64 + 0.5) / n as f64 - 1.0;
+            if k == 1 {
+                x
+            } else {
+                1.5 * x * x - 0.5
+            }
+        })
+        .collect()
+}
+
+/// sin and cos at `hz`.
+pub fn sinusoid(n: usize, dt_s: f64, hz: f64) -> (Vec<f64>, Vec<f64>) {
+    let w = 2.0 * std::f64::consts::PI * hz * dt_s;
+    (0..n)
+        .map(|i| ((w * i as f64).sin(), (w * i as f64).cos()))
+        .unzip()
+}
+
+/// `x` delayed by `samples` (fractional: linear interpolation), held at its first value.
+pub fn delayed(x: &[f64], samples: f64) -> Vec<f64> {
+    let whole = samples.floor() as usize;
+    let frac = samples - whole as f64;
+    let first = x.first().copied().unwrap_or(0.0);
+    (0..x.len())
+        .map(|i| {
+            let a = if i >= whole { x[i - whole] } else { first };
+            let b = if i > whole { x[i - whole - 1] } else { first };
+            a * (1.0 - frac) + b * frac
+        })
+        .collect()
+}
+
+/// Time derivative by central differences (one-sided at the ends).
+pub fn derivative(x: &[f64], dt_s: f64) -> Vec<f64> {
+    let n = x.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n.saturating_sub(1)));
+            if b > a {
+                (x[b] - x[a]) / ((b - a) as f64 * dt_s)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Periodogram with a Hann window: (bin width in Hz, power per bin up to Nyquist).
+pub fn periodogram(x: &[f64], dt_s: f64) -> (f64, Vec<f64>) {
+    let n = x.len();
+    if n < 16 {
+        return (0.0, Vec::new());
+    }
+    let m = crate::stats::mean(x);
+    let mut buf: Vec<Complex<f64>> = x
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos();
+            Complex::new((v - m) * w, 0.0)
+        })
+        .collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    (
+        1.0 / (n as f64 * dt_s),
+        buf[..n / 2].iter().map(|c| c.norm_sqr()).collect(),
+    )
+}
+
+/// The spectrum's local background: the median of blocks of bins (a line does not move a
+/// median), each bin taking its block's.
+fn background(p: &[f64]) -> Vec<f64> {
+    let w = (p.len() / 200).clamp(16, 400);
+    let mut out = vec![0.0; p.len()];
+    for (block, chunk) in out.chunks_mut(w).enumerate() {
+        let a = (block * w).saturating_sub(w / 2);
+        let b = ((block + 1) * w + w / 2).min(p.len());
+        let m = crate::stats::quantile(&p[a..b], 0.5).max(f64::MIN_POSITIVE);
+        chunk.iter_mut().for_each(|v| *v = m);
+    }
+    out
+}
+
+/// A spectral line of a residual: frequency, and its height over the local background.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Line {
+    pub hz: f64,
+    pub ratio: f64,
+}
+
+/// Lines of `residual` above `min_hz` that stand `min_ratio` times over the local median of
+/// the residual's spectrum and are not lines of the force (the excitation's own frequencies
+/// show in a wrong model's residual; interference is what the force does not carry). At most
+/// `max` lines, strongest first, frequency refined between bins.
+pub fn lines(
+    residual: &[f64],
+    force: &[f64],
+    dt_s: f64,
+    min_hz: f64,
+    min_ratio: f64,
+    max: usize,
+) -> Vec<Line> {
+    let (df, p) = periodogram(residual, dt_s);
+    let (_, pf) = periodogram(force, dt_s);
+    if p.len() < 32 || df <= 0.0 {
+        return Vec::new();
+    }
+    let first = ((min_hz / df).ceil() as usize).max(2);
+    let last = p.len().saturating_sub(2);
+    let (bg, bgf) = (background(&p), background(&pf));
+    let mut found: Vec<(usize, f64)> = Vec::new();
+    for k in first..last {
+        if p[k] < p[k - 1] || p[k] < p[k + 1] {
+            continue;
+        }
+        let ratio = p[k] / bg[k];
+        if ratio < min_ratio {
+            continue;
+        }
+        // The force has a line within two bins: an excitation frequency, not interference.
+        let force_line = (k.saturating_sub(2)..=(k + 2).min(pf.len() - 1))
+            .any(|j| pf[j] / bgf[j] > 20.0);
+        if !force_line {
+            found.push((k, ratio));
+        }
+    }
+    found.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut out: Vec<Line> = Vec::new();
+    for (k, ratio) in found {
+        if out.len() >= max {
+            break;
+        }
+        // Parabolic interpolation of the log power over three bins.
+        let (a, b, c) = (p[k - 1].ln(), p[k].ln(), p[k + 1].ln());
+        let denom = a - 2.0 * b + c;
+        let shift = if denom.abs() > 1e-12 {
+            (0.5 * (a - c) / denom).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        };
+        let hz = (k as f64 + shift) * df;
+        if out.iter().all(|l| (l.hz - hz).abs() > 5.0 * df) {
+            out.push(Line { hz, ratio });
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lowpass_step_follows_the_exponential() {
+        // A step at t = 0 from 0 to 1: y(t) = 1 − e^{−t/τ}; the first sample sees the ramp over
+        // one period, so compare from the second on against the exact response to that ramp.
+        let dt = 0.01;
+        let tau = 0.5;
+        let mut x = vec![0.0; 1];
+        x.extend(vec![1.0; 500]);
+        let y = lowpass(&x, tau, dt);
+        for (i, v) in y.iter().enumerate().skip(5) {
+            let t = (i - 1) as f64 * dt;
+            // Response to a ramp 0→1 over dt, then constant: 1 − (τ/dt)(e^{−t/τ}(e^{dt/τ} − 1)).
+            let exact = 1.0 - tau / dt * (-t / tau).exp() * ((dt / tau).exp() - 1.0);
+            assert!((v - exact).abs() < 1e-9, "{i}: {v} vs {exact}");
+        }
+    }
+
+    #[test]
+    fn play_operator_hand_sequence() {
+        let y = play(&[0.0, 1.0, 3.0, 2.5, 1.0, 0.0], 1.0);
+        assert_eq!(y, vec![0.0, 0.0, 2.0, 2.0, 2.0, 1.0]);
+    }
+
+    #[test]
+    fn a_line_is_found_at_its_frequency_and_force_lines_are_not() {
+        let dt = 0.005;
+        let n = 40_000;
+        let force: Vec<f64> = (0..n).map(|i| (i as f64 * dt * 2.0 * 3.14159 * 1.9).sin()).collect();
+        let residual: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 * dt;
+                0.1 * (2.0 * std::f64::consts::PI * 7.3 * t).sin()
+                    + 0.2 * (2.0 * std::f64::consts::PI * 1.9 * t).sin()
+                    + 0.01 * (((i * 7919) % 97) as f64 / 97.0 - 0.5)
+            })
+            .collect();
+        let l = lines(&residual, &force, dt, 0.3, 20.0, 2);
+        assert_eq!(l.len(), 1, "{l:?}");
+        assert!((l[0].hz - 7.3).abs() < 0.005, "{l:?}");
+    }
+}
