@@ -18,9 +18,15 @@ fn main() {
                     "stiffening" => SynthEffect::Stiffening(v),
                     "hysteresis" => SynthEffect::Hysteresis(v),
                     "drift" => SynthEffect::Drift(v),
-                    "interference" => SynthEffect::Interference { amplitude: v, hz: at.unwrap() },
+                    "interference" => SynthEffect::Interference {
+                        amplitude: v,
+                        hz: at.unwrap(),
+                    },
                     "delay" => SynthEffect::Delay(v as usize),
-                    "slow" => SynthEffect::SlowRelaxation { share: v, tau_s: at.unwrap() },
+                    "slow" => SynthEffect::SlowRelaxation {
+                        share: v,
+                        tau_s: at.unwrap(),
+                    },
                     "sag" => SynthEffect::SensitivityDrift(v),
                     _ => panic!("{k}"),
                 }
@@ -38,7 +44,11 @@ fn main() {
         let mut t = Vec::new();
         let (mut f, mut e) = (Vec::new(), Vec::new());
         for line in text.lines().filter(|l| !l.starts_with('#')).skip(1) {
-            let v: Vec<f64> = line.split(',').take(3).map(|x| x.trim().parse().unwrap()).collect();
+            let v: Vec<f64> = line
+                .split(',')
+                .take(3)
+                .map(|x| x.trim().parse().unwrap())
+                .collect();
             t.push(v[0]);
             f.push(v[1]);
             e.push(v[2]);

@@ -35,8 +35,8 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             alpha: 0.05,
-            min_excess_share: 0.1,
-            min_floor_share: 0.02,
+            min_excess_share: 0.2,
+            min_floor_share: 0.1,
             max_rounds: 3,
             tau_min_s: 0.0,
             base_tau_max_s: 20.0,
@@ -94,7 +94,10 @@ pub enum Term {
     /// A Kelvin branch slower than the baseline's grid, s.
     SlowRelaxation(f64),
     /// Load basis g(σ) = σ·|σ/σ_s|^(power) through a branch (None: instantaneous).
-    Stiffening { power: f64, tau_s: Option<f64> },
+    Stiffening {
+        power: f64,
+        tau_s: Option<f64>,
+    },
     /// A play operator of this radius, g.
     Play(f64),
     /// cos(πkt/T).
@@ -207,8 +210,14 @@ pub struct Model {
     pub orientation: f64,
     /// Force scale of the load basis, g.
     pub force_scale_g: f64,
+    /// The accepted delay of the strain behind the force, s (0: none).
+    pub delay_s: f64,
     pub terms: Vec<(Term, f64)>,
     pub baseline_terms: Vec<(Term, f64)>,
+    /// The same models fitted on each fold's complement (for held-out scores of their forms on
+    /// the chip).
+    pub fold_terms: Vec<Vec<(Term, f64)>>,
+    pub baseline_fold_terms: Vec<Vec<(Term, f64)>>,
     /// Predicted strain of the baseline and of the accepted model, % (in the record's sign).
     pub baseline_prediction: Vec<f64>,
     pub prediction: Vec<f64>,
@@ -428,13 +437,17 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
 
     // Candidate columns that do not depend on the current model: built once.
     let slow: Vec<usize> = if t_s / 2.0 > 1.5 * settings.base_tau_max_s {
-        grid(settings.base_tau_max_s * 1.5, t_s / 2.0, settings.per_decade)
-            .into_iter()
-            .map(|tau| {
-                let v = terms::lowpass(&s.force_g, tau, dt);
-                work.add(Term::SlowRelaxation(tau), &v, Sign::NonNegative)
-            })
-            .collect()
+        grid(
+            settings.base_tau_max_s * 1.5,
+            t_s / 2.0,
+            settings.per_decade,
+        )
+        .into_iter()
+        .map(|tau| {
+            let v = terms::lowpass(&s.force_g, tau, dt);
+            work.add(Term::SlowRelaxation(tau), &v, Sign::NonNegative)
+        })
+        .collect()
     } else {
         Vec::new()
     };
@@ -509,14 +522,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     .iter()
                     .map(|f| f * (f.abs() / force_scale).powf(power))
                     .collect();
-                cols.push(work.add(
-                    Term::Stiffening {
-                        power,
-                        tau_s: None,
-                    },
-                    &g,
-                    Sign::Free,
-                ));
+                cols.push(work.add(Term::Stiffening { power, tau_s: None }, &g, Sign::Free));
                 for &(tau, _) in branches.iter().take(2) {
                     let v = terms::lowpass(&g, tau, dt);
                     cols.push(work.add(
@@ -563,7 +569,12 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .cols
                 .iter()
                 .copied()
-                .filter(|c| matches!(work.terms[*c], Term::Elastic | Term::Relaxation(_) | Term::Creep))
+                .filter(|c| {
+                    matches!(
+                        work.terms[*c],
+                        Term::Elastic | Term::Relaxation(_) | Term::Creep
+                    )
+                })
                 .collect();
             // Doubling delays from one sample to 0.1 s, then the best refined between its
             // neighbours; only the best variant's columns are kept (a 1 kHz record's columns
@@ -710,6 +721,11 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     if state.groups.len() > 1 {
         let mut i = 0;
         while i < state.groups.len() && state.groups.len() > 1 {
+            // A delay replaced the baseline's columns: it is not taken out again.
+            if state.groups[i].0 == Effect::TimeDelay {
+                i += 1;
+                continue;
+            }
             let without: Vec<usize> = state
                 .cols
                 .iter()
@@ -727,9 +743,13 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 i += 1;
             } else {
                 let name = state.groups[i].0.name();
-                if let Some(c) = candidates.iter_mut().find(|c| c.accepted && c.effect == name) {
+                if let Some(c) = candidates
+                    .iter_mut()
+                    .find(|c| c.accepted && c.effect == name)
+                {
                     c.accepted = false;
-                    c.variant.push_str(" (dropped: the later effects explain it)");
+                    c.variant
+                        .push_str(" (dropped: the later effects explain it)");
                 }
                 state.groups.remove(i);
                 state.cols = without;
@@ -786,16 +806,24 @@ fn finish(
     orientation: f64,
 ) -> Diagnosis {
     let s = work.s;
-    let terms_of = |sc: &Scored| -> Vec<(Term, f64)> {
+    let terms_with = |sc: &Scored, beta: &[f64]| -> Vec<(Term, f64)> {
         sc.columns
             .iter()
-            .zip(&sc.beta)
+            .zip(beta)
             .map(|(c, b)| (work.terms[*c], *b))
             .collect()
     };
+    let terms_of = |sc: &Scored| terms_with(sc, &sc.beta);
+    let folds_of = |sc: &Scored| -> Vec<Vec<(Term, f64)>> {
+        sc.fold_beta.iter().map(|b| terms_with(sc, b)).collect()
+    };
     let model_terms = terms_of(&state.scored);
     let baseline_terms = terms_of(&before);
-    let effects: Vec<String> = state.groups.iter().map(|g| g.0.name().to_string()).collect();
+    let effects: Vec<String> = state
+        .groups
+        .iter()
+        .map(|g| g.0.name().to_string())
+        .collect();
     let floor_pct = floor.sqrt();
     let t = &before_tests;
     let far_from_white = t.ljung_box_ratio > 20.0 && t.acf_outside > 0.5;
@@ -943,8 +971,11 @@ fn finish(
         model: Model {
             orientation,
             force_scale_g: work.force_scale,
+            delay_s: state.delay_s,
             terms: model_terms,
             baseline_terms,
+            fold_terms: folds_of(&state.scored),
+            baseline_fold_terms: folds_of(&before),
             baseline_prediction: predict(&before),
             prediction: predict(&state.scored),
             folds: folds.ranges.clone(),
@@ -1006,9 +1037,7 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                     terms
                         .iter()
                         .map(|(t, b)| match t {
-                            Term::Elastic | Term::Relaxation(_) | Term::SlowRelaxation(_) => {
-                                b * f
-                            }
+                            Term::Elastic | Term::Relaxation(_) | Term::SlowRelaxation(_) => b * f,
                             Term::Stiffening { power, .. } => {
                                 b * f * (f.abs() / work.force_scale).powf(*power)
                             }
@@ -1063,7 +1092,10 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                         "the strain's zero wanders {range:.4} % over the record ({:.2} g)",
                         range * secant
                     ),
-                    vec![("drift_pct".into(), range), ("drift_g".into(), range * secant)],
+                    vec![
+                        ("drift_pct".into(), range),
+                        ("drift_g".into(), range * secant),
+                    ],
                 )
             }
             Effect::PeriodicInterference => {
@@ -1111,7 +1143,10 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                 let range = m.iter().fold(f64::MIN, |a, v| a.max(*v))
                     - m.iter().fold(f64::MAX, |a, v| a.min(*v));
                 (
-                    format!("the sensitivity changes by {:.1} % over the record", 100.0 * range),
+                    format!(
+                        "the sensitivity changes by {:.1} % over the record",
+                        100.0 * range
+                    ),
                     vec![("gain_change_pct".into(), 100.0 * range)],
                 )
             }

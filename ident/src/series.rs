@@ -127,9 +127,10 @@ impl Series {
         }
         // A slow sensor lags, so compare both smoothed over 10 s (or a tenth of the record).
         let w = ((10.0 / dt_s) as usize).clamp(1, f.len() / 10);
-        let correlation = stats::correlation(&stats::moving_mean(&f, w), &stats::moving_mean(&e, w))
-            .abs()
-            .max(stats::correlation(&f, &e).abs());
+        let correlation =
+            stats::correlation(&stats::moving_mean(&f, w), &stats::moving_mean(&e, w))
+                .abs()
+                .max(stats::correlation(&f, &e).abs());
         if !(correlation >= 0.1) {
             return Err(Refusal::NoResponse { correlation });
         }
@@ -208,7 +209,9 @@ mod tests {
     use super::*;
 
     fn ramp(n: usize) -> Vec<f64> {
-        (0..n).map(|i| (i as f64 * 0.1).sin() * 10.0 + 20.0).collect()
+        (0..n)
+            .map(|i| (i as f64 * 0.1).sin() * 10.0 + 20.0)
+            .collect()
     }
 
     #[test]

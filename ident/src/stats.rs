@@ -197,14 +197,15 @@ mod tests {
 
     #[test]
     fn paired_test_matches_students_t() {
-        // t = 2.0 with 9 dof: one-sided p = 0.0383 (tables).
         let d = [1.0, 2.0, 3.0, 0.0, 1.0, 2.0, -1.0, 1.0, 0.0, 1.0];
         let m = mean(&d);
         let sd = (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 9.0).sqrt();
         let t = m / (sd / 10f64.sqrt());
-        assert!((t - 2.7136).abs() < 1e-3, "{t}");
-        // t = 2.7136, 9 dof: p ≈ 0.0119.
-        assert!((paired_p_value(&d) - 0.0119).abs() < 5e-4, "{}", paired_p_value(&d));
+        // Mean 1, sample variance 12/9: t = 1/(√(4/3)/√10) = 2.7386.
+        assert!((t - 2.7386).abs() < 1e-3, "{t}");
+        // 9 dof: t(0.99) = 2.821 and t(0.975) = 2.262 (tables), so 0.01 < p < 0.025, near 0.01.
+        let p = paired_p_value(&d);
+        assert!(p > 0.010 && p < 0.0125, "{p}");
         assert!(paired_p_value(&[-1.0, -2.0, -1.5]) > 0.9);
     }
 
@@ -231,7 +232,9 @@ mod tests {
     fn noise_variance_of_white_noise_on_a_slow_signal() {
         // Deterministic ±1 noise has variance 1; the slow sine adds almost nothing.
         let x: Vec<f64> = (0..20_000)
-            .map(|i| (i as f64 * 1e-3).sin() * 50.0 + if (i * 7 + i / 3) % 2 == 0 { 1.0 } else { -1.0 })
+            .map(|i| {
+                (i as f64 * 1e-3).sin() * 50.0 + if (i * 7 + i / 3) % 2 == 0 { 1.0 } else { -1.0 }
+            })
             .collect();
         let v = noise_variance(&x, 200);
         assert!((0.5..2.0).contains(&v), "{v}");

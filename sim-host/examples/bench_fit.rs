@@ -3,7 +3,6 @@
 //! cargo run --release -p sim-host --example bench_fit
 use std::time::Instant;
 
-use sim_host::diagnose::diagnose;
 use sim_host::fit::{fit, Base, ModelSpec, Series};
 use sim_host::rig::RigConfig;
 use sim_host::scenario::{run_named, ScenarioOptions};
@@ -44,8 +43,10 @@ fn main() {
         evaluations = f.evaluations;
     }
     println!("mk-alpha fit of a 240 s record at 200 Hz ({n} samples): best of 3 {best:.3} s ({evaluations} evaluations)");
+    let series = tactile_ident::Series::new(0.005, data.force.clone(), data.strain.clone(), vec![])
+        .expect("a usable record");
     let start = Instant::now();
-    let d = diagnose(&data).expect("diagnosis runs");
+    let d = tactile_ident::diagnose(&series);
     println!(
         "diagnosis of the same record: {:.2} s, verdict {}",
         start.elapsed().as_secs_f64(),

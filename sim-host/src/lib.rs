@@ -8,6 +8,7 @@ pub mod analysis;
 pub mod calibrate;
 pub mod cli;
 pub mod diagnose;
+pub mod estimate;
 pub mod estimators;
 pub mod fit;
 pub mod fuzz;

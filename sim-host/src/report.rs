@@ -6,14 +6,16 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-use crate::diagnose::Diagnosis;
-use crate::fit::{Fit, Series};
+use crate::diagnose::Report;
+use tactile_ident::Series;
 
-fn residual(fit: &Fit, data: &Series) -> Vec<f64> {
-    fit.model
-        .simulate(&fit.theta, data)
-        .map(|p| p.iter().zip(&data.strain).map(|(a, b)| a - b).collect())
-        .unwrap_or_default()
+fn residual(prediction: &[f64], data: &Series) -> Vec<f64> {
+    prediction
+        .iter()
+        .zip(&data.strain_pct)
+        .zip(&data.excluded)
+        .map(|((a, b), x)| if *x { 0.0 } else { a - b })
+        .collect()
 }
 
 /// Writes `report.md`, `residual.png` and `diagnosis.json` into `dir`.
@@ -21,15 +23,13 @@ pub fn diagnosis_report(
     dir: &Path,
     source: &Path,
     data: &Series,
-    d: &Diagnosis,
+    report: &Report,
 ) -> Result<PathBuf, Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir)?;
     crate::plot::register_font_once();
-    let (Some(before), Some(after)) = (&d.baseline_fit, &d.final_fit) else {
-        return Err("diagnosis has no fits".into());
-    };
-    let r0 = residual(before, data);
-    let r1 = residual(after, data);
+    let d = &report.diagnosis;
+    let r0 = residual(&d.model.baseline_prediction, data);
+    let r1 = residual(&d.model.prediction, data);
     let png = dir.join("residual.png");
     {
         let root = BitMapBackend::new(&png, (1200, 1100)).into_drawing_area();
@@ -76,6 +76,10 @@ pub fn diagnosis_report(
             .draw()?;
         // 2. Autocorrelation with bounds.
         let b = d.residual_before.acf_bound;
+        // The whiteness tests run at most at 200 Hz (tactile_ident::residual::on_common_scale).
+        let lag_s = data
+            .dt_s
+            .max(1.0 / tactile_ident::residual::WHITENESS_RATE_HZ);
         let mut c = ChartBuilder::on(&areas[1])
             .caption(
                 "residual autocorrelation (95 % bounds dashed)",
@@ -84,7 +88,7 @@ pub fn diagnosis_report(
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..50.0 * data.dt_s, -0.2..1.0)?;
+            .build_cartesian_2d(0.0..50.0 * lag_s, -0.2..1.0)?;
         c.configure_mesh().x_desc("lag (s)").y_desc("rho").draw()?;
         for (acf, color, name) in [
             (&d.residual_before.acf, RED, "before"),
@@ -93,7 +97,7 @@ pub fn diagnosis_report(
             c.draw_series(LineSeries::new(
                 acf.iter()
                     .enumerate()
-                    .map(|(k, v)| ((k + 1) as f64 * data.dt_s, *v)),
+                    .map(|(k, v)| ((k + 1) as f64 * lag_s, *v)),
                 color,
             ))?
             .label(name)
@@ -101,7 +105,7 @@ pub fn diagnosis_report(
         }
         for s in [b, -b] {
             c.draw_series(DashedLineSeries::new(
-                vec![(0.0, s), (50.0 * data.dt_s, s)],
+                vec![(0.0, s), (50.0 * lag_s, s)],
                 5,
                 5,
                 BLACK.into(),
@@ -113,7 +117,7 @@ pub fn diagnosis_report(
             .draw()?;
         // 3. Residual against load.
         let (flo, fhi) = data
-            .force
+            .force_g
             .iter()
             .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
         let mut c = ChartBuilder::on(&areas[2])
@@ -127,14 +131,14 @@ pub fn diagnosis_report(
             .y_desc("strain (%)")
             .draw()?;
         c.draw_series(
-            data.force
+            data.force_g
                 .iter()
                 .zip(&r0)
                 .step_by(every * 2)
                 .map(|(f, r)| Circle::new((*f, *r), 1, RED.filled())),
         )?;
         c.draw_series(
-            data.force
+            data.force_g
                 .iter()
                 .zip(&r1)
                 .step_by(every * 2)
@@ -155,14 +159,17 @@ pub fn diagnosis_report(
         }
     );
     let _ = writeln!(md, "```text\n{}```\n", d.summary);
-    let _ = writeln!(md, "| candidate | round | held-out RMS_n (g) | Ljung–Box / 5 % level | accepted |\n|---|---|---|---|---|");
+    let _ = writeln!(md, "| candidate | round | variant | held-out (% strain) | held-out (g) | p (paired, folds) | Ljung–Box / 5 % level | accepted |\n|---|---|---|---|---|---|---|---|");
     for c in &d.candidates {
         let _ = writeln!(
             md,
-            "| {} | {} | {:.3} | {:.1} | {} |",
+            "| {} | {} | {} | {:.4} | {:.3} | {:.1e} | {:.1} | {} |",
             c.effect,
             c.round,
+            c.variant,
+            c.held_out_rms_pct,
             c.held_out_rms_g,
+            c.p_value,
             c.ljung_box_ratio,
             if c.accepted { "yes" } else { "" }
         );
@@ -171,13 +178,10 @@ pub fn diagnosis_report(
         md,
         "\n![residual, autocorrelation, residual against load](residual.png)\n"
     );
-    let _ = writeln!(
-        md,
-        "Before: {}\n\nAfter: {}",
-        crate::fit::describe(before).replace('\n', "  \n"),
-        crate::fit::describe(after).replace('\n', "  \n")
-    );
-    std::fs::write(dir.join("diagnosis.json"), serde_json::to_string_pretty(d)?)?;
+    std::fs::write(
+        dir.join("diagnosis.json"),
+        serde_json::to_string_pretty(report)?,
+    )?;
     let path = dir.join("report.md");
     std::fs::write(&path, md)?;
     Ok(path)

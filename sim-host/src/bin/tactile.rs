@@ -5,6 +5,10 @@
 //! tactile experiment NAME [--out DIR] [--seed N] [--load G] [--fixed-gains] [--duration S]
 //!                         [--record-hz HZ] [--effect NAME=VALUE]... [--no-plot]
 //! tactile calibrate [ROW,COL=FILE]... [--out TABLE.bin] [--seed N]
+//! tactile fit FILE [--model NAME] [--json OUT]
+//! tactile diagnose FILE [--json OUT] [--report DIR] [--table OUT.bin] [--taxel R,C]
+//! tactile estimate FILE --table TABLE.bin [--taxel R,C] [--estimator NAME] [--out OUT.csv]
+//! tactile tables [--out DIR]
 //! tactile estimators [--out DIR] [--seed N]
 //! tactile demo [--out DIR] [--seed N]
 //! ```
@@ -92,6 +96,24 @@ enum Command {
         /// The taxel the record is of, ROW,COL from zero (for --table).
         #[arg(long, default_value = "3,2")]
         taxel: String,
+    },
+    /// Run the chip's estimators (the firmware's own code) over a record's strain with a
+    /// calibration table; write the force estimates as a record; with a reference force, print
+    /// each estimator's error.
+    Estimate {
+        file: PathBuf,
+        /// The calibration table (`tactile calibrate` or `tactile diagnose --table`).
+        #[arg(long)]
+        table: PathBuf,
+        /// The taxel of the table the record is of, ROW,COL from zero.
+        #[arg(long, default_value = "3,2")]
+        taxel: String,
+        /// Only this estimator (default: all four).
+        #[arg(long, value_enum)]
+        estimator: Option<sim_host::estimate::Estimator>,
+        /// Where to write the estimates (default: FILE with `_estimate.csv`).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Reproduce the memo's Tables I–IV on the simulator, beside the memo's numbers.
     Tables {
@@ -327,40 +349,51 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             };
-            let series = match read_series(&file) {
+            let record = match sim_host::record::read_record(&file) {
+                Ok(r) => r,
+                Err(e) => {
+                    eprintln!("tactile: {e}");
+                    return ExitCode::from(1);
+                }
+            };
+            let series = match sim_host::diagnose::series_of(&record) {
                 Ok(s) => s,
-                Err(code) => return code,
+                Err(reason) => {
+                    eprintln!("tactile: {}: cannot be diagnosed: {reason}", file.display());
+                    return ExitCode::from(1);
+                }
             };
             let start = std::time::Instant::now();
-            let Some(d) = sim_host::diagnose::diagnose(&series) else {
-                eprintln!(
-                    "tactile: the baseline fit did not converge on {}",
-                    file.display()
-                );
-                return ExitCode::from(1);
-            };
-            out!("{}", d.summary);
-            outln!("  ({:.1} s)", start.elapsed().as_secs_f64());
+            let d = sim_host::diagnose::diagnose(&series, taxel);
+            out!("{}", d.diagnosis.summary);
+            outln!("  ({:.2} s)", start.elapsed().as_secs_f64());
             if let Some(path) = json {
-                let text = serde_json::to_string_pretty(&d).unwrap_or_default();
-                if let Err(e) = std::fs::write(&path, text) {
+                let written = serde_json::to_string_pretty(&d)
+                    .map_err(|e| e.to_string())
+                    .and_then(|text| std::fs::write(&path, text).map_err(|e| e.to_string()));
+                if let Err(e) = written {
                     eprintln!("tactile: {}: {e}", path.display());
                     return ExitCode::from(1);
                 }
             }
             if let Some(path) = table {
-                let Some(model) = sim_host::diagnose::taxel_model(&d, taxel) else {
-                    eprintln!("tactile: the accepted model has no on-chip form (no eq. 17)");
+                let Some(model) = d.table_model.clone() else {
+                    eprintln!("tactile: no calibration table: the diagnosed model has no on-chip form (see above)");
                     return ExitCode::from(1);
                 };
                 let mut t = tactile_core::calibration::CalibrationTable::default();
                 let _ = t.taxels.push(model);
                 match sim_host::calibrate::write_table(&path, &t) {
                     Ok(_) => outln!(
-                        "  calibration table for taxel ({}, {}): {} (the firmware's format; merge or flash as boards/calibration/table.bin)",
+                        "  calibration table for taxel ({}, {}): {} (the firmware's format; {})",
                         taxel.row(),
                         taxel.col(),
-                        path.display()
+                        path.display(),
+                        if d.force_estimate.exported {
+                            "the accepted model"
+                        } else {
+                            "the baseline's model"
+                        }
                     ),
                     Err(e) => {
                         eprintln!("tactile: {e}");
@@ -378,6 +411,31 @@ fn main() -> ExitCode {
                 }
             }
             ExitCode::SUCCESS
+        }
+        Command::Estimate {
+            file,
+            table,
+            taxel,
+            estimator,
+            out,
+        } => {
+            let taxel = match cli::parse_taxel(&taxel) {
+                Some(t) => t,
+                None => {
+                    eprintln!("tactile estimate: --taxel '{taxel}': expected ROW,COL with ROW and COL in 0..8");
+                    return ExitCode::from(2);
+                }
+            };
+            match sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref()) {
+                Ok(text) => {
+                    out!("{text}");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("tactile: {e}");
+                    ExitCode::from(1)
+                }
+            }
         }
         Command::Tables { out, seed } => match sim_host::tables::reproduce(seed) {
             Ok(t) => print_and_write(&out, "tables", &sim_host::tables::render(&t), &t),

@@ -1,0 +1,142 @@
+//! The diagnosis on the second record generator (`tactile_ident::synth`), different in form
+//! from the simulator it was first built on: Prony fingers of 3–5 modes, effects written in
+//! other forms, 20 Hz–1 kHz. Seeds and strengths vary.
+
+use tactile_ident::synth::{generate, Spec, SynthEffect};
+use tactile_ident::{diagnose, Diagnosis, Series};
+
+fn diag(seed: u64, rate_hz: f64, duration_s: f64, effects: &[SynthEffect]) -> Diagnosis {
+    let g = generate(&Spec {
+        seed,
+        rate_hz,
+        duration_s,
+        effects: effects.to_vec(),
+    });
+    diagnose(&Series::new(g.dt_s, g.force_g, g.strain_pct, vec![]).unwrap())
+}
+
+fn check(d: &Diagnosis, expected: &str) {
+    assert_eq!(d.effect, expected, "{}", d.summary);
+    assert!(d.before.held_out_rms_pct.is_finite() && d.after.held_out_rms_pct.is_finite());
+    assert_eq!(d.folds.len(), d.before.fold_rms_pct.len());
+    assert!(d.folds.len() >= 4);
+    if expected == "none" {
+        assert!(d.effects.is_empty(), "{}", d.summary);
+    } else {
+        assert!(
+            d.after.held_out_rms_pct < d.before.held_out_rms_pct,
+            "{}",
+            d.summary
+        );
+    }
+}
+
+fn size(d: &Diagnosis, key: &str) -> f64 {
+    d.sizes
+        .iter()
+        .flat_map(|s| s.values.iter())
+        .find(|v| v.0 == key)
+        .map(|v| v.1)
+        .unwrap_or(f64::NAN)
+}
+
+#[test]
+fn clean_fingers_get_none_at_any_rate_and_length() {
+    for (seed, rate, length) in [
+        (1, 200.0, 240.0),
+        (2, 100.0, 120.0),
+        (3, 100.0, 120.0),
+        (4, 20.0, 300.0),
+        (5, 1000.0, 60.0),
+    ] {
+        check(&diag(seed, rate, length, &[]), "none");
+    }
+}
+
+#[test]
+fn an_eight_second_record_is_diagnosed_not_refused() {
+    let d = diag(6, 100.0, 8.0, &[]);
+    assert!(d.folds.len() >= 4);
+    assert!(d.before.held_out_rms_g.is_finite());
+}
+
+#[test]
+fn stiffening_by_other_laws_is_found() {
+    for (seed, s) in [(5, 0.6), (7, 0.4)] {
+        check(
+            &diag(seed, 200.0, 240.0, &[SynthEffect::Stiffening(s)]),
+            "load_dependent_stiffness",
+        );
+    }
+}
+
+#[test]
+fn a_wandering_drift_is_found() {
+    for (seed, a) in [(7, 0.05), (8, 0.03)] {
+        check(
+            &diag(seed, 200.0, 240.0, &[SynthEffect::Drift(a)]),
+            "baseline_drift",
+        );
+    }
+}
+
+#[test]
+fn interference_off_the_mains_is_found_at_its_frequency() {
+    for (seed, hz) in [(8, 13.7), (9, 37.0)] {
+        let d = diag(
+            seed,
+            200.0,
+            240.0,
+            &[SynthEffect::Interference {
+                amplitude: 0.01,
+                hz,
+            }],
+        );
+        check(&d, "periodic_interference");
+        assert!((size(&d, "hz") - hz).abs() < 0.02, "{}", d.summary);
+    }
+}
+
+#[test]
+fn delays_of_whole_samples_are_found() {
+    for (seed, rate, samples) in [(9, 200.0, 3), (13, 50.0, 2)] {
+        let d = diag(seed, rate, 120.0, &[SynthEffect::Delay(samples)]);
+        check(&d, "time_delay");
+        let ms = size(&d, "delay_ms");
+        assert!(
+            ms > 0.5 * 1e3 / rate && ms < 1.5 * samples as f64 * 1e3 / rate,
+            "{ms} ms"
+        );
+    }
+}
+
+#[test]
+fn a_slow_relaxation_is_found_with_its_time_constant() {
+    let d = diag(
+        10,
+        200.0,
+        240.0,
+        &[SynthEffect::SlowRelaxation {
+            share: 0.3,
+            tau_s: 40.0,
+        }],
+    );
+    check(&d, "slow_relaxation");
+    let tau = size(&d, "tau_s");
+    assert!((20.0..80.0).contains(&tau), "{tau}");
+}
+
+#[test]
+fn hysteresis_and_a_sagging_sensitivity_are_found() {
+    check(
+        &diag(6, 200.0, 240.0, &[SynthEffect::Hysteresis(0.05)]),
+        "hysteresis",
+    );
+    let d = diag(11, 200.0, 240.0, &[SynthEffect::SensitivityDrift(0.1)]);
+    check(&d, "sensitivity_drift");
+    assert!(
+        (5.0..15.0).contains(&size(&d, "gain_change_pct")),
+        "{}",
+        d.summary
+    );
+}

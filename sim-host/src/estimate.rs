@@ -1,0 +1,136 @@
+//! `tactile estimate`: the chip's estimators, the firmware's own code, run over a record's strain
+//! with a calibration table, for the user who has a table and a new record.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use tactile_core::calibration::CalibrationTable;
+use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
+use tactile_core::tactile::TaxelId;
+
+/// The estimators by the names a user types.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Estimator {
+    Elastic,
+    SecondOrder,
+    Scheduled,
+    Observer,
+}
+
+impl Estimator {
+    fn kind(self) -> EstimatorKind {
+        match self {
+            Estimator::Elastic => EstimatorKind::Elastic,
+            Estimator::SecondOrder => EstimatorKind::SecondOrderInverse,
+            Estimator::Scheduled => EstimatorKind::ScheduledInverse,
+            Estimator::Observer => EstimatorKind::Observer,
+        }
+    }
+    fn column(self) -> &'static str {
+        match self {
+            Estimator::Elastic => "elastic_g",
+            Estimator::SecondOrder => "second_order_g",
+            Estimator::Scheduled => "scheduled_g",
+            Estimator::Observer => "observer_g",
+        }
+    }
+}
+
+const ALL: [Estimator; 4] = [
+    Estimator::Elastic,
+    Estimator::SecondOrder,
+    Estimator::Scheduled,
+    Estimator::Observer,
+];
+
+/// Runs the estimators; writes `t_s,force_g,strain_pct,<estimates>` to `out` (default: beside
+/// the record); returns the text to print (each estimator's RMS against the record's force).
+pub fn run(
+    file: &Path,
+    table: &Path,
+    taxel: TaxelId,
+    only: Option<Estimator>,
+    out: Option<&Path>,
+) -> Result<String, String> {
+    let record = crate::record::read_record(file).map_err(|e| e.to_string())?;
+    let dt = record.sample_period_s().ok_or_else(|| {
+        format!(
+            "{}: too few samples to know the sample period",
+            file.display()
+        )
+    })?;
+    let bytes = std::fs::read(table).map_err(|e| format!("{}: {e}", table.display()))?;
+    let decoded = CalibrationTable::decode(&bytes)
+        .map_err(|e| format!("{}: refused: {e:?}", table.display()))?;
+    let model = decoded.get(taxel).cloned().ok_or_else(|| {
+        format!(
+            "{}: no entry for taxel ({}, {})",
+            table.display(),
+            taxel.row(),
+            taxel.col()
+        )
+    })?;
+    let mut est = TaxelEstimators::new(&model, dt)
+        .map_err(|e| format!("{}: the taxel's model cannot run: {e:?}", table.display()))?;
+    let chosen: Vec<Estimator> = only.map_or(ALL.to_vec(), |e| vec![e]);
+    let index = |e: Estimator| {
+        EstimatorKind::ALL
+            .iter()
+            .position(|k| *k == e.kind())
+            .unwrap_or(0)
+    };
+    let out_path: PathBuf = out.map(Path::to_path_buf).unwrap_or_else(|| {
+        let stem = file
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("record");
+        file.with_file_name(format!("{stem}_estimate.csv"))
+    });
+    let f = std::fs::File::create(&out_path).map_err(|e| format!("{}: {e}", out_path.display()))?;
+    let mut w = std::io::BufWriter::new(f);
+    let io = |e: std::io::Error| format!("{}: {e}", out_path.display());
+    writeln!(
+        w,
+        "# estimates of {} with {}",
+        file.display(),
+        table.display()
+    )
+    .map_err(io)?;
+    writeln!(w, "# sample_rate_hz={}", 1.0 / dt).map_err(io)?;
+    let names: Vec<&str> = chosen.iter().map(|e| e.column()).collect();
+    writeln!(w, "t_s,force_g,strain_pct,{}", names.join(",")).map_err(io)?;
+    let mut sums = vec![0.0f64; chosen.len()];
+    for i in 0..record.len() {
+        let all = est.update(record.strain_pct[i] as f32);
+        let mut line = format!(
+            "{:.6},{:.4},{:.6}",
+            record.t_s[i], record.force_g[i], record.strain_pct[i]
+        );
+        for (k, e) in chosen.iter().enumerate() {
+            let v = f64::from(all[index(*e)]);
+            sums[k] += (v - record.force_g[i]).powi(2);
+            let _ = write!(line, ",{v:.4}");
+        }
+        writeln!(w, "{line}").map_err(io)?;
+    }
+    w.flush().map_err(io)?;
+    let mut text = format!(
+        "{} samples at {:.0} Hz, taxel ({}, {}) of {}\n",
+        record.len(),
+        1.0 / dt,
+        taxel.row(),
+        taxel.col(),
+        table.display()
+    );
+    for (k, e) in chosen.iter().enumerate() {
+        let _ = writeln!(
+            text,
+            "  {:<22} RMS against the record's force {:.3} g",
+            e.kind().name(),
+            (sums[k] / record.len().max(1) as f64).sqrt()
+        );
+    }
+    let _ = writeln!(text, "  estimates: {}", out_path.display());
+    Ok(text)
+}
