@@ -131,7 +131,7 @@ impl Series {
             stats::correlation(&stats::moving_mean(&f, w), &stats::moving_mean(&e, w))
                 .abs()
                 .max(stats::correlation(&f, &e).abs());
-        if !(correlation >= 0.1) {
+        if correlation.is_nan() || correlation < 0.1 {
             return Err(Refusal::NoResponse { correlation });
         }
         Ok(Series {

@@ -98,15 +98,12 @@ pub fn innovation_share(acf: &[f64]) -> f64 {
     let mut a = vec![0.0; p + 1];
     let mut err = 1.0;
     for m in 1..=p {
-        let mut acc = r(m);
-        for j in 1..m {
-            acc -= a[j] * r(m - j);
-        }
+        let acc = r(m) - (1..m).map(|j| a[j] * r(m - j)).sum::<f64>();
         let k = (acc / err).clamp(-0.999_999, 0.999_999);
         let prev = a.clone();
         a[m] = k;
-        for j in 1..m {
-            a[j] = prev[j] - k * prev[m - j];
+        for (j, aj) in a.iter_mut().enumerate().take(m).skip(1) {
+            *aj = prev[j] - k * prev[m - j];
         }
         err *= 1.0 - k * k;
     }

@@ -57,14 +57,14 @@ impl Excitation {
         let mut knots = vec![(0.0, 0.0), (1.5, 0.0)];
         let mut bursts = Vec::new();
         let mut t = 1.5;
-        let mut level = 0.0;
+        let mut level: f64 = 0.0;
         while t < duration_s {
             let kind: f64 = rng.random();
             if kind < 0.6 {
                 // An indentation: ramp to a random depth, hold, maybe release.
                 let target = rng.random_range(5.0..80.0);
                 let rate = rng.random_range(20.0..200.0);
-                t += (target - level as f64).abs() / rate + 0.01;
+                t += (target - level).abs() / rate + 0.01;
                 knots.push((t, target));
                 t += rng.random_range(0.5..6.0);
                 knots.push((t, target));
@@ -186,7 +186,7 @@ pub fn generate(spec: &Spec) -> Generated {
         clean.push(gain * e);
     }
     // Additive parts, then the delay, then the noise (the read-out's, after the delay).
-    let phase = rng.random_range(0.0..6.28);
+    let phase = rng.random_range(0.0..std::f64::consts::TAU);
     let period = rng.random_range(60.0..200.0f64).min(spec.duration_s);
     let tau_settle = rng.random_range(0.1..0.4) * spec.duration_s;
     let strain_noise = Normal::new(0.0, 0.022 * j0).expect("finite");

@@ -265,7 +265,7 @@ mod tests {
         let dt = 0.005;
         let n = 40_000;
         let force: Vec<f64> = (0..n)
-            .map(|i| (i as f64 * dt * 2.0 * 3.14159 * 1.9).sin())
+            .map(|i| (i as f64 * dt * 2.0 * std::f64::consts::PI * 1.9).sin())
             .collect();
         let residual: Vec<f64> = (0..n)
             .map(|i| {

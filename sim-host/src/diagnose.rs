@@ -119,7 +119,7 @@ pub fn element_of(
             .map_or(1, |i| (i + 1).clamp(1, branches.len() - 1));
         (merge(&branches[split..]), merge(&branches[..split]))
     };
-    if !(j0 > 0.0) {
+    if j0.is_nan() || j0 <= 0.0 {
         return None;
     }
     let (tau_k, j_k) = kelvin.unwrap_or((1.0, j0 * 1e-3));
