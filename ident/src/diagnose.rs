@@ -23,7 +23,9 @@ pub struct Settings {
     pub min_floor_share: f64,
     /// Most effects accepted one after another.
     pub max_rounds: usize,
-    /// Fastest relaxation time of the baseline's grid, s (raised to two samples).
+    /// Fastest relaxation time of the baseline's grid, s (raised to two samples). Branches this
+    /// fast let the baseline smooth a noisy force as a real sensor's fast dynamics would; a
+    /// delay must do better than they do.
     pub tau_min_s: f64,
     /// Slowest relaxation time of the baseline's grid, s: slower relaxation is an effect.
     pub base_tau_max_s: f64,
@@ -38,7 +40,7 @@ impl Default for Settings {
             min_excess_share: 0.2,
             min_floor_share: 0.1,
             max_rounds: 3,
-            tau_min_s: 0.0,
+            tau_min_s: 0.005,
             base_tau_max_s: 20.0,
             per_decade: 4.0,
         }
@@ -258,7 +260,6 @@ struct Work<'a> {
     s: &'a Series,
     pool: Pool,
     terms: Vec<Term>,
-    y: Vec<f64>,
     kept: Vec<bool>,
     force_scale: f64,
 }
@@ -274,7 +275,7 @@ impl Work<'_> {
     fn residual(&self, cols: &[usize], beta: &[f64]) -> Vec<f64> {
         let p = self.pool.predict(cols, beta);
         p.iter()
-            .zip(&self.y)
+            .zip(self.pool.y())
             .zip(&self.kept)
             .filter(|(_, k)| **k)
             .map(|((a, b), _)| a - b)
@@ -372,12 +373,15 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let taus = grid(tau_lo, tau_hi, settings.per_decade);
 
     // A first whole-record fit of the baseline sets the folds' length (its slowest branch).
-    let slowest = {
+    // A first fit of the baseline over the whole grid sets the folds' length (its slowest
+    // branch) and the grid's support: NNLS leaves most time constants at zero, so the folds
+    // see only the branches any of these fits used and their neighbours (memory for long
+    // records: a column of a 600 s record at 1 kHz is 2.4 MB).
+    let (slowest, taus) = {
         let mut work = Work {
             s,
             pool: Pool::new(&y, &s.excluded, Folds::blocked(&s.excluded, 4)),
             terms: Vec::new(),
-            y: y.clone(),
             kept: kept.clone(),
             force_scale,
         };
@@ -389,20 +393,39 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             .filter(|(c, _)| matches!(work.terms[**c], Term::Elastic | Term::Relaxation(_)))
             .map(|(_, b)| *b)
             .sum();
-        cols.iter()
+        let slowest = cols
+            .iter()
             .zip(&fit.beta)
             .filter_map(|(c, b)| match work.terms[*c] {
                 Term::Relaxation(tau) if *b > 0.05 * total => Some(tau),
                 _ => None,
             })
-            .fold(1.0, f64::max)
+            .fold(1.0, f64::max);
+        let used: Vec<bool> = taus
+            .iter()
+            .map(|tau| {
+                std::iter::once(&fit.beta)
+                    .chain(&fit.fold_beta)
+                    .any(|beta| {
+                        cols.iter()
+                            .zip(beta)
+                            .any(|(c, b)| work.terms[*c] == Term::Relaxation(*tau) && *b > 0.0)
+                    })
+            })
+            .collect();
+        let support: Vec<f64> = taus
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| (i.saturating_sub(1)..=(i + 1).min(taus.len() - 1)).any(|j| used[j]))
+            .map(|(_, t)| *t)
+            .collect();
+        (slowest, if support.is_empty() { taus } else { support })
     };
     let folds = Folds::for_record(s, slowest);
     let mut work = Work {
         s,
         pool: Pool::new(&y, &s.excluded, folds.clone()),
         terms: Vec::new(),
-        y,
         kept,
         force_scale,
     };
@@ -422,7 +445,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         .map(|(_, b)| *b)
         .sum();
     let window = ((1.0 / dt) as usize).max(20);
-    let floor = stats::noise_variance(&s.kept(&work.y), window)
+    let floor = stats::noise_variance(&s.kept(work.pool.y()), window)
         + elastic * elastic * stats::noise_variance(&fk, window);
     let mut state = State {
         delay_s: 0.0,
@@ -459,7 +482,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             work.add(Term::Play(r), &v, Sign::NonNegative)
         })
         .collect();
-    let drift_max = ((t_s / 15.0) as usize).clamp(1, 16);
+    let drift_max = ((t_s / 15.0) as usize).clamp(1, 10);
     let drift: Vec<usize> = (1..=drift_max)
         .map(|k| {
             let v = terms::cosine(s.len(), k);
@@ -489,7 +512,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             ));
         }
         if !taken(Effect::BaselineDrift, &state) {
-            for k in [1usize, 2, 4, 8, 12] {
+            for k in [1usize, 2, 4, 7, 10] {
                 if k <= drift_max {
                     tries.push(Try::adding(
                         Effect::BaselineDrift,
@@ -585,33 +608,46 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .copied()
                 .filter(|c| !base_now.contains(c))
                 .collect();
-            let mut best: Option<(f64, f64, Vec<usize>)> = None;
-            let try_delay = |work: &mut Work, d: f64, best: &mut Option<(f64, f64, Vec<usize>)>| {
+            // The shifted baseline keeps the branches the current fit uses (NNLS leaves most of
+            // the grid at zero), so each variant costs a few columns, not the whole grid.
+            let active: Vec<f64> = state
+                .cols
+                .iter()
+                .zip(&state.scored.beta)
+                .filter_map(|(c, b)| match work.terms[*c] {
+                    Term::Relaxation(tau) if *b > 0.0 => Some(tau),
+                    _ => None,
+                })
+                .collect();
+            // Each variant is scored and its columns freed at once; the best is rebuilt.
+            let score_delay = |work: &mut Work, d: f64| -> f64 {
                 let shifted = terms::delayed(&s.force_g, d / dt);
-                let cols = baseline_force_columns(work, &shifted, &taus);
+                let cols = baseline_force_columns(work, &shifted, &active);
                 let all: Vec<usize> = others.iter().chain(&cols).copied().collect();
                 let mse = work.pool.score(&all).cv_mse;
-                if best.as_ref().is_none_or(|b| mse < b.1) {
-                    if let Some((_, _, old)) = best.take() {
-                        old.iter().for_each(|c| work.pool.drop_column(*c));
-                    }
-                    *best = Some((d, mse, cols));
-                } else {
-                    cols.iter().for_each(|c| work.pool.drop_column(*c));
+                cols.iter().for_each(|c| work.pool.drop_column(*c));
+                mse
+            };
+            let mut best: Option<(f64, f64)> = None;
+            let consider = |work: &mut Work, d: f64, best: &mut Option<(f64, f64)>| {
+                let mse = score_delay(work, d);
+                if best.is_none_or(|b| mse < b.1) {
+                    *best = Some((d, mse));
                 }
             };
-            // A delay under one sample cannot be told from a fast branch: not a delay.
             let mut d = dt;
             while d <= 0.1_f64.max(2.5 * dt) {
-                try_delay(&mut work, d, &mut best);
+                consider(&mut work, d, &mut best);
                 d *= 2.0;
             }
-            if let Some(centre) = best.as_ref().map(|b| b.0) {
+            if let Some((centre, _)) = best {
                 for factor in [0.71, 0.84, 1.19, 1.41] {
-                    try_delay(&mut work, (centre * factor).max(dt), &mut best);
+                    consider(&mut work, (centre * factor).max(dt), &mut best);
                 }
             }
-            if let Some((d, _, cols)) = best {
+            if let Some((d, _)) = best {
+                let shifted = terms::delayed(&s.force_g, d / dt);
+                let cols = baseline_force_columns(&mut work, &shifted, &active);
                 temporary.extend(&cols);
                 tries.push(Try {
                     effect: Effect::TimeDelay,

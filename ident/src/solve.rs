@@ -73,6 +73,11 @@ impl Pool {
         pool
     }
 
+    /// The strain the pool models.
+    pub fn y(&self) -> &[f64] {
+        &self.y
+    }
+
     pub fn folds(&self) -> &Folds {
         &self.folds
     }

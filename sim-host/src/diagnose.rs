@@ -9,6 +9,7 @@ use tactile_core::estimator::TaxelEstimators;
 use tactile_core::tactile::TaxelId;
 use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
+use tactile_ident::solve::Sign;
 use tactile_ident::{Refusal, Series};
 
 use crate::fit::at_top_rail;
@@ -20,17 +21,18 @@ pub const EXPORT_LOADS_G: [f64; 4] = [10.0, 25.0, 45.0, 70.0];
 /// The record as the identification takes it: its period, force, strain, and the strain's rail
 /// samples left out.
 pub fn series_of(r: &Record) -> Result<Series, Refusal> {
+    into_series(r.clone())
+}
+
+/// [`series_of`] without a copy of a long record.
+pub fn into_series(r: Record) -> Result<Series, Refusal> {
     let mut rail = at_top_rail(&r.strain_pct);
     // A strain that never moves is not "at its rail": say that it does not vary.
     if rail.iter().all(|x| *x) {
         rail.iter_mut().for_each(|x| *x = false);
     }
-    Series::new(
-        r.sample_period_s().unwrap_or(0.0),
-        r.force_g.clone(),
-        r.strain_pct.clone(),
-        rail,
-    )
+    let dt = r.sample_period_s().unwrap_or(0.0);
+    Series::new(dt, r.force_g, r.strain_pct, rail)
 }
 
 /// Force estimated from strain on the chip, before and after the accepted effects.
@@ -147,15 +149,23 @@ pub fn element_of(
                 (s, 1.0 / j.max(base_j * 0.05))
             })
             .collect();
+        // The chip's springs only stiffen (a + b√σ + cσ with b, c ≥ 0): a softening law's
+        // inverse runs away, so it is fitted as the closest stiffening one.
         let a = nalgebra::DMatrix::from_fn(pts.len(), 3, |i, j| pts[i].0.powf(j as f64 * 0.5));
         let y = nalgebra::DVector::from_iterator(pts.len(), pts.iter().map(|p| p.1));
-        match a.clone().svd(true, true).solve(&y, 1e-12) {
-            Ok(c) if c.iter().all(|v| v.is_finite()) => SpringLaw {
+        let c = tactile_ident::solve::nnls(
+            &(a.transpose() * &a),
+            &(a.transpose() * &y),
+            &[Sign::NonNegative; 3],
+        );
+        if c.iter().all(|v| v.is_finite()) && c[0] > 0.0 {
+            SpringLaw {
                 base: c[0],
                 sqrt_coeff: c[1],
                 linear_coeff: c[2],
-            },
-            _ => SpringLaw::constant(1.0 / base_j),
+            }
+        } else {
+            SpringLaw::constant(1.0 / base_j)
         }
     };
     let g1 = law(j0, &|tau| tau.is_none_or(|t| t < 0.02));

@@ -356,7 +356,7 @@ fn main() -> ExitCode {
                     return ExitCode::from(1);
                 }
             };
-            let series = match sim_host::diagnose::series_of(&record) {
+            let series = match sim_host::diagnose::into_series(record) {
                 Ok(s) => s,
                 Err(reason) => {
                     eprintln!("tactile: {}: cannot be diagnosed: {reason}", file.display());
