@@ -47,7 +47,8 @@ fn clean_fingers_get_none_at_any_rate_and_length() {
         (2, 100.0, 120.0),
         (3, 100.0, 120.0),
         (4, 20.0, 300.0),
-        (5, 1000.0, 60.0),
+        (5, 1000.0, 120.0),
+        (6, 1000.0, 60.0),
     ] {
         check(&diag(seed, rate, length, &[]), "none");
     }
