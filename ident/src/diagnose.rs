@@ -187,6 +187,10 @@ pub struct Diagnosis {
     pub effects: Vec<String>,
     pub before: Errors,
     pub after: Errors,
+    /// A first-order linear model (spring and one Kelvin branch) on the same folds: the floor
+    /// any model of the sensor should beat.
+    pub first_order: Errors,
+    pub first_order_tau_s: f64,
     pub candidates: Vec<Candidate>,
     pub folds: Vec<Fold>,
     /// Grams per % strain: the record's static secant (robust line of strain on force).
@@ -454,6 +458,16 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         scored,
         tests,
     };
+    // The floor to beat: a first-order linear model (a spring and one Kelvin branch, the
+    // standard linear solid) on the same folds, its time constant the best held out.
+    let first_order = base
+        .iter()
+        .filter(|c| matches!(work.terms[**c], Term::Relaxation(_)))
+        .map(|&c| {
+            let elastic = base[1];
+            work.pool.score(&[base[0], elastic, c])
+        })
+        .min_by(|a, b| a.cv_mse.total_cmp(&b.cv_mse));
     let before_scored = state.scored.clone();
     let before_tests = state.tests.clone();
     let mut candidates = Vec::new();
@@ -798,6 +812,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     finish(
         &work,
         state,
+        first_order,
         before_scored,
         before_tests,
         candidates,
@@ -833,6 +848,7 @@ fn errors(sc: &Scored, secant: f64) -> Errors {
 fn finish(
     work: &Work,
     state: State,
+    first_order: Option<Scored>,
     before: Scored,
     before_tests: ResidualTests,
     candidates: Vec<Candidate>,
@@ -951,6 +967,14 @@ fn finish(
         100.0 * t.acf_outside,
         t.acf_bound
     );
+    if let Some(fo) = &first_order {
+        let _ = writeln!(
+            summary,
+            "  a first-order linear model (spring and one Kelvin branch) holds out {:.4} % ({:.3} g) on the same folds",
+            fo.cv_mse.sqrt(),
+            fo.cv_mse.sqrt() * secant
+        );
+    }
     let _ = writeln!(summary, "  residual: {}", t.describe());
     for c in &candidates {
         let _ = writeln!(
@@ -993,6 +1017,19 @@ fn finish(
         effects,
         before: before_e,
         after: after_e,
+        first_order: first_order
+            .as_ref()
+            .map(|sc| errors(sc, secant))
+            .unwrap_or_default(),
+        first_order_tau_s: first_order
+            .as_ref()
+            .and_then(|sc| {
+                sc.columns.iter().find_map(|c| match work.terms[*c] {
+                    Term::Relaxation(tau) => Some(tau),
+                    _ => None,
+                })
+            })
+            .unwrap_or(0.0),
         candidates,
         folds: fold_list,
         secant_g_per_pct: secant,

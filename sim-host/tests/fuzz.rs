@@ -58,3 +58,40 @@ fn the_effect_and_model_parsers_never_panic() {
         failure.map(|f| String::from_utf8_lossy(&f).into_owned())
     );
 }
+
+/// Mutated records through the whole diagnosis: a refusal with its reason or a verdict with
+/// finite errors, never a panic and never NaN.
+#[test]
+fn mutated_records_get_a_reason_or_a_finite_diagnosis() {
+    use tactile_core::tactile::TaxelId;
+    let corpus = corpus("record");
+    let (mut refused, mut diagnosed) = (0usize, 0usize);
+    let failure = run(0xd1a9, &corpus, 5_000, |input| {
+        let Ok(record) = parse_record(input, Path::new("fuzz.csv")) else {
+            return;
+        };
+        match sim_host::diagnose::series_of(&record) {
+            Err(reason) => {
+                refused += 1;
+                assert!(!reason.to_string().is_empty());
+            }
+            Ok(series) => {
+                diagnosed += 1;
+                let d = sim_host::diagnose::diagnose(&series, TaxelId::default()).diagnosis;
+                assert!(d.before.held_out_rms_g.is_finite(), "{}", d.summary);
+                assert!(d.after.held_out_rms_g.is_finite(), "{}", d.summary);
+                assert!(!d.summary.contains("NaN"), "{}", d.summary);
+            }
+        }
+    });
+    assert!(
+        failure.is_none(),
+        "panicked on {:?}",
+        failure.map(|f| String::from_utf8_lossy(&f).into_owned())
+    );
+    eprintln!("{refused} refused, {diagnosed} diagnosed");
+    assert!(
+        refused >= 10 && diagnosed >= 10,
+        "{refused} refused, {diagnosed} diagnosed"
+    );
+}
