@@ -69,7 +69,7 @@ fn on_chip(effect: &str) -> &'static str {
         "time_delay" => "none: undoing a delay needs the future strain (a causal estimate can only be late by it)",
         "baseline_drift" => "none: a wandering zero cannot be told from a load without moments of known zero force",
         "hysteresis" => "none yet: the chip has no inverse play operators; the forward model keeps it",
-        "slow_relaxation" => "none yet: eq. 14 on the chip has two branches; the slow one stays in the forward model",
+        "slow_relaxation" => "merged into eq. 14's two branches (the chip's element has no third)",
         "sensitivity_drift" => "none: a gain that changes with time needs a reference force to track",
         _ => "none",
     }

@@ -167,3 +167,53 @@ fn bad_records_are_refused_with_the_reason() {
     let r = parse(&format!("t_s,force_g,strain_pct\n{huge}"));
     assert!(series_of(&r).unwrap_err().to_string().contains("plausible"));
 }
+
+/// The memo's step loads on a linear finger drive the strain onto its converter's rail at 50 and
+/// 80 g: those samples are left out and the verdict is `none`, not an effect made up to explain
+/// a clipped signal.
+#[test]
+fn a_clipped_record_is_judged_on_what_it_saw() {
+    let mut config = RigConfig {
+        seed: 5,
+        scan_array: false,
+        ..Default::default()
+    };
+    apply_effect(&mut config.effects, "stiffening=0").unwrap();
+    let run_ = run_named("step-loads", &ScenarioOptions::default(), config, |_| {}).unwrap();
+    let path = std::env::temp_dir().join("diagnose_test_clipped_step_loads.csv");
+    write_record(
+        &path,
+        &[("sample_rate_hz".into(), "200".into())],
+        &run_.ticks,
+        5,
+    )
+    .unwrap();
+    let record = read_record(&path).unwrap();
+    let _ = std::fs::remove_file(&path);
+    let series = series_of(&record).unwrap();
+    let railed = series.excluded.iter().filter(|x| **x).count();
+    assert!(railed > series.len() / 20, "{railed} samples at the rail");
+    let d = diagnose(&series, TaxelId::default());
+    check(&d, "none");
+    assert!(
+        d.diagnosis.summary.contains("rail"),
+        "{}",
+        d.diagnosis.summary
+    );
+}
+
+#[test]
+fn simulator_hysteresis_and_delays_are_named() {
+    check(&run(&bench_record(&["hysteresis=0.2"], 31)), "hysteresis");
+    for (strength, seed, ms) in [("delay=0.008", 62, 8.0), ("delay=0.02", 63, 20.0)] {
+        let d = run(&bench_record(&[strength], seed));
+        check(&d, "time_delay");
+        let fitted = d.diagnosis.sizes[0]
+            .values
+            .iter()
+            .find(|v| v.0 == "delay_ms")
+            .unwrap()
+            .1;
+        assert!((fitted - ms).abs() < 0.5 * ms, "{fitted} ms for {ms} ms");
+    }
+}
