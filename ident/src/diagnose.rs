@@ -42,7 +42,7 @@ impl Default for Settings {
             max_rounds: 3,
             tau_min_s: 0.005,
             base_tau_max_s: 20.0,
-            per_decade: 4.0,
+            per_decade: 8.0,
         }
     }
 }
@@ -492,12 +492,12 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     } else {
         Vec::new()
     };
-    let plays: Vec<usize> = [0.01, 0.03, 0.1, 0.3]
+    let plays: Vec<usize> = [0.01, 0.03, 0.1, 0.3, 0.6]
         .iter()
         .map(|share| {
             let r = share * force_range;
             let v = terms::play(&s.force_g, r);
-            work.add(Term::Play(r), &v, Sign::NonNegative)
+            work.add(Term::Play(r), &v, Sign::Free)
         })
         .collect();
     let drift_max = ((t_s / 15.0) as usize).clamp(1, 8);
