@@ -440,21 +440,19 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let base = baseline_columns(&mut work, &taus);
     let scored = work.pool.score(&base);
     let tests = work.tests(&base, &scored.beta);
-    // The force's noise reaches the strain through the compliance that follows it within a
-    // few samples: the elastic term and the branches faster than five samples.
-    let elastic: f64 = base
-        .iter()
-        .zip(&scored.beta)
-        .filter(|(c, _)| match work.terms[**c] {
-            Term::Elastic => true,
-            Term::Relaxation(tau) => tau <= 5.0 * dt,
-            _ => false,
-        })
-        .map(|(_, b)| *b)
-        .sum();
+    // The force's noise reaches the strain through the baseline itself: its variance times the
+    // energy of the baseline's impulse response (a model that smooths the force passes less).
+    let energy = impulse_energy(
+        &base
+            .iter()
+            .zip(&scored.beta)
+            .map(|(c, b)| (work.terms[*c], *b))
+            .collect::<Vec<_>>(),
+        dt,
+    );
     let window = ((1.0 / dt) as usize).max(20);
     let floor = stats::noise_variance(&s.kept(work.pool.y()), window)
-        + elastic * elastic * stats::noise_variance(&fk, window);
+        + energy * stats::noise_variance(&fk, window);
     let mut state = State {
         delay_s: 0.0,
         cols: base.clone(),
@@ -1058,6 +1056,39 @@ fn finish(
             folds: folds.ranges.clone(),
         },
     }
+}
+
+/// Σh² of the force-to-strain impulse response of the elastic term and the Kelvin branches
+/// (the discrete forms of [`terms::lowpass`]: h₀ = b₀, h₁ = a·b₀ + b₁, hₖ = a^(k−1)·h₁).
+fn impulse_energy(terms: &[(Term, f64)], dt: f64) -> f64 {
+    let k_max = 20_000usize;
+    let mut h = vec![0.0f64; k_max];
+    for (t, b) in terms {
+        match t {
+            Term::Elastic => h[0] += b,
+            Term::Relaxation(tau) | Term::SlowRelaxation(tau) => {
+                let x = dt / tau;
+                let a = (-x).exp();
+                let g = if x > 1e-6 {
+                    (1.0 - a) / x
+                } else {
+                    1.0 - x / 2.0
+                };
+                let (b0, b1) = (1.0 - g, g - a);
+                h[0] += b * b0;
+                let mut v = b * (a * b0 + b1);
+                for hk in h.iter_mut().skip(1) {
+                    *hk += v;
+                    v *= a;
+                    if v.abs() < 1e-12 * b.abs() {
+                        break;
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    h.iter().map(|v| v * v).sum()
 }
 
 fn coef(terms: &[(Term, f64)], which: impl Fn(Term) -> bool) -> f64 {
