@@ -42,7 +42,7 @@ impl Default for Settings {
             max_rounds: 3,
             tau_min_s: 0.005,
             base_tau_max_s: 20.0,
-            per_decade: 8.0,
+            per_decade: 6.0,
         }
     }
 }
@@ -383,7 +383,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     // A first whole-record fit of the baseline sets the folds' length (its slowest branch).
     // A first fit of the baseline over the whole grid sets the folds' length (its slowest
     // branch) and the grid's support: NNLS leaves most time constants at zero, so the folds
-    // see only the branches any of these fits used and their neighbours (memory for long
+    // see only the branches that fit used and their neighbours (memory for long
     // records: a column of a 600 s record at 1 kHz is 2.4 MB).
     let (slowest, taus) = {
         let mut work = Work {
@@ -412,13 +412,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         let used: Vec<bool> = taus
             .iter()
             .map(|tau| {
-                std::iter::once(&fit.beta)
-                    .chain(&fit.fold_beta)
-                    .any(|beta| {
-                        cols.iter()
-                            .zip(beta)
-                            .any(|(c, b)| work.terms[*c] == Term::Relaxation(*tau) && *b > 0.0)
-                    })
+                cols.iter()
+                    .zip(&fit.beta)
+                    .any(|(c, b)| work.terms[*c] == Term::Relaxation(*tau) && *b > 0.0)
             })
             .collect();
         let support: Vec<f64> = taus
@@ -624,31 +620,40 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .copied()
                 .filter(|c| !base_now.contains(c))
                 .collect();
-            // The shifted baseline keeps the branches the current fit uses (NNLS leaves most of
-            // the grid at zero), so each variant costs a few columns, not the whole grid.
-            let active: Vec<f64> = state
-                .cols
+            // The baseline's branches in use, delayed (views of their columns, no copies).
+            let active_base: Vec<usize> = base_now
                 .iter()
-                .zip(&state.scored.beta)
-                .filter_map(|(c, b)| match work.terms[*c] {
-                    Term::Relaxation(tau) if *b > 0.0 => Some(tau),
-                    _ => None,
+                .copied()
+                .filter(|c| {
+                    state
+                        .cols
+                        .iter()
+                        .zip(&state.scored.beta)
+                        .any(|(k, b)| k == c && (*b > 0.0 || work.terms[*c] == Term::Elastic))
                 })
                 .collect();
-            // Each variant is scored and its columns freed at once; the best is rebuilt.
-            let score_delay = |work: &mut Work, d: f64| -> f64 {
-                let shifted = terms::delayed(&s.force_g, d / dt);
-                let cols = baseline_force_columns(work, &shifted, &active);
+            let delayed_cols = |work: &mut Work, d: f64| -> Vec<usize> {
+                active_base
+                    .iter()
+                    .map(|&c| {
+                        let j = work.pool.add_delayed(c, d / dt, Sign::NonNegative);
+                        work.terms.push(work.terms[c]);
+                        j
+                    })
+                    .collect()
+            };
+            let mut best: Option<(f64, f64, Vec<usize>)> = None;
+            let consider = |work: &mut Work, d: f64, best: &mut Option<(f64, f64, Vec<usize>)>| {
+                let cols = delayed_cols(work, d);
                 let all: Vec<usize> = others.iter().chain(&cols).copied().collect();
                 let mse = work.pool.score(&all).cv_mse;
-                cols.iter().for_each(|c| work.pool.drop_column(*c));
-                mse
-            };
-            let mut best: Option<(f64, f64)> = None;
-            let consider = |work: &mut Work, d: f64, best: &mut Option<(f64, f64)>| {
-                let mse = score_delay(work, d);
-                if best.is_none_or(|b| mse < b.1) {
-                    *best = Some((d, mse));
+                if best.as_ref().is_none_or(|b| mse < b.1) {
+                    if let Some((_, _, old)) = best.take() {
+                        old.iter().for_each(|c| work.pool.drop_column(*c));
+                    }
+                    *best = Some((d, mse, cols));
+                } else {
+                    cols.iter().for_each(|c| work.pool.drop_column(*c));
                 }
             };
             let mut d = dt;
@@ -656,14 +661,13 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 consider(&mut work, d, &mut best);
                 d *= 2.0;
             }
-            if let Some((centre, _)) = best {
+            let centre = best.as_ref().map(|b| b.0);
+            if let Some(centre) = centre {
                 for factor in [0.71, 0.84, 1.19, 1.41] {
                     consider(&mut work, (centre * factor).max(dt), &mut best);
                 }
             }
-            if let Some((d, _)) = best {
-                let shifted = terms::delayed(&s.force_g, d / dt);
-                let cols = baseline_force_columns(&mut work, &shifted, &active);
+            if let Some((d, _, cols)) = best {
                 temporary.extend(&cols);
                 tries.push(Try {
                     effect: Effect::TimeDelay,
@@ -811,6 +815,12 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         }
     }
 
+    // The candidates' columns are no longer needed: free them before the report's copies.
+    for c in slow.iter().chain(&plays).chain(&drift) {
+        if !state.cols.contains(c) {
+            work.pool.drop_column(*c);
+        }
+    }
     finish(
         &work,
         state,

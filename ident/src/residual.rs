@@ -86,16 +86,23 @@ pub fn residual_tests(residual: &[f64], force: &[f64], dt_s: f64) -> ResidualTes
     let outside = acf.iter().filter(|r| r.abs() > bound).count() as f64 / acf.len().max(1) as f64;
     let (q, ratio) = stats::ljung_box(&acf, n, PORTMANTEAU_LAGS);
     let load_r2 = binned_r2(residual, force, 10);
-    let time: Vec<f64> = (0..residual.len()).map(|i| i as f64).collect();
+    // A smooth function of time: means over 16 contiguous stretches (no sort, no copy).
     let time_r2 = {
-        // Least squares on 8 half-cosines is a smooth trend; the bins here are its proxy.
-        binned_r2(residual, &time, 16)
+        let m = stats::mean(residual);
+        let var: f64 = residual.iter().map(|v| (v - m) * (v - m)).sum();
+        let chunk = residual.len().div_ceil(16).max(1);
+        let explained: f64 = residual
+            .chunks(chunk)
+            .map(|c| c.len() as f64 * (stats::mean(c) - m).powi(2))
+            .sum();
+        if var > 0.0 {
+            (explained / var - 16.0 / residual.len().max(1) as f64).max(0.0)
+        } else {
+            0.0
+        }
     };
     let w = ((0.05 / dt_s).round() as usize).max(1);
-    let smooth = stats::moving_mean(force, 2 * w + 1);
-    let rate = terms::derivative(&smooth, dt_s);
-    let abs_rate: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
-    let rate_r2 = binned_r2(residual, &abs_rate, 10);
+    let mut rate = terms::derivative(&stats::moving_mean(force, 2 * w + 1), dt_s);
     // Direction at equal load: bins of (load, sign of rate) minus bins of load alone.
     let range = 1e-9 + force.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let signed: Vec<f64> = force
@@ -104,9 +111,15 @@ pub fn residual_tests(residual: &[f64], force: &[f64], dt_s: f64) -> ResidualTes
         .map(|(f, r)| f / range + if *r > 0.0 { 10.0 } else { 0.0 })
         .collect();
     let direction_r2 = (binned_r2(residual, &signed, 20) - load_r2).max(0.0);
-    let lines = terms::lines(residual, force, dt_s, 0.3, 1.0, 1);
-    let (line_hz, line_ratio) = lines.first().map_or((0.0, 0.0), |l| (l.hz, l.ratio));
+    drop(signed);
+    rate.iter_mut().for_each(|v| *v = v.abs());
+    let rate_r2 = binned_r2(residual, &rate, 10);
+    drop(rate);
     let (df, p) = terms::periodogram(residual, dt_s);
+    let (_, pf) = terms::periodogram(force, dt_s);
+    let lines = terms::lines_in(&p, &pf, df, 0.3, 1.0, 1);
+    drop(pf);
+    let (line_hz, line_ratio) = lines.first().map_or((0.0, 0.0), |l| (l.hz, l.ratio));
     let mut band_shares = [0.0; 4];
     let total: f64 = p.iter().skip(1).sum::<f64>().max(f64::MIN_POSITIVE);
     for (k, v) in p.iter().enumerate().skip(1) {

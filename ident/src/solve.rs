@@ -17,6 +17,18 @@ pub enum Sign {
     NonNegative,
 }
 
+/// A regressor: stored, or another one delayed by a (fractional) number of samples. A delayed
+/// column costs no memory: the filters are shift-invariant, so the baseline of a delayed force
+/// is its own columns delayed.
+enum Column {
+    Stored(Vec<f32>),
+    Delayed {
+        source: usize,
+        whole: usize,
+        frac: f32,
+    },
+}
+
 /// The regressors of a record, the strain they model, and the folds.
 pub struct Pool {
     n: usize,
@@ -24,7 +36,7 @@ pub struct Pool {
     /// Usable-sample mask (excluded samples weigh nothing).
     weight: Vec<f32>,
     y: Vec<f64>,
-    cols: Vec<Vec<f32>>,
+    cols: Vec<Column>,
     signs: Vec<Sign>,
     names: Vec<String>,
     cross: HashMap<(usize, usize), Vec<f64>>,
@@ -84,17 +96,58 @@ impl Pool {
 
     /// Adds a regressor; returns its index.
     pub fn add(&mut self, name: impl Into<String>, values: &[f64], sign: Sign) -> usize {
-        self.cols
-            .push(values.iter().map(|v| *v as f32).collect::<Vec<f32>>());
+        self.cols.push(Column::Stored(
+            values.iter().map(|v| *v as f32).collect::<Vec<f32>>(),
+        ));
         self.signs.push(sign);
         self.names.push(name.into());
         self.cols.len() - 1
     }
 
+    /// Adds column `source` delayed by `samples` (held at its first value); returns its index.
+    pub fn add_delayed(&mut self, source: usize, samples: f64, sign: Sign) -> usize {
+        let whole = samples.max(0.0).floor() as usize;
+        self.cols.push(Column::Delayed {
+            source,
+            whole,
+            frac: (samples.max(0.0) - whole as f64) as f32,
+        });
+        self.signs.push(sign);
+        self.names
+            .push(format!("{} delayed {samples:.2}", self.name(source)));
+        self.cols.len() - 1
+    }
+
+    /// A column's values (a delayed one is built on the fly).
+    fn values(&self, j: usize) -> std::borrow::Cow<'_, [f32]> {
+        match self.cols.get(j) {
+            Some(Column::Stored(v)) => std::borrow::Cow::Borrowed(v.as_slice()),
+            Some(Column::Delayed {
+                source,
+                whole,
+                frac,
+            }) => {
+                let src = self.values(*source);
+                let first = src.first().copied().unwrap_or(0.0);
+                let at = |i: usize| if i < src.len() { src[i] } else { first };
+                std::borrow::Cow::Owned(
+                    (0..self.n)
+                        .map(|i| {
+                            let a = if i >= *whole { at(i - whole) } else { first };
+                            let b = if i > *whole { at(i - whole - 1) } else { first };
+                            a * (1.0 - frac) + b * frac
+                        })
+                        .collect(),
+                )
+            }
+            None => std::borrow::Cow::Owned(vec![0.0; self.n]),
+        }
+    }
+
     /// Frees a regressor's memory (its index stays taken).
     pub fn drop_column(&mut self, j: usize) {
         if let Some(c) = self.cols.get_mut(j) {
-            *c = Vec::new();
+            *c = Column::Stored(Vec::new());
         }
         self.cross.retain(|k, _| k.0 != j && k.1 != j);
         self.with_y.remove(&j);
@@ -104,8 +157,9 @@ impl Pool {
         self.names.get(j).map_or("", |s| s.as_str())
     }
 
-    pub fn column(&self, j: usize) -> &[f32] {
-        self.cols.get(j).map_or(&[], |c| c.as_slice())
+    /// A column's values.
+    pub fn column(&self, j: usize) -> Vec<f32> {
+        self.values(j).into_owned()
     }
 
     fn per_fold(&self, f: impl Fn(usize) -> f64) -> Vec<f64> {
@@ -125,7 +179,7 @@ impl Pool {
         if let Some(v) = self.cross.get(&key) {
             return v.clone();
         }
-        let (ca, cb, w) = (&self.cols[key.0], &self.cols[key.1], &self.weight);
+        let (ca, cb, w) = (self.values(key.0), self.values(key.1), &self.weight);
         let v: Vec<f64> = self
             .folds
             .ranges
@@ -146,7 +200,7 @@ impl Pool {
         if let Some(v) = self.with_y.get(&a) {
             return v.clone();
         }
-        let (ca, w, y) = (&self.cols[a], &self.weight, &self.y);
+        let (ca, w, y) = (self.values(a), &self.weight, &self.y);
         let v: Vec<f64> = self
             .folds
             .ranges
@@ -209,7 +263,7 @@ impl Pool {
     pub fn predict(&self, columns: &[usize], beta: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; self.n];
         for (&c, &w) in columns.iter().zip(beta) {
-            for (o, v) in out.iter_mut().zip(&self.cols[c]) {
+            for (o, v) in out.iter_mut().zip(self.values(c).iter()) {
                 *o += w * f64::from(*v);
             }
         }

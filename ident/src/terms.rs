@@ -188,12 +188,24 @@ pub fn lines(
 ) -> Vec<Line> {
     let (df, p) = periodogram(residual, dt_s);
     let (_, pf) = periodogram(force, dt_s);
-    if p.len() < 32 || df <= 0.0 {
+    lines_in(&p, &pf, df, min_hz, min_ratio, max)
+}
+
+/// [`lines`] from the two periodograms (bin width `df`).
+pub fn lines_in(
+    p: &[f64],
+    pf: &[f64],
+    df: f64,
+    min_hz: f64,
+    min_ratio: f64,
+    max: usize,
+) -> Vec<Line> {
+    if p.len() < 32 || df <= 0.0 || pf.len() != p.len() {
         return Vec::new();
     }
     let first = ((min_hz / df).ceil() as usize).max(2);
     let last = p.len().saturating_sub(2);
-    let (bg, bgf) = (background(&p), background(&pf));
+    let (bg, bgf) = (background(p), background(pf));
     let mut found: Vec<(usize, f64)> = Vec::new();
     for k in first..last {
         if p[k] < p[k - 1] || p[k] < p[k + 1] {
