@@ -98,7 +98,12 @@ pub fn element_of(
     // Branches faster than 20 ms act as the spring on the chip's time scale.
     let fast: f64 = branches.iter().filter(|b| b.0 < 0.02).map(|b| b.1).sum();
     branches.retain(|b| b.0 >= 0.02);
-    let j0 = sum(&|t| t == Term::Elastic) + fast;
+    let mut j0 = sum(&|t| t == Term::Elastic) + fast;
+    // A sensor with no instantaneous response (a fluid channel): its fastest branch stands in
+    // for the spring on the chip (eq. 14 needs one).
+    if j0 <= 0.0 && !branches.is_empty() {
+        j0 = branches.remove(0).1;
+    }
     let creep = sum(&|t| t == Term::Creep);
     let merge = |bs: &[(f64, f64)]| -> Option<(f64, f64)> {
         let j: f64 = bs.iter().map(|b| b.1).sum();
