@@ -1077,14 +1077,7 @@ fn impulse_energy(terms: &[(Term, f64)], dt: f64) -> f64 {
         match t {
             Term::Elastic => h[0] += b,
             Term::Relaxation(tau) | Term::SlowRelaxation(tau) => {
-                let x = dt / tau;
-                let a = (-x).exp();
-                let g = if x > 1e-6 {
-                    (1.0 - a) / x
-                } else {
-                    1.0 - x / 2.0
-                };
-                let (b0, b1) = (1.0 - g, g - a);
+                let (a, b0, b1) = terms::lowpass_coefficients(*tau, dt);
                 h[0] += b * b0;
                 let mut v = b * (a * b0 + b1);
                 for hk in h.iter_mut().skip(1) {

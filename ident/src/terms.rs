@@ -6,15 +6,7 @@ use rustfft::{num_complex::Complex, FftPlanner};
 /// (so a sampled ramp is followed without the half-sample lag of a zero-order hold). Starts at
 /// rest at the first sample's value.
 pub fn lowpass(x: &[f64], tau_s: f64, dt_s: f64) -> Vec<f64> {
-    let h = dt_s / tau_s;
-    let a = (-h).exp();
-    // Input linear between samples: y[n] = a·y[n−1] + b0·x[n] + b1·x[n−1].
-    let g = if h > 1e-6 {
-        (1.0 - a) / h
-    } else {
-        1.0 - h / 2.0
-    };
-    let (b0, b1) = (1.0 - g, g - a);
+    let (a, b0, b1) = lowpass_coefficients(tau_s, dt_s);
     let mut y = Vec::with_capacity(x.len());
     let (mut prev_x, mut prev_y) = match x.first() {
         Some(&v) => (v, v),
@@ -26,6 +18,19 @@ pub fn lowpass(x: &[f64], tau_s: f64, dt_s: f64) -> Vec<f64> {
         y.push(prev_y);
     }
     y
+}
+
+/// Coefficients (a, b₀, b₁) of [`lowpass`]: y[n] = a·y[n−1] + b₀·x[n] + b₁·x[n−1], exact for an
+/// input linear between samples.
+pub fn lowpass_coefficients(tau_s: f64, dt_s: f64) -> (f64, f64, f64) {
+    let h = dt_s / tau_s;
+    let a = (-h).exp();
+    let g = if h > 1e-6 {
+        (1.0 - a) / h
+    } else {
+        1.0 - h / 2.0
+    };
+    (a, 1.0 - g, g - a)
 }
 
 /// Running integral of `x` (trapezoid), divided by `scale_s` so it stays of the order of `x`.

@@ -936,7 +936,7 @@ fn summarize_fit(
     let r = problem.residuals()?;
     let n = r.len() as f64;
     let p = theta.len() as f64;
-    let rho1 = lag_correlation(r.as_slice(), 1).clamp(-0.99, 0.99);
+    let rho1 = tactile_ident::stats::acf(r.as_slice(), 1)[0].clamp(-0.99, 0.99);
     let inflation = (1.0 + rho1) / (1.0 - rho1);
     let s2 = r.norm_squared() / (n - p).max(1.0) * inflation.max(1.0);
     let (standard_error, max_correlation) = match problem
@@ -995,23 +995,6 @@ fn summarize_fit(
         held_out: data.held_out_description.clone(),
         evaluations,
     })
-}
-
-/// Autocorrelation of `x` at `lag` (mean removed).
-pub fn lag_correlation(x: &[f64], lag: usize) -> f64 {
-    if x.len() <= lag + 1 {
-        return 0.0;
-    }
-    let m = x.iter().sum::<f64>() / x.len() as f64;
-    let var: f64 = x.iter().map(|v| (v - m).powi(2)).sum();
-    if var == 0.0 {
-        return 0.0;
-    }
-    x.iter()
-        .zip(&x[lag..])
-        .map(|(a, b)| (a - m) * (b - m))
-        .sum::<f64>()
-        / var
 }
 
 /// Human-readable report of a fit.
