@@ -118,6 +118,23 @@ impl Pool {
         self.cols.len() - 1
     }
 
+    /// A column as (stored values, whole samples of delay, fraction of a sample): a delayed
+    /// column is its source read at an offset. `None` for a column of nothing stored.
+    fn raw(&self, j: usize) -> Option<(&[f32], usize, f32)> {
+        match self.cols.get(j)? {
+            Column::Stored(v) if v.len() == self.n => Some((v.as_slice(), 0, 0.0)),
+            Column::Delayed {
+                source,
+                whole,
+                frac,
+            } => match self.cols.get(*source)? {
+                Column::Stored(v) if v.len() == self.n => Some((v.as_slice(), *whole, *frac)),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
     /// A column's values (a delayed one is built on the fly).
     fn values(&self, j: usize) -> std::borrow::Cow<'_, [f32]> {
         match self.cols.get(j) {
@@ -179,19 +196,40 @@ impl Pool {
         if let Some(v) = self.cross.get(&key) {
             return v.clone();
         }
-        let (ca, cb, w) = (self.values(key.0), self.values(key.1), &self.weight);
-        let v: Vec<f64> = self
-            .folds
-            .ranges
-            .iter()
-            .map(|&(s, e)| {
-                let mut acc = 0.0f64;
-                for i in s..e {
-                    acc += f64::from(ca[i] * cb[i] * w[i]);
-                }
-                acc
-            })
-            .collect();
+        let w = &self.weight;
+        let v: Vec<f64> = match (self.raw(key.0), self.raw(key.1)) {
+            (Some((ca, 0, fa)), Some((cb, 0, fb))) if fa == 0.0 && fb == 0.0 => self
+                .folds
+                .ranges
+                .iter()
+                .map(|&(s, e)| {
+                    let mut acc = 0.0f64;
+                    for i in s..e {
+                        acc += f64::from(ca[i] * cb[i] * w[i]);
+                    }
+                    acc
+                })
+                .collect(),
+            // A delayed column is read from its source at an offset (no copy).
+            (Some((ca, wa, fa)), Some((cb, wb, fb))) => self
+                .folds
+                .ranges
+                .iter()
+                .map(|&(s, e)| {
+                    (s..e)
+                        .map(|i| f64::from(at(ca, wa, fa, i) * at(cb, wb, fb, i) * w[i]))
+                        .sum::<f64>()
+                })
+                .collect(),
+            _ => {
+                let (ca, cb) = (self.values(key.0), self.values(key.1));
+                self.folds
+                    .ranges
+                    .iter()
+                    .map(|&(s, e)| (s..e).map(|i| f64::from(ca[i] * cb[i] * w[i])).sum::<f64>())
+                    .collect()
+            }
+        };
         self.cross.insert(key, v.clone());
         v
     }
@@ -268,6 +306,18 @@ impl Pool {
             }
         }
         out
+    }
+}
+
+/// Sample `i` of `v` delayed by `whole + frac` samples, held at its first value.
+#[inline(always)]
+fn at(v: &[f32], whole: usize, frac: f32, i: usize) -> f32 {
+    if whole == 0 && frac == 0.0 {
+        v[i]
+    } else if i > whole {
+        v[i - whole] * (1.0 - frac) + v[i - whole - 1] * frac
+    } else {
+        v[0]
     }
 }
 
