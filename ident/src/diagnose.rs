@@ -61,15 +61,6 @@ pub enum Effect {
 }
 
 impl Effect {
-    pub const ALL: [Effect; 7] = [
-        Effect::LoadDependentStiffness,
-        Effect::Hysteresis,
-        Effect::BaselineDrift,
-        Effect::PeriodicInterference,
-        Effect::TimeDelay,
-        Effect::SlowRelaxation,
-        Effect::SensitivityDrift,
-    ];
     pub fn name(self) -> &'static str {
         match self {
             Effect::LoadDependentStiffness => "load_dependent_stiffness",
@@ -265,6 +256,8 @@ struct Work<'a> {
     pool: Pool,
     terms: Vec<Term>,
     kept: Vec<bool>,
+    /// The force at the samples that count (what the residual is tested against).
+    force_kept: Vec<f64>,
     force_scale: f64,
 }
 
@@ -291,11 +284,7 @@ impl Work<'_> {
     }
 
     fn tests(&self, cols: &[usize], beta: &[f64]) -> ResidualTests {
-        residual_tests(
-            &self.residual(cols, beta),
-            &self.s.kept(&self.s.force_g),
-            self.s.dt_s,
-        )
+        residual_tests(&self.residual(cols, beta), &self.force_kept, self.s.dt_s)
     }
 
     /// Ljung–Box ratio and colored power (the residual's variance that its own past predicts)
@@ -391,6 +380,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             pool: Pool::new(&y, &s.excluded, Folds::blocked(&s.excluded, 4)),
             terms: Vec::new(),
             kept: kept.clone(),
+            force_kept: Vec::new(),
             force_scale,
         };
         let cols = baseline_columns(&mut work, &taus);
@@ -431,6 +421,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         pool: Pool::new(&y, &s.excluded, folds.clone()),
         terms: Vec::new(),
         kept,
+        force_kept: fk,
         force_scale,
     };
     let base = baseline_columns(&mut work, &taus);
@@ -448,7 +439,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     );
     let window = ((1.0 / dt) as usize).max(20);
     let floor = stats::noise_variance(&s.kept(work.pool.y()), window)
-        + energy * stats::noise_variance(&fk, window);
+        + energy * stats::noise_variance(&work.force_kept, window);
     let mut state = State {
         delay_s: 0.0,
         cols: base.clone(),
@@ -579,7 +570,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         }
         if !taken(Effect::PeriodicInterference, &state) {
             let r = work.residual(&state.cols, &state.scored.beta);
-            let lines = terms::lines(&r, &s.kept(&s.force_g), dt, 0.3, 20.0, 2);
+            let lines = terms::lines(&r, &work.force_kept, dt, 0.3, 20.0, 2);
             if !lines.is_empty() {
                 let mut cols = Vec::new();
                 for l in &lines {
@@ -1102,6 +1093,19 @@ fn coef(terms: &[(Term, f64)], which: impl Fn(Term) -> bool) -> f64 {
         .sum()
 }
 
+/// Peak-to-peak over the record of Σ b·basis(term) over the terms `basis` knows.
+fn swing(terms: &[(Term, f64)], n: usize, basis: impl Fn(Term) -> Option<Vec<f64>>) -> f64 {
+    let mut sum = vec![0.0; n];
+    for (t, b) in terms {
+        if let Some(v) = basis(*t) {
+            for (o, c) in sum.iter_mut().zip(v) {
+                *o += b * c;
+            }
+        }
+    }
+    sum.iter().fold(f64::MIN, |a, v| a.max(*v)) - sum.iter().fold(f64::MAX, |a, v| a.min(*v))
+}
+
 /// Each accepted effect's size in physical units.
 fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<Size> {
     let s = work.s;
@@ -1142,8 +1146,8 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                 )
             }
             Effect::LoadDependentStiffness => {
-                let fk = s.kept(&s.force_g);
-                let (lo, hi) = (stats::quantile(&fk, 0.1), stats::quantile(&fk, 0.9));
+                let fk = &work.force_kept;
+                let (lo, hi) = (stats::quantile(fk, 0.1), stats::quantile(fk, 0.9));
                 let strain_at = |f: f64| -> f64 {
                     terms
                         .iter()
@@ -1188,16 +1192,10 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                 )
             }
             Effect::BaselineDrift => {
-                let mut d = vec![0.0; n];
-                for (t, b) in terms {
-                    if let Term::Drift(k) = t {
-                        for (o, c) in d.iter_mut().zip(terms::cosine(n, *k)) {
-                            *o += b * c;
-                        }
-                    }
-                }
-                let range = d.iter().fold(f64::MIN, |a, v| a.max(*v))
-                    - d.iter().fold(f64::MAX, |a, v| a.min(*v));
+                let range = swing(terms, n, |t| match t {
+                    Term::Drift(k) => Some(terms::cosine(n, k)),
+                    _ => None,
+                });
                 (
                     format!(
                         "the strain's zero wanders {range:.4} % over the record ({:.2} g)",
@@ -1243,16 +1241,10 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                 )
             }
             Effect::SensitivityDrift => {
-                let mut m = vec![1.0; n];
-                for (t, b) in terms {
-                    if let Term::Gain(k) = t {
-                        for (o, c) in m.iter_mut().zip(terms::legendre(n, *k)) {
-                            *o += b * c;
-                        }
-                    }
-                }
-                let range = m.iter().fold(f64::MIN, |a, v| a.max(*v))
-                    - m.iter().fold(f64::MAX, |a, v| a.min(*v));
+                let range = swing(terms, n, |t| match t {
+                    Term::Gain(k) => Some(terms::legendre(n, k)),
+                    _ => None,
+                });
                 (
                     format!(
                         "the sensitivity changes by {:.1} % over the record",

@@ -90,10 +90,6 @@ impl Pool {
         &self.y
     }
 
-    pub fn folds(&self) -> &Folds {
-        &self.folds
-    }
-
     /// Adds a regressor; returns its index.
     pub fn add(&mut self, name: impl Into<String>, values: &[f64], sign: Sign) -> usize {
         self.cols.push(Column::Stored(
@@ -172,11 +168,6 @@ impl Pool {
 
     pub fn name(&self, j: usize) -> &str {
         self.names.get(j).map_or("", |s| s.as_str())
-    }
-
-    /// A column's values.
-    pub fn column(&self, j: usize) -> Vec<f32> {
-        self.values(j).into_owned()
     }
 
     fn per_fold(&self, f: impl Fn(usize) -> f64) -> Vec<f64> {

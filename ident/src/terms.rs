@@ -58,24 +58,6 @@ pub fn play(x: &[f64], r: f64) -> Vec<f64> {
         .collect()
 }
 
-/// A Prandtl–Ishlinskii operator: `w0`·x plus the plays of `radii` weighted by `weights`.
-pub fn play_sum(x: &[f64], radii: &[f64], weights: &[f64], w0: f64) -> Vec<f64> {
-    let mut states: Vec<f64> = radii
-        .iter()
-        .map(|_| x.first().copied().unwrap_or(0.0))
-        .collect();
-    x.iter()
-        .map(|&v| {
-            let mut y = w0 * v;
-            for ((s, r), w) in states.iter_mut().zip(radii).zip(weights) {
-                *s = s.clamp(v - r, v + r);
-                y += w * *s;
-            }
-            y
-        })
-        .collect()
-}
-
 /// cos(π·k·t/T) over the record (k = 1 is one half-period: a smooth step from one end to the
 /// other).
 pub fn cosine(n: usize, k: usize) -> Vec<f64> {

@@ -94,8 +94,8 @@ enum Command {
         #[arg(long)]
         table: Option<PathBuf>,
         /// The taxel the record is of, ROW,COL from zero (for --table).
-        #[arg(long, default_value = "3,2")]
-        taxel: String,
+        #[arg(long, default_value = "3,2", value_parser = taxel_arg)]
+        taxel: tactile_core::tactile::TaxelId,
     },
     /// Run the chip's estimators (the firmware's own code) over a record's strain with a
     /// calibration table; write the force estimates as a record; with a reference force, print
@@ -106,8 +106,8 @@ enum Command {
         #[arg(long)]
         table: PathBuf,
         /// The taxel of the table the record is of, ROW,COL from zero.
-        #[arg(long, default_value = "3,2")]
-        taxel: String,
+        #[arg(long, default_value = "3,2", value_parser = taxel_arg)]
+        taxel: tactile_core::tactile::TaxelId,
         /// Only this estimator (default: all four).
         #[arg(long, value_enum)]
         estimator: Option<sim_host::estimate::Estimator>,
@@ -223,6 +223,11 @@ fn read_series(file: &std::path::Path) -> Result<sim_host::fit::Series, ExitCode
             Err(ExitCode::from(1))
         }
     }
+}
+
+/// `--taxel ROW,COL` for clap (a bad one is a usage error, exit code 2).
+fn taxel_arg(text: &str) -> Result<tactile_core::tactile::TaxelId, String> {
+    cli::parse_taxel(text).ok_or_else(|| "expected ROW,COL with ROW and COL in 0..8".to_string())
 }
 
 fn usage_error(message: &str) -> ExitCode {
@@ -342,13 +347,6 @@ fn main() -> ExitCode {
             table,
             taxel,
         } => {
-            let taxel = match cli::parse_taxel(&taxel) {
-                Some(t) => t,
-                None => {
-                    eprintln!("tactile diagnose: --taxel '{taxel}': expected ROW,COL with ROW and COL in 0..8");
-                    return ExitCode::from(2);
-                }
-            };
             let record = match sim_host::record::read_record(&file) {
                 Ok(r) => r,
                 Err(e) => {
@@ -418,25 +416,16 @@ fn main() -> ExitCode {
             taxel,
             estimator,
             out,
-        } => {
-            let taxel = match cli::parse_taxel(&taxel) {
-                Some(t) => t,
-                None => {
-                    eprintln!("tactile estimate: --taxel '{taxel}': expected ROW,COL with ROW and COL in 0..8");
-                    return ExitCode::from(2);
-                }
-            };
-            match sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref()) {
-                Ok(text) => {
-                    out!("{text}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("tactile: {e}");
-                    ExitCode::from(1)
-                }
+        } => match sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref()) {
+            Ok(text) => {
+                out!("{text}");
+                ExitCode::SUCCESS
             }
-        }
+            Err(e) => {
+                eprintln!("tactile: {e}");
+                ExitCode::from(1)
+            }
+        },
         Command::Tables { out, seed } => match sim_host::tables::reproduce(seed) {
             Ok(t) => print_and_write(&out, "tables", &sim_host::tables::render(&t), &t),
             Err(e) => {
