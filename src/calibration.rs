@@ -4,17 +4,23 @@
 //!
 //! Layout (little-endian): `b"TCAL"`, version `u16`, taxel count `u16`, then one
 //! [`RECORD_BYTES`] record per taxel, then the CRC-32 (IEEE) of everything before it. A record:
-//! row `u8`, column `u8`, schedule length `u8`, a zero byte; strain offset (%), elastic spring
-//! (g/%); the whole-record second-order fit a₁ a₂ b₀ b₁ b₂; [`SCHEDULE_POINTS`] schedule
-//! entries of load (g) and a₁ a₂ b₀ b₁ b₂; the element law G₁ (base, √, linear), N₁, α, N₂,
-//! G₂ (base, √, linear); the notch frequency (Hz, 0 for none) — all `f32`. Version 2 added
-//! the notch.
+//! row `u8`, column `u8`, schedule length `u8`, the estimator the firmware runs (index in
+//! [`EstimatorKind::ALL`]), the [`CalibrationFlags`] `u8`, three zero bytes; then `f32`s:
+//! strain offset (%), elastic spring (g/%); the whole-record second-order fit a₁ a₂ b₀ b₁ b₂;
+//! [`SCHEDULE_POINTS`] schedule entries of load (g) and a₁ a₂ b₀ b₁ b₂; G₁ and G₂ as curves
+//! ([`CURVE_KNOTS`] stresses, then the strain at each); N₁, α, N₂; the notch frequency (Hz,
+//! 0 for none); the calibrated range (g, 0 unknown); each estimator's held-out RMS error on the
+//! calibration record (g, in [`EstimatorKind::ALL`]'s order; negative: not measured).
+//! Version 2 added the notch; version 3 the curves (version 2's three-coefficient laws could
+//! not follow a spring that stiffens by another law), the range, the held-out errors, the
+//! chosen estimator and the flags.
 
 use heapless::Vec;
 
-use crate::estimator::SCHEDULE_POINTS;
+use crate::estimator::{EstimatorKind, SCHEDULE_POINTS};
+use crate::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use crate::tactile::{TaxelId, TAXELS};
-use crate::viscoelastic::{MaxwellKelvin, NonlinearMk, SecondOrder, SpringLaw};
+use crate::viscoelastic::{MaxwellKelvin, NonlinearMk, SecondOrder};
 
 /// CRC-32 (IEEE, as zlib and Ethernet compute it), bit by bit: a lookup table would cost
 /// the firmware 1–16 KB of flash to check a 700-byte table once at start-up.
@@ -33,12 +39,38 @@ fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
 }
 
 pub const MAGIC: [u8; 4] = *b"TCAL";
-pub const VERSION: u16 = 2;
+pub const VERSION: u16 = 3;
 const HEADER_BYTES: usize = 8;
+/// Bytes of a record before its floats.
+const LEAD_BYTES: usize = 8;
 const CRC_BYTES: usize = 4;
 /// Floats in a record after its four leading bytes.
-const RECORD_FLOATS: usize = 2 + 5 + SCHEDULE_POINTS * 6 + 9 + 1;
-pub const RECORD_BYTES: usize = 4 + 4 * RECORD_FLOATS;
+const RECORD_FLOATS: usize = 2 + 5 + SCHEDULE_POINTS * 6 + 2 * CURVE_FLOATS + 3 + 1 + 1 + 4;
+/// A curve's floats: its knots' stresses, then its strains there.
+const CURVE_FLOATS: usize = 2 * CURVE_KNOTS;
+pub const RECORD_BYTES: usize = LEAD_BYTES + 4 * RECORD_FLOATS;
+
+bitflags::bitflags! {
+    /// What a calibration says about itself (stored in the table, logged by the firmware).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct CalibrationFlags: u8 {
+        /// The best estimator's held-out error is above [`POOR_FIT_G`]: the taxel's force is
+        /// not to be trusted to the memo's ±1 g.
+        const POOR = 1;
+        /// The fitted model misses the strain by more than [`LARGE_OFFSET_PCT`] on average
+        /// with the offset measured at rest: something shifts the strain that the model lacks.
+        const OFFSET = 2;
+        /// The calibration held out worse than the nominal models, which the record carries.
+        const NOMINAL = 4;
+    }
+}
+
+/// Held-out RMS force error above which a calibration is flagged [`CalibrationFlags::POOR`], g
+/// (the memo's ±1 g).
+pub const POOR_FIT_G: f64 = 1.0;
+/// Mean strain the model misses by before a calibration is flagged
+/// [`CalibrationFlags::OFFSET`], percent (about 0.2 g through G₁ at 30 g).
+pub const LARGE_OFFSET_PCT: f64 = 0.05;
 /// The largest table: every taxel of the array.
 pub const MAX_TABLE_BYTES: usize = HEADER_BYTES + TAXELS * RECORD_BYTES + CRC_BYTES;
 
@@ -58,6 +90,14 @@ pub struct TaxelModel {
     pub element: NonlinearMk,
     /// A periodic interference on the strain, notched before every estimator, Hz (0: none).
     pub notch_hz: f64,
+    /// The largest load the calibration record covered, g (0: unknown).
+    pub range_g: f64,
+    /// Each estimator's RMS force error on the held-out part of the calibration record, g, in
+    /// [`EstimatorKind::ALL`]'s order (`None`: not measured, as for the nominal models).
+    pub held_out_g: Option<[f64; 4]>,
+    /// The estimator the firmware runs on this taxel (the one that held out best).
+    pub estimator: EstimatorKind,
+    pub flags: CalibrationFlags,
 }
 
 impl TaxelModel {
@@ -94,10 +134,15 @@ impl TaxelModel {
             schedule,
             element: NonlinearMk::ELEMENT_4_2,
             notch_hz: 0.0,
+            range_g: 0.0,
+            held_out_g: None,
+            estimator: EstimatorKind::Observer,
+            flags: CalibrationFlags::empty(),
         }
     }
 
-    fn floats(&self) -> [f32; RECORD_FLOATS] {
+    /// The record's floats; `None` if a spring law cannot be tabulated.
+    fn floats(&self) -> Option<[f32; RECORD_FLOATS]> {
         let mut v = [0.0f32; RECORD_FLOATS];
         let so = |s: &SecondOrder| [s.a1, s.a2, s.b0, s.b1, s.b2];
         let mut values: Vec<f64, RECORD_FLOATS> = Vec::new();
@@ -113,32 +158,37 @@ impl TaxelModel {
             let _ = values.extend_from_slice(&so(&s));
         }
         let e = &self.element;
-        let _ = values.extend_from_slice(&[
-            e.g1.base,
-            e.g1.sqrt_coeff,
-            e.g1.linear_coeff,
-            e.n1,
-            e.alpha,
-            e.n2,
-            e.g2.base,
-            e.g2.sqrt_coeff,
-            e.g2.linear_coeff,
-            self.notch_hz,
-        ]);
+        for law in [e.g1, e.g2] {
+            let curve = law.curve().ok()?;
+            let (stress, strain): (Vec<f32, CURVE_KNOTS>, Vec<f32, CURVE_KNOTS>) =
+                curve.knots().unzip();
+            for x in stress.iter().chain(&strain) {
+                let _ = values.push(f64::from(*x));
+            }
+        }
+        let held_out = self.held_out_g.unwrap_or([-1.0; 4]);
+        let _ = values.extend_from_slice(&[e.n1, e.alpha, e.n2, self.notch_hz, self.range_g]);
+        let _ = values.extend_from_slice(&held_out);
         for (slot, x) in v.iter_mut().zip(values) {
             *slot = x as f32;
         }
-        v
+        Some(v)
     }
 
     fn from_floats(
         taxel: TaxelId,
-        schedule_len: usize,
+        lead: [u8; LEAD_BYTES],
         f: &[f32; RECORD_FLOATS],
     ) -> Option<TaxelModel> {
+        let [_, _, schedule_len, estimator, flags, 0, 0, 0] = lead else {
+            return None;
+        };
+        let schedule_len = usize::from(schedule_len);
         if f.iter().any(|v| !v.is_finite()) || schedule_len > SCHEDULE_POINTS {
             return None;
         }
+        let estimator = *EstimatorKind::ALL.get(usize::from(estimator))?;
+        let flags = CalibrationFlags::from_bits(flags)?;
         let d = |i: usize| f.get(i).map_or(f64::NAN, |v| f64::from(*v));
         let so = |i: usize| SecondOrder {
             a1: d(i),
@@ -153,11 +203,14 @@ impl TaxelModel {
             schedule.push((d(base) as f32, so(base + 1))).ok()?;
         }
         let e = 7 + 6 * SCHEDULE_POINTS;
-        let law = |i: usize| SpringLaw {
-            base: d(i),
-            sqrt_coeff: d(i + 1),
-            linear_coeff: d(i + 2),
+        let at = |i: usize| f.get(i).copied().unwrap_or(f32::NAN);
+        let curve = |i: usize| {
+            let stress = core::array::from_fn(|k| at(i + k));
+            SpringCurve::new(stress, core::array::from_fn(|k| at(i + CURVE_KNOTS + k))).ok()
         };
+        let (g1, g2) = (curve(e)?, curve(e + CURVE_FLOATS)?);
+        let p = e + 2 * CURVE_FLOATS;
+        let held_out: [f64; 4] = core::array::from_fn(|k| d(p + 5 + k));
         Some(TaxelModel {
             taxel,
             strain_offset_pct: d(0),
@@ -165,13 +218,17 @@ impl TaxelModel {
             second_order: so(2),
             schedule,
             element: NonlinearMk {
-                g1: law(e),
-                n1: d(e + 3),
-                alpha: d(e + 4),
-                n2: d(e + 5),
-                g2: law(e + 6),
+                g1: SpringLaw::Curve(g1),
+                n1: d(p),
+                alpha: d(p + 1),
+                n2: d(p + 2),
+                g2: SpringLaw::Curve(g2),
             },
-            notch_hz: d(e + 9),
+            notch_hz: d(p + 3),
+            range_g: d(p + 4),
+            held_out_g: held_out.iter().all(|v| *v >= 0.0).then_some(held_out),
+            estimator,
+            flags,
         })
     }
 }
@@ -250,7 +307,7 @@ impl core::fmt::Display for TableError {
             }
             TableError::BadRecord { index } => write!(
                 f,
-                "calibration table record {index}: position off the array, a non-finite value or a bad schedule length"
+                "calibration table record {index}: position off the array, a non-finite value, a spring that is not a rising curve, or a bad schedule length, estimator or flag"
             ),
             TableError::BufferTooSmall { needed } => {
                 write!(f, "calibration table needs a {needed}-byte buffer")
@@ -291,16 +348,30 @@ impl CalibrationTable {
         for (slot, b) in header.iter_mut().zip(head) {
             *slot = *b;
         }
-        for (record, model) in rest.chunks_exact_mut(RECORD_BYTES).zip(&self.taxels) {
-            let (lead, floats) = record.split_at_mut(4);
-            let position = [
+        for (index, (record, model)) in rest
+            .chunks_exact_mut(RECORD_BYTES)
+            .zip(&self.taxels)
+            .enumerate()
+        {
+            let (lead, floats) = record.split_at_mut(LEAD_BYTES);
+            let estimator = EstimatorKind::ALL
+                .iter()
+                .position(|k| *k == model.estimator)
+                .unwrap_or(0);
+            lead.copy_from_slice(&[
                 model.taxel.row() as u8,
                 model.taxel.col() as u8,
                 model.schedule.len() as u8,
+                estimator as u8,
+                model.flags.bits(),
                 0,
-            ];
-            lead.copy_from_slice(&position);
-            for (slot, v) in floats.chunks_exact_mut(4).zip(model.floats()) {
+                0,
+                0,
+            ]);
+            let values = model.floats().ok_or(TableError::BadRecord {
+                index: index as u16,
+            })?;
+            for (slot, v) in floats.chunks_exact_mut(4).zip(values) {
                 slot.copy_from_slice(&v.to_le_bytes());
             }
         }
@@ -400,19 +471,17 @@ impl<'a> TableView<'a> {
         let record = self
             .records
             .get(index * RECORD_BYTES..(index + 1) * RECORD_BYTES)?;
-        let (row, col, len) = match record {
-            [row, col, len, 0, ..] => (*row, *col, *len),
-            _ => return None,
-        };
+        let lead: [u8; LEAD_BYTES] = bytes_at(record, 0);
+        let [row, col, ..] = lead;
         let taxel = TaxelId::new(usize::from(row), usize::from(col))?;
         let mut floats = [0.0f32; RECORD_FLOATS];
         for (v, b) in floats
             .iter_mut()
-            .zip(record.get(4..).unwrap_or(&[]).chunks_exact(4))
+            .zip(record.get(LEAD_BYTES..).unwrap_or(&[]).chunks_exact(4))
         {
             *v = f32::from_le_bytes(bytes_at(b, 0));
         }
-        TaxelModel::from_floats(taxel, usize::from(len), &floats)
+        TaxelModel::from_floats(taxel, lead, &floats)
     }
 
     /// Every model, in table order.
@@ -434,17 +503,46 @@ mod tests {
         let mut t = CalibrationTable::default();
         for (i, k) in [(0usize, 1.0), (27, 1.2), (63, 0.8)] {
             let mut m = TaxelModel::nominal(TaxelId::from_index(i));
-            m.element.g1.base *= k;
+            m.element.g1 = m.element.g1.scaled(k);
             m.strain_offset_pct = 0.03 * k;
             m.schedule.truncate(2 + i % 3);
+            m.estimator = EstimatorKind::ALL[i % 4];
+            m.flags = CalibrationFlags::from_bits_truncate(i as u8);
+            m.held_out_g = (i > 0).then_some([3.0, 2.5, 0.4, 0.2 * k]);
+            m.range_g = 90.0 * k;
             t.taxels.push(m).unwrap();
         }
         t
     }
 
-    /// Values as f32 keeps them.
+    /// Values as f32 keeps them, the springs as curves.
     fn rounded(m: &TaxelModel) -> TaxelModel {
-        TaxelModel::from_floats(m.taxel, m.schedule.len(), &m.floats()).unwrap()
+        let f = |x: f64| f64::from(x as f32);
+        let so = |s: &SecondOrder| SecondOrder {
+            a1: f(s.a1),
+            a2: f(s.a2),
+            b0: f(s.b0),
+            b1: f(s.b1),
+            b2: f(s.b2),
+        };
+        let e = &m.element;
+        TaxelModel {
+            strain_offset_pct: f(m.strain_offset_pct),
+            elastic_g_per_pct: f(m.elastic_g_per_pct),
+            second_order: so(&m.second_order),
+            schedule: m.schedule.iter().map(|(l, s)| (*l, so(s))).collect(),
+            element: NonlinearMk {
+                g1: SpringLaw::Curve(e.g1.curve().unwrap()),
+                n1: f(e.n1),
+                alpha: f(e.alpha),
+                n2: f(e.n2),
+                g2: SpringLaw::Curve(e.g2.curve().unwrap()),
+            },
+            notch_hz: f(m.notch_hz),
+            range_g: f(m.range_g),
+            held_out_g: m.held_out_g.map(|h| h.map(f)),
+            ..m.clone()
+        }
     }
 
     #[test]
@@ -453,7 +551,9 @@ mod tests {
         let mut buf = [0u8; MAX_TABLE_BYTES];
         let n = t.encode(&mut buf).unwrap();
         assert_eq!(n, 8 + 3 * RECORD_BYTES + 4);
-        assert_eq!(RECORD_BYTES, 168);
+        // 8 lead bytes and 80 floats: offset, elastic, eq. 17, 4 × 6 schedule, 2 × 20 curve,
+        // N₁ α N₂, notch, range, 4 held-out errors.
+        assert_eq!(RECORD_BYTES, 8 + 4 * 80);
         // Trailing bytes (the rest of a sector) are ignored.
         let back = CalibrationTable::decode(&buf[..n + 100]).unwrap();
         assert_eq!(back.taxels.len(), 3);

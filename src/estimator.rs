@@ -16,7 +16,8 @@
 
 use crate::calibration::TaxelModel;
 use crate::filter::{Biquad, BiquadState};
-use crate::viscoelastic::{InverseEstimator, ModelError, NonlinearMk, SecondOrder, SpringLaw};
+use crate::spring::SpringCurve;
+use crate::viscoelastic::{InverseEstimator, ModelError, NonlinearMk, SecondOrder};
 
 /// Most load levels a [`Schedule`] holds.
 pub const SCHEDULE_POINTS: usize = 4;
@@ -192,50 +193,6 @@ impl ScheduledInverse {
     }
 }
 
-/// A spring law in `f32`, for the update path (see [`SpringLaw`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Spring {
-    base: f32,
-    sqrt_coeff: f32,
-    linear_coeff: f32,
-}
-
-impl Spring {
-    fn new(law: &SpringLaw) -> Self {
-        Self {
-            base: law.base as f32,
-            sqrt_coeff: law.sqrt_coeff as f32,
-            linear_coeff: law.linear_coeff as f32,
-        }
-    }
-
-    /// Secant stiffness at `stress_g` (σ < 0 is treated as 0).
-    #[inline]
-    fn stiffness(&self, stress_g: f32) -> f32 {
-        let s = stress_g.max(0.0);
-        self.base + self.sqrt_coeff * libm::sqrtf(s) + self.linear_coeff * s
-    }
-
-    /// The stress that stretches the spring by `strain_pct` (≥ 0), and the tangent stiffness
-    /// dσ/dε there: [`SpringLaw::stress_g`] in `f32`.
-    #[inline]
-    fn stress_g(&self, strain_pct: f32) -> (f32, f32) {
-        let e = strain_pct.max(0.0);
-        let a = 1.0 - self.linear_coeff * e;
-        if a <= 1e-6 {
-            // Rigid at this strain (the linear term's limit): saturate.
-            return (1e6, 1e6);
-        }
-        let b = self.sqrt_coeff * e;
-        let u = (b + libm::sqrtf(b * b + 4.0 * a * self.base * e)) / (2.0 * a);
-        let s = u * u;
-        // dε/dσ = (G − σ G')/G² with G' = b/(2√σ) + c, so dσ/dε = G²/(G − σ G').
-        let g = self.stiffness(s);
-        let sigma_dg = 0.5 * self.sqrt_coeff * u + self.linear_coeff * s;
-        (s, g * g / (g - sigma_dg).max(1e-6))
-    }
-}
-
 /// Noise levels of the observer, per update period.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObserverTuning {
@@ -273,8 +230,9 @@ const OBSERVER_PIVOT_G: f32 = 30.0;
 /// follows the permanent deformation after long loads.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MkObserver {
-    g1: Spring,
-    g2: Spring,
+    /// The springs as the curves the update evaluates (any law is tabulated at start-up).
+    g1: SpringCurve,
+    g2: SpringCurve,
     /// dt/N₂, and the Maxwell branch's decay and gain per period.
     dt_over_n2: f32,
     maxwell_phi: f32,
@@ -293,31 +251,25 @@ impl MkObserver {
         dt_s: f64,
         tuning: ObserverTuning,
     ) -> Result<MkObserver, ModelError> {
-        let positive = [model.n1, model.n2, dt_s, model.g1.base, model.g2.base];
-        let laws = [model.g1, model.g2];
+        let positive = [model.n1, model.n2, dt_s];
         if positive.iter().any(|v| !v.is_finite() || *v <= 0.0)
             || !model.alpha.is_finite()
             || model.alpha < 0.0
-            || laws.iter().any(|l| {
-                !(l.sqrt_coeff.is_finite() && l.linear_coeff.is_finite())
-                    || l.sqrt_coeff < 0.0
-                    || l.linear_coeff < 0.0
-            })
         {
             return Err(ModelError::InvalidParameter);
         }
+        let (g1, g2) = (model.g1.curve()?, model.g2.curve()?);
         let (maxwell_phi, maxwell_gain) = if model.alpha > 0.0 {
             let phi = libm::exp(-model.alpha * dt_s / model.n1);
             (phi, (1.0 - phi) / model.alpha)
         } else {
             (1.0, dt_s / model.n1)
         };
-        let g1 = Spring::new(&model.g1);
         let sq = |v: f32| v * v;
         let spring_walk_pct = tuning.force_walk_g / g1.stiffness(OBSERVER_PIVOT_G);
         Ok(MkObserver {
             g1,
-            g2: Spring::new(&model.g2),
+            g2,
             dt_over_n2: (dt_s / model.n2) as f32,
             maxwell_phi: maxwell_phi as f32,
             maxwell_gain: maxwell_gain as f32,
@@ -783,8 +735,9 @@ mod tests {
             sum += (f64::from(obs.force_g(*e)) - s).powi(2);
         }
         let rms = (sum / stress.len() as f64).sqrt();
-        // Exact but for f32 rounding: the strain was made by the observer's own model.
-        assert!(rms < 0.01, "{rms}");
+        // The strain was made by the observer's own model, whose springs the observer runs
+        // tabulated (within 0.01 % strain of the laws above 6 g).
+        assert!(rms < 0.03, "{rms}");
         // After the loads: no phantom force, and the permanent strain is the element's.
         let mut st = NonlinearMkState::default();
         for &s in &stress {

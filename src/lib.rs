@@ -35,6 +35,7 @@ pub mod estimator;
 pub mod filter;
 pub mod gauge;
 pub mod profile;
+pub mod spring;
 pub mod supervisor;
 pub mod tactile;
 pub mod telemetry;

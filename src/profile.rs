@@ -67,10 +67,12 @@ pub enum Protocol {
     /// A bench record like `../shared/data`'s: 80 s of the memo's sum of sinusoids about
     /// 25 g, 80 s of pseudo-random steps in 40–60 g, 20 s at rest.
     BenchRecord { seed: u64 },
-    /// Dynamic calibration of one taxel (issue 7): the memo's sum of sinusoids about each of
+    /// Dynamic calibration of one taxel (issue 7): [`CALIBRATION_REST_S`] at rest (the strain
+    /// there is the taxel's offset), then the memo's sum of sinusoids about each of
     /// [`CALIBRATION_OFFSETS_G`] in turn, `per_offset_s` each, the sinusoids' amplitude
     /// [`CALIBRATION_AMPLITUDE`] of the offset (so the load never leaves the finger), slewed
-    /// from one offset to the next; then 2 s at rest.
+    /// from one offset to the next; then [`CALIBRATION_RECOVERY_S`] at rest (the recovery
+    /// tells the permanent deformation from the Kelvin branch's creep).
     Calibration { seed: u64, per_offset_s: f32 },
     /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
     /// each applied from rest (1 s at zero) and held `hold_s`.
@@ -79,6 +81,10 @@ pub enum Protocol {
 
 /// Load levels the dynamic calibration excites, grams (the scheduled inverse's table).
 pub const CALIBRATION_OFFSETS_G: [f32; 4] = [12.0, 25.0, 45.0, 70.0];
+/// Rest at the start of the calibration protocol, s: the strain there is the offset.
+pub const CALIBRATION_REST_S: f32 = 2.0;
+/// Rest at the end of the calibration protocol, s: the recovery after the loads.
+pub const CALIBRATION_RECOVERY_S: f32 = 15.0;
 /// Each sinusoid's amplitude as a fraction of its offset (the memo: 4 g at 25 g).
 pub const CALIBRATION_AMPLITUDE: f32 = 0.12;
 
@@ -160,7 +166,9 @@ impl Protocol {
             Protocol::LowForce { hold_s } => LOW_FORCE_G.len() as f32 * (1.0 + hold_s),
             Protocol::BenchRecord { .. } => 180.0,
             Protocol::Calibration { per_offset_s, .. } => {
-                CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s + 2.0
+                CALIBRATION_REST_S
+                    + CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s
+                    + CALIBRATION_RECOVERY_S
             }
         }
     }
@@ -341,10 +349,13 @@ impl CommandSource {
                 }
             }
             Protocol::Calibration { per_offset_s, .. } => {
-                let k = libm::floorf(t_s / per_offset_s);
+                let t = t_s - CALIBRATION_REST_S;
+                let k = libm::floorf(t / per_offset_s);
                 match CALIBRATION_OFFSETS_G.get(k as usize) {
-                    Some(&offset) => self.sines(offset, CALIBRATION_AMPLITUDE * offset, t_s),
-                    None => 0.0,
+                    Some(&offset) if t >= 0.0 => {
+                        self.sines(offset, CALIBRATION_AMPLITUDE * offset, t_s)
+                    }
+                    _ => 0.0,
                 }
             }
             Protocol::LowForce { hold_s } => {
@@ -405,9 +416,12 @@ mod tests {
     #[test]
     fn calibration_visits_each_offset_and_stays_on_the_finger() {
         let mut s = CommandSource::new(Protocol::CALIBRATION);
-        assert!((Protocol::CALIBRATION.duration_s() - 62.0).abs() < 1e-6);
+        assert!((Protocol::CALIBRATION.duration_s() - 77.0).abs() < 1e-6);
+        // At rest first: the offset is measured there.
+        assert_eq!(s.command_g(0.0), 0.0);
+        assert_eq!(s.command_g(1.99), 0.0);
         for (k, offset) in CALIBRATION_OFFSETS_G.iter().enumerate() {
-            let t0 = 15.0 * k as f32;
+            let t0 = 2.0 + 15.0 * k as f32;
             let (mut sum, mut lo, mut hi) = (0.0f32, f32::MAX, f32::MIN);
             for i in 0..15_000 {
                 let c = s.command_g(t0 + i as f32 * 1e-3);
@@ -422,7 +436,7 @@ mod tests {
             assert!(lo > 0.0 && hi < 120.0, "{offset}: {lo}..{hi}");
             assert!(hi - lo > 0.5 * offset, "{offset}: {lo}..{hi}");
         }
-        assert_eq!(s.command_g(61.0), 0.0);
+        assert_eq!(s.command_g(63.0), 0.0);
     }
 
     #[test]

@@ -421,61 +421,7 @@ impl StructuralInverse {
     }
 }
 
-/// A spring whose stiffness depends on the load it carries: G(σ) = base + sqrt_coeff·√σ +
-/// linear_coeff·σ (secant stiffness, g/%), σ ≥ 0.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SpringLaw {
-    pub base: f64,
-    pub sqrt_coeff: f64,
-    pub linear_coeff: f64,
-}
-
-impl SpringLaw {
-    pub const fn constant(g: f64) -> Self {
-        Self {
-            base: g,
-            sqrt_coeff: 0.0,
-            linear_coeff: 0.0,
-        }
-    }
-
-    /// Stiffness carrying `stress_g` (σ < 0 is treated as 0).
-    #[inline]
-    pub fn stiffness(&self, stress_g: f64) -> f64 {
-        let s = stress_g.max(0.0);
-        self.base + self.sqrt_coeff * libm::sqrt(s) + self.linear_coeff * s
-    }
-
-    /// Strain of the spring under `stress_g`.
-    #[inline]
-    pub fn strain_pct(&self, stress_g: f64) -> f64 {
-        stress_g / self.stiffness(stress_g)
-    }
-
-    /// The stress that stretches the spring by `strain_pct` (≥ 0; the inverse of
-    /// [`Self::strain_pct`], which is monotone for non-negative coefficients).
-    pub fn stress_g(&self, strain_pct: f64) -> f64 {
-        if strain_pct <= 0.0 {
-            return 0.0;
-        }
-        let e = strain_pct;
-        if self.linear_coeff == 0.0 {
-            // σ = (a + b√σ) ε → u² − bε u − aε = 0 with u = √σ.
-            let b = self.sqrt_coeff * e;
-            let u = 0.5 * (b + libm::sqrt(b * b + 4.0 * self.base * e));
-            return u * u;
-        }
-        // σ (1 − cε) − b√σ ε − aε = 0 has a positive root only while cε < 1; beyond that the
-        // spring is rigid at this strain: saturate at a large stress.
-        let a = 1.0 - self.linear_coeff * e;
-        if a <= 1e-9 {
-            return 1e9;
-        }
-        let b = self.sqrt_coeff * e;
-        let u = (b + libm::sqrt(b * b + 4.0 * a * self.base * e)) / (2.0 * a);
-        u * u
-    }
-}
+pub use crate::spring::SpringLaw;
 
 /// Eq. 14 with load-dependent springs: the finger element of the simulator.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -501,19 +447,11 @@ impl NonlinearMk {
     /// 0.54√σ and G₂(σ) = 17 + 0.91σ (Table I within 10 %), N₁ = 5000 (the memo's permanent
     /// deformation, 0.2 % after 1000 g·s), N₂ = 500, and α = 5 g/% (a 1000 s recovery).
     pub const ELEMENT_4_2: NonlinearMk = NonlinearMk {
-        g1: SpringLaw {
-            base: 0.5,
-            sqrt_coeff: 0.54,
-            linear_coeff: 0.0,
-        },
+        g1: SpringLaw::power(0.5, 0.54, 0.0),
         n1: 5000.0,
         alpha: 5.0,
         n2: 500.0,
-        g2: SpringLaw {
-            base: 17.0,
-            sqrt_coeff: 0.0,
-            linear_coeff: 0.91,
-        },
+        g2: SpringLaw::power(17.0, 0.0, 0.91),
     };
 
     /// The linear model this element behaves like for small changes about `stress_g` (secant
@@ -744,11 +682,7 @@ mod tests {
             let s = el.g1.stress_g(e);
             assert!((el.g1.strain_pct(s) - e).abs() < 1e-9);
         }
-        let lin = SpringLaw {
-            base: 17.0,
-            sqrt_coeff: 0.3,
-            linear_coeff: 0.91,
-        };
+        let lin = SpringLaw::power(17.0, 0.3, 0.91);
         for e in [0.1, 0.5, 1.0] {
             let s = lin.stress_g(e);
             assert!((lin.strain_pct(s) - e).abs() < 1e-9, "{e} {s}");

@@ -1,38 +1,96 @@
-//! Dynamic calibration of a taxel (issue 7): from a record of the calibration protocol
-//! (`Protocol::CALIBRATION`: the memo's sum of sinusoids about several load levels, the
-//! applicator over that taxel), fit the models each on-chip estimator needs and write them as
-//! the core's [`TaxelModel`]; a table of them is what the firmware reads at start-up.
+//! Dynamic calibration of a taxel (issues 7 and 15): from a record of the calibration protocol
+//! (`Protocol::CALIBRATION`: rest, then the memo's sum of sinusoids about several load levels,
+//! the applicator over that taxel), fit the models each on-chip estimator needs, score every
+//! estimator on parts of the record its fit did not see, and write the core's [`TaxelModel`]
+//! with the estimator the firmware is to run; a table of them is what the firmware reads.
 //!
-//! - eq. 14 with load-dependent springs (`mk-nonlinear`) on the whole record: the observer's
-//!   element, and the strain offset every estimator removes;
-//! - the elastic spring and eq. 17 on the whole record: the memo's estimators, recalibrated;
-//! - the scheduled inverse's table: the calibrated element's secant springs at each load level
-//!   the protocol visited, as eq. 17 (Table I's rows, one per load, from one fit).
+//! - The strain offset is the strain at the protocol's leading rest (not a free parameter).
+//! - eq. 14 whose springs are curves learned from the record ([`fit_element`]): each spring's
+//!   strain at ten loads over the calibrated range, monotone by construction (log segment
+//!   compliances), with a small penalty on how fast the segments' stiffness changes so loads
+//!   the record barely visits are bridged smoothly. No stiffening law is assumed.
+//! - the elastic spring fitted on the memo's level, and eq. 17 as the element's secant springs
+//!   there (Table I's way): the memo's estimators, recalibrated;
+//! - the scheduled inverse's table: the element's secant springs at each load level.
+//! - Held out: each level is cut into [`FOLDS`] blocks; fold j fits everything but block j of
+//!   every level, its estimators run over the whole record at the scan rate, and block j is
+//!   scored against the record's force. The firmware runs the estimator that held out best —
+//!   the nominal models' if they hold out better than any calibrated one (flagged
+//!   [`CalibrationFlags::NOMINAL`]).
 
-use tactile_core::calibration::{secant_schedule, CalibrationTable, TaxelModel};
-use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G};
-use tactile_core::tactile::TaxelId;
-use tactile_core::viscoelastic::SecondOrder;
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use tactile_core::calibration::{
+    secant_schedule, CalibrationFlags, CalibrationTable, TaxelModel, LARGE_OFFSET_PCT, POOR_FIT_G,
+};
+use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
+use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G, CALIBRATION_REST_S};
+use tactile_core::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
+use tactile_core::tactile::{ScanConfig, TaxelId};
+use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState};
 
+use crate::finger::Effects;
 use crate::fit::{fit, Base, ModelSpec, Series};
 use crate::rig::{RigConfig, TickRecord};
 use crate::scenario::{run_protocol, ScenarioError};
 
-/// Sample period the calibration fits run at, s (the 1 kHz record decimated).
-pub const FIT_DT_S: f64 = 0.005;
 /// Time left out at the start of each load level (the slew and the transient), s.
 const SETTLE_S: f64 = 2.0;
+/// The nominal models replace a calibration only if they hold out below this share of its
+/// error (a tie keeps the taxel's own).
+const NOMINAL_MARGIN: f64 = 0.9;
+/// Blocks each load level is cut into for the held-out scores.
+pub const FOLDS: usize = 4;
 
 pub use crate::finger::{CALIBRATION_FINGER_SEED as FINGER_SEED, CALIBRATION_TAXELS};
 
-/// What a taxel's calibration fitted, for the report.
+/// What a taxel's calibration found, for the report.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct TaxelFitReport {
     pub taxel: (usize, usize),
-    /// Predicted-strain RMS_n of each whole-record fit (g): elastic, second order, mk-nonlinear.
-    pub fit_rms_g: [f64; 3],
+    /// Strain at the protocol's rest, removed before everything else, percent.
+    pub rest_offset_pct: f64,
+    /// The element's RMS strain error on the whole record, and its mean (what an offset
+    /// would have had to absorb), percent.
+    pub element_rms_pct: f64,
+    pub mean_miss_pct: f64,
     /// Mean load at each level of the protocol (g): the scheduled inverse's table loads.
     pub levels: Vec<f64>,
+    /// The largest load the record covered (99.5th percentile), g.
+    pub range_g: f64,
+    /// Held-out RMS force error (g) of each estimator, calibrated and nominal, in
+    /// `EstimatorKind::ALL`'s order.
+    pub held_out_g: [f64; 4],
+    pub nominal_held_out_g: [f64; 4],
+    pub estimator: String,
+    pub flags: Vec<String>,
+}
+
+/// Frame period the estimators run at on the chip, s.
+fn frame_s() -> f64 {
+    f64::from(ScanConfig::DESIGN.frame_period_s())
+}
+
+/// The record as the chip sees one taxel: every `step`-th sample, `step` the whole number of
+/// samples nearest the scan frame.
+pub struct Frames {
+    pub dt_s: f64,
+    pub force: Vec<f64>,
+    pub strain: Vec<f64>,
+}
+
+impl Frames {
+    pub fn new(dt_s: f64, force_g: &[f64], strain_pct: &[f64]) -> Frames {
+        let step = (frame_s() / dt_s).round().max(1.0) as usize;
+        Frames {
+            dt_s: dt_s * step as f64,
+            force: force_g.iter().step_by(step).copied().collect(),
+            strain: strain_pct.iter().step_by(step).copied().collect(),
+        }
+    }
+    fn time(&self, i: usize) -> f64 {
+        i as f64 * self.dt_s
+    }
 }
 
 /// Fits one taxel from its calibration record: force (g) and strain (%) sampled every `dt_s`
@@ -47,123 +105,461 @@ pub fn fit_taxel(
     let Protocol::Calibration { per_offset_s, .. } = protocol else {
         return Err("a taxel is calibrated from a record of the calibration protocol".into());
     };
-    if force_g.len() != strain_pct.len() || dt_s.is_nan() || dt_s <= 0.0 {
+    let per_offset_s = f64::from(per_offset_s);
+    if force_g.len() != strain_pct.len() || !dt_s.is_finite() || dt_s <= 0.0 {
         return Err("force and strain must have the same, evenly sampled length".into());
     }
-    let needed_s = f64::from(per_offset_s) * CALIBRATION_OFFSETS_G.len() as f64;
+    if force_g.iter().chain(strain_pct).any(|v| !v.is_finite()) {
+        return Err("the record has a non-finite force or strain".into());
+    }
+    let rest_s = f64::from(CALIBRATION_REST_S);
+    let needed_s = rest_s + per_offset_s * CALIBRATION_OFFSETS_G.len() as f64;
     let have_s = dt_s * force_g.len() as f64;
     if have_s + 0.5 < needed_s {
         return Err(format!(
             "the record lasts {have_s:.1} s; the calibration protocol needs {needed_s:.0} s"
         ));
     }
-    let step = (FIT_DT_S / dt_s).round().max(1.0) as usize;
-    let dt = dt_s * step as f64;
-    let force: Vec<f64> = force_g.iter().step_by(step).copied().collect();
-    let strain: Vec<f64> = strain_pct.iter().step_by(step).copied().collect();
-    let failed = |what: &str| format!("taxel {taxel:?}: the {what} fit failed");
-
-    let spec = ModelSpec::new(Base::MkNonlinear);
-    let nl = fit(
-        &spec,
-        &Series::whole(dt, force.clone(), strain.clone()),
-        &[],
-    )
-    .ok_or_else(|| failed("mk-nonlinear"))?;
-    let element = spec
-        .nonlinear_element(&nl.theta)
-        .ok_or_else(|| failed("mk-nonlinear"))?;
-    let offset = nl.physical[Base::MkNonlinear.parameter_count()];
-    let strain: Vec<f64> = strain.iter().map(|e| e - offset).collect();
-    let whole = Series::whole(dt, force.clone(), strain.clone());
-    // The memo's linear models, recalibrated as the memo calibrated them: on the sum of
-    // sinusoids about 25 g (the protocol's second level), the rest of the record simulated but
-    // not scored.
-    let (memo_level_load, memo_level) = level_series(&whole, per_offset_s, MEMO_LEVEL);
-    let elastic =
-        fit(&ModelSpec::new(Base::Elastic), &memo_level, &[]).ok_or_else(|| failed("elastic"))?;
-    let so_fit = fit(&ModelSpec::new(Base::SecondOrder), &memo_level, &[])
-        .ok_or_else(|| failed("second-order"))?;
-    let second_order = Base::SecondOrder
-        .second_order(&so_fit.physical)
-        .ok_or_else(|| failed("second-order"))?;
-
-    // The scheduled inverse's table: the calibrated element's secant springs at each load
-    // level the protocol visited (its mean load there). Fitting eq. 14 to each level's 15 s
-    // alone cannot tell the permanent deformation's α and N₁ apart (the fits run to their
-    // bounds) and gives tangent, not secant, springs; the whole record's nonlinear fit sees
-    // every level at once.
-    let levels: Vec<f64> = (0..CALIBRATION_OFFSETS_G.len())
-        .map(|k| level_series(&whole, per_offset_s, k).0)
+    let raw = Frames::new(dt_s, force_g, strain_pct);
+    // The offset: the strain at the leading rest, its first half second left out.
+    let rest: Vec<f64> = (0..raw.force.len())
+        .filter(|&i| (0.5..rest_s - 0.1).contains(&raw.time(i)) && raw.force[i].abs() < 1.0)
+        .map(|i| raw.strain[i])
         .collect();
-    let schedule = secant_schedule(&element, &levels);
-    // The linear models' intercepts made secant at their level's mean load, so they read zero
-    // strain as zero force.
-    let elastic_g = {
-        let (g, c) = (elastic.physical[0], elastic.physical[1]);
-        g / secant_factor(memo_level_load / g, c)
+    if rest.len() < 20 {
+        return Err(format!(
+            "no rest at the start of the record (the protocol's first {rest_s:.0} s, force under 1 g)"
+        ));
+    }
+    let offset = tactile_ident::stats::mean(&rest);
+    let frames = Frames {
+        dt_s: raw.dt_s,
+        force: raw.force.clone(),
+        strain: raw.strain.iter().map(|e| e - offset).collect(),
     };
-    let second_order = secant(
-        &second_order,
-        memo_level_load,
-        so_fit.physical[Base::SecondOrder.parameter_count()],
-    );
-    let model = TaxelModel {
-        taxel,
-        strain_offset_pct: offset,
-        elastic_g_per_pct: elastic_g,
-        second_order,
-        schedule,
-        element,
-        notch_hz: 0.0,
+    let level_of = |i: usize| -> Option<(usize, usize)> {
+        let t = frames.time(i) - rest_s;
+        let k = (t / per_offset_s).floor();
+        let into = t - k * per_offset_s;
+        (t >= 0.0 && (k as usize) < CALIBRATION_OFFSETS_G.len() && into >= SETTLE_S).then(|| {
+            let block = ((into - SETTLE_S) / (per_offset_s - SETTLE_S) * FOLDS as f64) as usize;
+            (k as usize, block.min(FOLDS - 1))
+        })
     };
+    let placed: Vec<Option<(usize, usize)>> = (0..frames.force.len()).map(level_of).collect();
+    let levels: Vec<f64> = (0..CALIBRATION_OFFSETS_G.len())
+        .map(|k| {
+            let at: Vec<f64> = placed
+                .iter()
+                .zip(&frames.force)
+                .filter(|(p, _)| p.is_some_and(|(l, _)| l == k))
+                .map(|(_, f)| *f)
+                .collect();
+            tactile_ident::stats::mean(&at)
+        })
+        .collect();
+    let range_g = tactile_ident::stats::quantile(&frames.force, 0.995);
+    if range_g.is_nan() || range_g <= 1.0 {
+        return Err("the force never rises above 1 g: nothing was calibrated".into());
+    }
+    let knots = knots_for(range_g);
+    let failed = |what: &str| {
+        format!(
+            "taxel ({}, {}): the {what} fit failed",
+            taxel.row(),
+            taxel.col()
+        )
+    };
+
+    // The whole record, then each fold from the whole record's parameters.
+    let everything = vec![true; frames.force.len()];
+    let whole = fit_element(&frames, &everything, &knots, None).ok_or_else(|| failed("element"))?;
+    let model_from = |fit: &ElementFit, in_fit: &[bool]| -> Result<TaxelModel, String> {
+        memo_models(
+            taxel, &frames, in_fit, &placed, fit, &levels, range_g, offset,
+        )
+        .ok_or_else(|| failed("second-order"))
+    };
+    let mut sums = [[0.0f64; 4]; 2];
+    let mut scored = 0usize;
+    for fold in 0..FOLDS {
+        let in_fit: Vec<bool> = placed
+            .iter()
+            .map(|p| p.is_none_or(|(_, b)| b != fold))
+            .collect();
+        let fold_fit = fit_element(&frames, &in_fit, &knots, Some(&whole.theta))
+            .ok_or_else(|| failed("element"))?;
+        let calibrated = model_from(&fold_fit, &in_fit)?;
+        let nominal = TaxelModel {
+            strain_offset_pct: offset,
+            ..TaxelModel::nominal(taxel)
+        };
+        for (sum, model) in sums.iter_mut().zip([&calibrated, &nominal]) {
+            let est = run_estimators(model, &raw)?;
+            for (i, e) in est.iter().enumerate() {
+                if placed[i].is_some_and(|(_, b)| b == fold) {
+                    for (s, v) in sum.iter_mut().zip(e) {
+                        *s += (f64::from(*v) - frames.force[i]).powi(2);
+                    }
+                }
+            }
+        }
+        scored += in_fit.iter().filter(|b| !**b).count();
+    }
+    let [held_out, nominal_held_out] = sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt()));
+    let best = |e: &[f64; 4]| {
+        (0..4)
+            .min_by(|a, b| e[*a].total_cmp(&e[*b]))
+            .map_or(EstimatorKind::Elastic, |k| EstimatorKind::ALL[k])
+    };
+    let kind_index =
+        |k: EstimatorKind| EstimatorKind::ALL.iter().position(|x| *x == k).unwrap_or(0);
+    let mut model = model_from(&whole, &everything)?;
+    let mut flags = CalibrationFlags::empty();
+    let (calibrated_best, nominal_best) = (best(&held_out), best(&nominal_held_out));
+    let mut chosen = held_out[kind_index(calibrated_best)];
+    // The taxel's own calibration unless the nominal models hold out clearly better.
+    if nominal_held_out[kind_index(nominal_best)] < NOMINAL_MARGIN * chosen {
+        model = TaxelModel {
+            strain_offset_pct: offset,
+            ..TaxelModel::nominal(taxel)
+        };
+        model.estimator = nominal_best;
+        chosen = nominal_held_out[kind_index(nominal_best)];
+        flags |= CalibrationFlags::NOMINAL;
+    } else {
+        model.estimator = calibrated_best;
+    }
+    if chosen > POOR_FIT_G {
+        flags |= CalibrationFlags::POOR;
+    }
+    if whole.mean_miss_pct.abs() > LARGE_OFFSET_PCT {
+        flags |= CalibrationFlags::OFFSET;
+    }
+    model.flags = flags;
+    model.range_g = range_g;
+    model.held_out_g = Some(if flags.contains(CalibrationFlags::NOMINAL) {
+        nominal_held_out
+    } else {
+        held_out
+    });
     let report = TaxelFitReport {
         taxel: (taxel.row(), taxel.col()),
-        fit_rms_g: [elastic.fit_rms_g, so_fit.fit_rms_g, nl.fit_rms_g],
+        rest_offset_pct: offset,
+        element_rms_pct: whole.rms_pct,
+        mean_miss_pct: whole.mean_miss_pct,
         levels,
+        range_g,
+        held_out_g: held_out,
+        nominal_held_out_g: nominal_held_out,
+        estimator: model.estimator.name().to_string(),
+        flags: flags.iter_names().map(|(n, _)| n.to_lowercase()).collect(),
     };
     Ok((model, report))
 }
 
-/// The level the memo's own calibration used (its sum of sinusoids about 25 g).
-const MEMO_LEVEL: usize = 1;
+/// Every on-chip estimator of `model` over the record (its frames, from its raw strain: the
+/// conditioner removes the offset as on the chip).
+fn run_estimators(model: &TaxelModel, raw: &Frames) -> Result<Vec<[f32; 4]>, String> {
+    let mut chip = TaxelEstimators::new(model, raw.dt_s)
+        .map_err(|e| format!("taxel {:?}: {e:?}", model.taxel))?;
+    Ok(raw.strain.iter().map(|e| chip.update(*e as f32)).collect())
+}
 
-/// Level `k` of the calibration protocol as the part of `whole` a fit scores (its first
-/// seconds left out), with its mean load.
-fn level_series(whole: &Series, per_offset_s: f32, k: usize) -> (f64, Series) {
-    let t0 = k as f64 * f64::from(per_offset_s) + SETTLE_S;
-    let t1 = (k + 1) as f64 * f64::from(per_offset_s);
-    let in_fit: Vec<bool> = (0..whole.force.len())
-        .map(|i| (t0..t1).contains(&(i as f64 * whole.dt_s)))
+/// Knot stresses over `range_g`: [`SpringCurve::DEFAULT_STRESS_G`]'s spacing (dense at light
+/// loads) stretched to end at the calibrated range.
+pub fn knots_for(range_g: f64) -> [f32; CURVE_KNOTS] {
+    let top = f64::from(SpringCurve::DEFAULT_STRESS_G[CURVE_KNOTS - 1]);
+    SpringCurve::DEFAULT_STRESS_G.map(|s| (f64::from(s) * range_g / top) as f32)
+}
+
+/// The memo's linear models (elastic and eq. 17 on its level, made secant) and the schedule,
+/// around an element fit, fitted on the samples `in_fit`.
+#[allow(clippy::too_many_arguments)]
+fn memo_models(
+    taxel: TaxelId,
+    frames: &Frames,
+    in_fit: &[bool],
+    placed: &[Option<(usize, usize)>],
+    element: &ElementFit,
+    levels: &[f64],
+    range_g: f64,
+    offset: f64,
+) -> Option<TaxelModel> {
+    // The memo's linear models, recalibrated as the memo calibrated them: on the sum of
+    // sinusoids about 25 g (the protocol's second level), the rest of the record simulated
+    // but not scored.
+    let memo_fit: Vec<bool> = placed
+        .iter()
+        .zip(in_fit)
+        .map(|(p, f)| *f && p.is_some_and(|(l, _)| l == MEMO_LEVEL))
         .collect();
-    let n = in_fit.iter().filter(|b| **b).count().max(1) as f64;
-    let load = whole
+    let n = memo_fit.iter().filter(|b| **b).count().max(1) as f64;
+    let load = frames
         .force
         .iter()
-        .zip(&in_fit)
+        .zip(&memo_fit)
         .filter(|(_, b)| **b)
         .map(|(f, _)| f)
         .sum::<f64>()
         / n;
     let series = Series {
-        in_fit,
-        held_out_description: format!("all but {t0:.0}–{t1:.0} s"),
-        ..whole.clone()
+        in_fit: memo_fit,
+        held_out_description: "all but the memo's level".into(),
+        ..Series::whole(frames.dt_s, frames.force.clone(), frames.strain.clone())
     };
-    (load, series)
+    let elastic = fit(&ModelSpec::new(Base::Elastic), &series, &[])?;
+    // The linear model's intercept made secant at the level's mean load, so it reads zero
+    // strain as zero force.
+    let elastic_g = {
+        let (g, c) = (elastic.physical[0], elastic.physical[1]);
+        g / secant_factor(load / g, c)
+    };
+    // Eq. 17 as Table I writes it: the element's secant springs at the level's load. (Fitted
+    // on the level's 13 s alone, its slow pole runs to zero: the 0.017 Hz sinusoid does not
+    // complete a period.)
+    let second_order = element.element.linearized(load).second_order();
+    Some(TaxelModel {
+        taxel,
+        strain_offset_pct: offset,
+        elastic_g_per_pct: elastic_g,
+        second_order,
+        schedule: secant_schedule(&element.element, levels),
+        element: element.element,
+        range_g,
+        ..TaxelModel::nominal(taxel)
+    })
 }
 
-/// A model fitted about `load_g` with a strain intercept (the tangent to a stiffening curve)
-/// rescaled to pass through the same static point with none (the secant): its compliance
-/// scaled by (ε₀ + L/K)/(L/K), K its static stiffness b₂/a₂.
-fn secant(so: &SecondOrder, load_g: f64, intercept_pct: f64) -> SecondOrder {
-    let k = secant_factor(load_g * so.a2 / so.b2, intercept_pct);
-    SecondOrder {
-        b0: so.b0 / k,
-        b1: so.b1 / k,
-        b2: so.b2 / k,
-        ..*so
+/// The level the memo's own calibration used (its sum of sinusoids about 25 g).
+const MEMO_LEVEL: usize = 1;
+
+/// An element fitted to a record.
+#[derive(Clone, Debug)]
+pub struct ElementFit {
+    pub element: NonlinearMk,
+    /// The internal parameters (see [`element_of`]).
+    pub theta: Vec<f64>,
+    /// RMS and mean of (measured − predicted) strain over the fitted samples, percent.
+    pub rms_pct: f64,
+    pub mean_miss_pct: f64,
+}
+
+/// Internal parameters of a spring: the log mean compliance (%/g) of each segment between its
+/// knots (the first from no load), so its strain rises whatever their values.
+const SPRING_THETA: usize = CURVE_KNOTS;
+
+/// The element of internal parameters `theta` (G₁'s and G₂'s [`SPRING_THETA`] log
+/// compliances, then ln N₁, ln α, ln N₂) with springs tabulated at `knots`; `None` if a curve
+/// cannot be built.
+pub fn element_of(theta: &[f64], knots: &[f32; CURVE_KNOTS]) -> Option<NonlinearMk> {
+    let curve = |logs: &[f64]| {
+        let mut strain = [0.0f32; CURVE_KNOTS];
+        let (mut e, mut s0) = (0.0f64, 0.0f64);
+        for ((slot, s), log) in strain.iter_mut().zip(knots).zip(logs) {
+            e += (f64::from(*s) - s0) * log.clamp(-12.0, 6.0).exp();
+            s0 = f64::from(*s);
+            *slot = e as f32;
+        }
+        SpringCurve::new(*knots, strain).ok()
+    };
+    let p = |i: usize, lo: f64, hi: f64| theta.get(i).map(|v| v.clamp(lo, hi).exp());
+    let n = 2 * SPRING_THETA;
+    Some(NonlinearMk {
+        g1: SpringLaw::Curve(curve(theta.get(..SPRING_THETA)?)?),
+        g2: SpringLaw::Curve(curve(theta.get(SPRING_THETA..n)?)?),
+        n1: p(n, 2.0, 18.0)?,
+        alpha: p(n + 1, -9.0, 9.0)?,
+        n2: p(n + 2, 0.0, 14.0)?,
+    })
+}
+
+/// The force the element reads from `strain_pct` sample by sample (the core's structural
+/// inverse: the strain beyond the dashpots' is the instantaneous spring's).
+pub fn inverse_force(element: &NonlinearMk, strain_pct: &[f64], dt_s: f64) -> Vec<f64> {
+    let mut state = NonlinearMkState::default();
+    strain_pct
+        .iter()
+        .map(|&e| {
+            let s = element.g1.stress_g(e - element.rest_strain_pct(&state));
+            element.step(&mut state, s, dt_s);
+            s
+        })
+        .collect()
+}
+
+/// The element's strain under the record's force (the stress held over each sample).
+pub fn simulate(element: &NonlinearMk, force: &[f64], dt_s: f64) -> Vec<f64> {
+    let mut state = NonlinearMkState::default();
+    force
+        .iter()
+        .map(|&f| {
+            let s = f.max(0.0);
+            let e = element.strain_pct(&state, s);
+            element.step(&mut state, s, dt_s);
+            e
+        })
+        .collect()
+}
+
+struct ElementProblem<'a> {
+    frames: &'a Frames,
+    knots: [f32; CURVE_KNOTS],
+    fit_index: Vec<usize>,
+    /// Weight of the smoothness rows.
+    smooth: f64,
+    theta: DVector<f64>,
+    prediction: Option<Vec<f64>>,
+}
+
+impl ElementProblem<'_> {
+    /// The force the element reads from the record's strain (run backwards): the fit's
+    /// residual is in grams, and the noisy input is the strain, which is quiet (0.006 %),
+    /// not the gauge's force (0.14 g, as much as 0.04 % through G₁), which would bias a
+    /// forward fit.
+    fn predict(&self, theta: &[f64]) -> Option<Vec<f64>> {
+        let el = element_of(theta, &self.knots)?;
+        Some(inverse_force(&el, &self.frames.strain, self.frames.dt_s))
     }
+    /// Data rows, then each spring's second difference of log compliance over its knots (a
+    /// law the record does not pin down is bridged as a power law would be).
+    fn rows(&self, theta: &[f64], pred: &[f64]) -> Vec<f64> {
+        let mut r: Vec<f64> = self
+            .fit_index
+            .iter()
+            .map(|&i| pred[i] - self.frames.force[i])
+            .collect();
+        for spring in 0..2 {
+            let logs = &theta[spring * SPRING_THETA..(spring + 1) * SPRING_THETA];
+            r.extend(
+                logs.windows(3)
+                    .map(|w| self.smooth * (w[2] - 2.0 * w[1] + w[0])),
+            );
+        }
+        r
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for ElementProblem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.theta.copy_from(x);
+        self.prediction = self.predict(x.as_slice());
+    }
+    fn params(&self) -> DVector<f64> {
+        self.theta.clone()
+    }
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let p = self.prediction.as_ref()?;
+        Some(DVector::from_vec(self.rows(self.theta.as_slice(), p)))
+    }
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let base = self.rows(self.theta.as_slice(), self.prediction.as_ref()?);
+        let mut j = DMatrix::zeros(base.len(), self.theta.len());
+        for c in 0..self.theta.len() {
+            let h = 1e-5;
+            let mut t = self.theta.clone();
+            t[c] += h;
+            let p = self.predict(t.as_slice())?;
+            for (r, v) in self.rows(t.as_slice(), &p).iter().enumerate() {
+                j[(r, c)] = (v - base[r]) / h;
+            }
+        }
+        Some(j)
+    }
+}
+
+/// Fits eq. 14 with tabulated springs to the samples `in_fit` of `frames` (strain offset
+/// already removed), from `start` or from element 4,2 scaled to the record's compliance.
+pub fn fit_element(
+    frames: &Frames,
+    in_fit: &[bool],
+    knots: &[f32; CURVE_KNOTS],
+    start: Option<&[f64]>,
+) -> Option<ElementFit> {
+    let fit_index: Vec<usize> = (0..frames.force.len()).filter(|&i| in_fit[i]).collect();
+    let starts: Vec<Vec<f64>> = match start {
+        Some(t) => vec![t.to_vec()],
+        None => nominal_starts(frames, knots),
+    };
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    for theta in starts {
+        let mut problem = ElementProblem {
+            frames,
+            knots: *knots,
+            smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
+            theta: DVector::from_vec(theta.clone()),
+            prediction: None,
+            fit_index: fit_index.clone(),
+        };
+        problem.set_params(&DVector::from_vec(theta));
+        let (solved, report) = LevenbergMarquardt::new()
+            .with_patience(30)
+            .minimize(problem);
+        if report.objective_function.is_finite()
+            && best
+                .as_ref()
+                .is_none_or(|b| report.objective_function < b.0)
+        {
+            best = Some((report.objective_function, solved.theta.as_slice().to_vec()));
+        }
+    }
+    let (_, theta) = best?;
+    let element = element_of(&theta, knots)?;
+    let pred = simulate(&element, &frames.force, frames.dt_s);
+    let miss: Vec<f64> = fit_index
+        .iter()
+        .map(|&i| frames.strain[i] - pred[i])
+        .collect();
+    Some(ElementFit {
+        element,
+        theta,
+        rms_pct: tactile_ident::stats::rms(&miss),
+        mean_miss_pct: tactile_ident::stats::mean(&miss),
+    })
+}
+
+/// Starts: element 4,2's laws tabulated at `knots`, scaled so their static strain matches the
+/// record's mean strain, with its Kelvin spring as it is and 2.5 times softer, and its
+/// permanent deformation as it is and slower and less recoverable.
+fn nominal_starts(frames: &Frames, knots: &[f32; CURVE_KNOTS]) -> Vec<Vec<f64>> {
+    let m = NonlinearMk::ELEMENT_4_2;
+    let static_pct = |f: f64| m.g1.strain_pct(f) + m.g2.strain_pct(f);
+    let predicted: f64 = frames.force.iter().map(|f| static_pct(f.max(0.0))).sum();
+    let measured: f64 = frames.strain.iter().sum();
+    let k = if predicted > 0.0 && measured > 0.0 {
+        (predicted / measured).clamp(0.05, 20.0)
+    } else {
+        1.0
+    };
+    let logs = |law: SpringLaw, k: f64| {
+        let mut s0 = 0.0f64;
+        knots
+            .iter()
+            .map(|s| {
+                let s = f64::from(*s);
+                let c = (law.strain_pct(s) - law.strain_pct(s0)) / (s - s0) / k;
+                s0 = s;
+                c.max(1e-9).ln()
+            })
+            .collect::<Vec<f64>>()
+    };
+    // The slow branches trade places within a minute's record (a stiff Kelvin branch and a
+    // leaky Maxwell one fit nearly as well as the reverse): start from both sides, and from a
+    // soft and a stiff Kelvin spring.
+    let mut starts = Vec::new();
+    for g2_scale in [1.0, 0.4] {
+        for (alpha, n1) in [(m.alpha, m.n1), (0.1 * m.alpha, 4.0 * m.n1)] {
+            let mut t = logs(m.g1, k);
+            t.extend(logs(m.g2, k * g2_scale));
+            t.extend([n1.ln(), alpha.ln(), (m.n2 * k * g2_scale).ln()]);
+            starts.push(t);
+        }
+    }
+    starts
 }
 
 /// How much a model's compliance grows to pass through (load, strain at load with the
@@ -190,33 +586,33 @@ pub fn write_table(path: &std::path::Path, table: &CalibrationTable) -> Result<u
 }
 
 /// The calibration protocol run on the simulator with the probe over `taxel` of the finger
-/// drawn from `seed` (the gauge's force and the probed taxel's strain, as the firmware
-/// records them).
+/// drawn from `seed` with `effects` (the gauge's force and the probed taxel's strain, as the
+/// firmware records them).
 pub fn simulate_calibration(
     taxel: TaxelId,
     seed: u64,
-    stiffening: f64,
+    effects: Effects,
 ) -> Result<Vec<TickRecord>, ScenarioError> {
-    let mut config = RigConfig {
+    let config = RigConfig {
         seed,
         probe: taxel,
         scan_array: false,
+        effects,
         ..RigConfig::default()
     };
-    config.effects.stiffening = stiffening;
     Ok(run_protocol("calibration", Protocol::CALIBRATION, config, false, |_| {})?.ticks)
 }
 
-/// Calibrates `taxels` of the simulated finger `seed` one after the other.
+/// Calibrates `taxels` of the simulated finger `seed` (with `effects`) one after the other.
 pub fn calibrate_simulated(
     taxels: &[TaxelId],
     seed: u64,
-    stiffening: f64,
+    effects: Effects,
 ) -> Result<(CalibrationTable, Vec<TaxelFitReport>), String> {
     let mut table = CalibrationTable::default();
     let mut reports = Vec::new();
     for &taxel in taxels {
-        let ticks = simulate_calibration(taxel, seed, stiffening).map_err(|e| e.to_string())?;
+        let ticks = simulate_calibration(taxel, seed, effects).map_err(|e| e.to_string())?;
         let (force, strain): (Vec<f64>, Vec<f64>) = ticks
             .iter()
             .map(|t| (f64::from(t.sensed_g), f64::from(t.strain_pct)))

@@ -360,6 +360,7 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
     report.push_str("\n# Force estimators (`tactile estimators`)\n\n");
     report.push_str(&crate::estimators::render(&crate::estimators::compare(
         crate::calibrate::FINGER_SEED,
+        crate::fingers::FingerKind::Memo,
     )?));
     report.push('\n');
     report.push_str(&details);
@@ -395,12 +396,22 @@ pub fn parse_taxel(pos: &str) -> Option<TaxelId> {
 
 /// `tactile calibrate`: fits each record (or the simulated finger's four calibration taxels),
 /// writes the table, and returns a summary.
-pub fn calibrate(records: &[String], out: &Path, seed: u64) -> Result<String, CalibrateError> {
+pub fn calibrate(
+    records: &[String],
+    out: &Path,
+    seed: u64,
+    finger: crate::fingers::FingerKind,
+) -> Result<String, CalibrateError> {
     use crate::calibrate::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS};
     use CalibrateError::{Failed, Usage};
     let (table, reports, source) = if records.is_empty() {
-        let (t, r) = calibrate_simulated(&CALIBRATION_TAXELS, seed, 1.0).map_err(Failed)?;
-        (t, r, format!("the simulated finger (seed {seed})"))
+        let (t, r) =
+            calibrate_simulated(&CALIBRATION_TAXELS, seed, finger.effects()).map_err(Failed)?;
+        (
+            t,
+            r,
+            format!("the simulated finger (seed {seed}, {})", finger.name()),
+        )
     } else {
         let mut table = tactile_core::calibration::CalibrationTable::default();
         let mut reports = Vec::new();
@@ -445,14 +456,15 @@ pub fn calibrate(records: &[String], out: &Path, seed: u64) -> Result<String, Ca
     )
     .map_err(|e| Failed(format!("{}: {e}", json.display())))?;
     let mut text = format!(
-        "calibrated {} taxel(s) from {source}\n\n| taxel | strain offset (%) | G1(30 g) | N1 | alpha | N2 | G2(30 g) | load levels (g) | RMS_n elastic / second order / mk-nonlinear (g) |\n|---|---|---|---|---|---|---|---|---|\n",
+        "calibrated {} taxel(s) from {source}\n\nheld out: RMS force error (g) on the blocks of the record each fold did not fit, elastic / second order / scheduled / observer\n\n| taxel | rest offset (%) | G1(30 g) | N1 | alpha | N2 | G2(30 g) | range (g) | element RMS (%) | held out, calibrated | held out, nominal | runs | flags |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         table.taxels.len()
     );
+    let four = |v: &[f64; 4]| v.map(|x| format!("{x:.2}")).join(" / ");
     for (m, r) in table.taxels.iter().zip(&reports) {
         let e = &m.element;
         let _ = writeln!(
             text,
-            "| ({}, {}) | {:.3} | {:.2} | {:.0} | {:.2} | {:.0} | {:.1} | {} | {} |",
+            "| ({}, {}) | {:.3} | {:.2} | {:.0} | {:.2} | {:.0} | {:.1} | {:.0} | {:.4} | {} | {} | {} | {} |",
             m.taxel.row(),
             m.taxel.col(),
             m.strain_offset_pct,
@@ -461,12 +473,12 @@ pub fn calibrate(records: &[String], out: &Path, seed: u64) -> Result<String, Ca
             e.alpha,
             e.n2,
             e.g2.stiffness(30.0),
-            r.levels
-                .iter()
-                .map(|l| format!("{l:.1}"))
-                .collect::<Vec<_>>()
-                .join(", "),
-            r.fit_rms_g.map(|v| format!("{v:.3}")).join(" / ")
+            r.range_g,
+            r.element_rms_pct,
+            four(&r.held_out_g),
+            four(&r.nominal_held_out_g),
+            r.estimator,
+            if r.flags.is_empty() { "-".to_string() } else { r.flags.join(", ") },
         );
     }
     let _ = write!(
@@ -494,13 +506,15 @@ mod calibrate_tests {
             &["1,1=/nonexistent/x.csv".into()],
             Path::new("/tmp/t.bin"),
             1,
+            crate::fingers::FingerKind::Memo,
         )
         .unwrap_err();
         assert!(
             matches!(e, CalibrateError::Failed(ref m) if m.contains("x.csv")),
             "{e:?}"
         );
-        let e = calibrate(&["9,9=x.csv".into()], Path::new("/tmp/t.bin"), 1).unwrap_err();
+        let memo = crate::fingers::FingerKind::Memo;
+        let e = calibrate(&["9,9=x.csv".into()], Path::new("/tmp/t.bin"), 1, memo).unwrap_err();
         assert!(matches!(e, CalibrateError::Usage(_)), "{e:?}");
     }
 }

@@ -164,11 +164,7 @@ pub fn element_of(
             &[Sign::NonNegative; 3],
         );
         if c.iter().all(|v| v.is_finite()) && c[0] > 0.0 {
-            SpringLaw {
-                base: c[0],
-                sqrt_coeff: c[1],
-                linear_coeff: c[2],
-            }
+            SpringLaw::power(c[0], c[1], c[2])
         } else {
             SpringLaw::constant(1.0 / base_j)
         }
@@ -240,6 +236,7 @@ fn taxel_model_of(
         schedule,
         element,
         notch_hz,
+        ..TaxelModel::nominal(taxel)
     })
 }
 

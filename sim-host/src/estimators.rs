@@ -15,6 +15,8 @@ use tactile_core::tactile::{ScanConfig, TaxelId};
 use tactile_core::viscoelastic::StructuralInverse;
 
 use crate::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS};
+use crate::finger::Effects;
+use crate::fingers::FingerKind;
 use crate::rig::{RigConfig, TickRecord};
 use crate::scenario::{protocol, run_protocol, ScenarioError, ScenarioOptions};
 
@@ -86,6 +88,7 @@ fn rms(est: &[[f64; COLUMNS]], ticks: &[TickRecord]) -> [f64; COLUMNS] {
 fn run_on(
     taxel: TaxelId,
     seed: u64,
+    effects: Effects,
     p: Protocol,
     name: &str,
 ) -> Result<Vec<TickRecord>, ScenarioError> {
@@ -93,23 +96,26 @@ fn run_on(
         seed,
         probe: taxel,
         scan_array: false,
+        effects,
         ..RigConfig::default()
     };
     Ok(run_protocol(name, p, config, false, |_| {})?.ticks)
 }
 
 /// Calibrates the four taxels of the simulated finger `finger_seed` (`FINGER_SEED` in the
-/// report), then scores every estimator on each.
-pub fn compare(finger_seed: u64) -> Result<EstimatorTable, String> {
-    let (table, fits) = calibrate_simulated(&CALIBRATION_TAXELS, finger_seed, 1.0)?;
-    compare_with(&table, fits, finger_seed)
+/// report) of kind `finger`, then scores every estimator on each.
+pub fn compare(finger_seed: u64, finger: FingerKind) -> Result<EstimatorTable, String> {
+    let (table, fits) = calibrate_simulated(&CALIBRATION_TAXELS, finger_seed, finger.effects())?;
+    compare_with(&table, fits, finger_seed, finger.effects())
 }
 
-/// Scores every estimator on the taxels of `table`, nominal and calibrated.
+/// Scores every estimator on the taxels of `table`, nominal and calibrated, on the finger
+/// `finger_seed` with `effects`.
 pub fn compare_with(
     table: &CalibrationTable,
     fits: Vec<TaxelFitReport>,
     finger_seed: u64,
+    effects: Effects,
 ) -> Result<EstimatorTable, String> {
     let frame_s = f64::from(ScanConfig::DESIGN.frame_period_s());
     let n = table.taxels.len().max(1) as f64;
@@ -131,7 +137,8 @@ pub fn compare_with(
         let nominal = TaxelModel::nominal(model.taxel);
         for (k, name) in PROTOCOLS.iter().enumerate() {
             let p = protocol(name, &options).map_err(|e| e.to_string())?;
-            let ticks = run_on(model.taxel, finger_seed, p, name).map_err(|e| e.to_string())?;
+            let ticks =
+                run_on(model.taxel, finger_seed, effects, p, name).map_err(|e| e.to_string())?;
             let cal = rms(&estimates(&ticks, model, frame_s)?, &ticks);
             let nom = rms(&estimates(&ticks, &nominal, frame_s)?, &ticks);
             for c in 0..COLUMNS {
@@ -148,7 +155,8 @@ pub fn compare_with(
             on_s: 50.0,
             off_s: 25.0,
         };
-        let ticks = run_on(model.taxel, finger_seed, step, "step").map_err(|e| e.to_string())?;
+        let ticks =
+            run_on(model.taxel, finger_seed, effects, step, "step").map_err(|e| e.to_string())?;
         let est = estimates(&ticks, model, frame_s)?;
         // The step is applied at 2 s: its first 5 s, in frames.
         let window = (2.0 / frame_s) as usize..(7.0 / frame_s) as usize;

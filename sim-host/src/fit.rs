@@ -370,16 +370,17 @@ impl ModelSpec {
         };
         let mut bases = bases;
         if self.base == Base::MkNonlinear {
+            // Element 4,2's laws (FACTS.md): G₁ = 0.5 + 0.54√σ, G₂ = 17 + 0.91σ.
             let m = NonlinearMk::ELEMENT_4_2;
             for k in [1.0, 0.7, 1.4] {
                 bases.push(vec![
-                    m.g1.base * k,
-                    m.g1.sqrt_coeff * k,
+                    0.5 * k,
+                    0.54 * k,
                     m.n1,
                     m.alpha,
                     m.n2,
-                    m.g2.base * k,
-                    m.g2.linear_coeff * k,
+                    17.0 * k,
+                    0.91 * k,
                 ]);
             }
         }
@@ -523,38 +524,22 @@ impl ModelSpec {
         }
         let p = self.physical(theta);
         Some(NonlinearMk {
-            g1: SpringLaw {
-                base: *p.first()?,
-                sqrt_coeff: *p.get(1)?,
-                linear_coeff: 0.0,
-            },
+            g1: SpringLaw::power(*p.first()?, *p.get(1)?, 0.0),
             n1: *p.get(2)?,
             alpha: *p.get(3)?,
             n2: *p.get(4)?,
-            g2: SpringLaw {
-                base: *p.get(5)?,
-                sqrt_coeff: 0.0,
-                linear_coeff: *p.get(6)?,
-            },
+            g2: SpringLaw::power(*p.get(5)?, 0.0, *p.get(6)?),
         })
     }
 
     fn base_response(&self, p: &[f64], input: &[f64], dt: f64) -> Option<Vec<f64>> {
         if self.base == Base::MkNonlinear {
             let el = NonlinearMk {
-                g1: SpringLaw {
-                    base: p[0],
-                    sqrt_coeff: p[1],
-                    linear_coeff: 0.0,
-                },
+                g1: SpringLaw::power(p[0], p[1], 0.0),
                 n1: p[2],
                 alpha: p[3],
                 n2: p[4],
-                g2: SpringLaw {
-                    base: p[5],
-                    sqrt_coeff: 0.0,
-                    linear_coeff: p[6],
-                },
+                g2: SpringLaw::power(p[5], 0.0, p[6]),
             };
             let mut state = NonlinearMkState::default();
             return Some(

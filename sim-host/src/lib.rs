@@ -10,6 +10,7 @@ pub mod cli;
 pub mod diagnose;
 pub mod estimate;
 pub mod estimators;
+pub mod fingers;
 pub mod fit;
 pub mod fuzz;
 pub mod metrics;

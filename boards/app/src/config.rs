@@ -31,9 +31,11 @@ pub struct FirmwareConfig {
     /// The per-taxel calibration table, checked at start-up; a refused table leaves every
     /// taxel on the nominal models and the scanner reports why.
     pub calibration: &'static [u8],
-    /// The estimator every taxel of the array runs (the probed taxel also runs all four side
-    /// by side, for the comparison stream).
-    pub array_estimator: EstimatorKind,
+    /// The estimator every taxel of the array runs; `None`: each taxel runs the one its
+    /// calibration chose (the one that held out best; the observer for a taxel without a
+    /// calibration). The probed taxel also runs all four side by side, for the comparison
+    /// stream.
+    pub array_estimator: Option<EstimatorKind>,
 }
 
 /// The calibration table this build carries: `tactile calibrate --out
@@ -58,7 +60,7 @@ impl FirmwareConfig {
         estimator: SecondOrder::MEMO_FIT,
         supervisor: SupervisorConfig::DESIGN,
         calibration: &CALIBRATION_TABLE,
-        array_estimator: EstimatorKind::Observer,
+        array_estimator: None,
     };
 }
 

@@ -5,7 +5,7 @@
 //! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
-use tactile_core::calibration::{TableError, TableView, TaxelModel};
+use tactile_core::calibration::{CalibrationFlags, TableError, TableView, TaxelModel};
 use tactile_core::estimator::{StrainConditioner, TaxelEstimator, TaxelEstimators};
 use tactile_core::gauge::AdcScale;
 use tactile_core::tactile::{
@@ -43,6 +43,9 @@ pub struct ArrayEstimate {
 pub struct CalibrationStatus {
     /// Taxels running their own calibration (the rest run the nominal models).
     pub calibrated_taxels: u8,
+    /// Taxels whose calibration says it is poor (held out above 1 g, or an offset the model
+    /// misses): bit `TaxelId::index`.
+    pub flagged_taxels: u64,
     /// Why the table was refused, if it was.
     pub refused: Option<TableError>,
 }
@@ -86,6 +89,13 @@ impl Scanner {
                 Some(v),
                 CalibrationStatus {
                     calibrated_taxels: v.len() as u8,
+                    flagged_taxels: v
+                        .models()
+                        .filter(|m| {
+                            m.flags
+                                .intersects(CalibrationFlags::POOR | CalibrationFlags::OFFSET)
+                        })
+                        .fold(0, |bits, m| bits | 1 << m.taxel.index()),
                     refused: None,
                 },
             ),
@@ -93,6 +103,7 @@ impl Scanner {
                 None,
                 CalibrationStatus {
                     calibrated_taxels: 0,
+                    flagged_taxels: 0,
                     refused: Some(e),
                 },
             ),
@@ -113,8 +124,10 @@ impl Scanner {
             .enumerate()
         {
             let m = model(TaxelId::from_index(i));
-            *est = TaxelEstimator::new(config.array_estimator, &m, frame_s)
-                .map_err(ConfigError::Estimator)?;
+            // The estimator the taxel's calibration held out best with, unless the build
+            // fixes one for the whole array.
+            let kind = config.array_estimator.unwrap_or(m.estimator);
+            *est = TaxelEstimator::new(kind, &m, frame_s).map_err(ConfigError::Estimator)?;
             *cond = StrainConditioner::new(&m, frame_s);
         }
         Ok(Self {
@@ -331,6 +344,7 @@ mod tests {
             scanner.calibration_status(),
             CalibrationStatus {
                 calibrated_taxels: 4,
+                flagged_taxels: 0,
                 refused: None
             }
         );

@@ -5,7 +5,10 @@
 use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::TaxelId;
-use tactile_plant::finger::{CALIBRATION_FINGER_SEED, CALIBRATION_TAXELS};
+use tactile_core::viscoelastic::NonlinearMk;
+use tactile_plant::finger::{
+    Effects, CALIBRATION_FINGER_SEED, CALIBRATION_TAXELS, LINEAR_SATURATING_ELEMENT,
+};
 use tactile_plant::hardware::SimHardware;
 use tactile_plant::rig::{FaultInjection, InjectedFault, RigConfig};
 
@@ -43,15 +46,22 @@ pub struct FilRun {
     /// The probe over another taxel of another finger (taxel, finger seed); the simulator's
     /// default rig otherwise.
     pub finger: Option<(TaxelId, u64)>,
+    /// The element the finger's taxels vary about, for a finger unlike the memo's.
+    pub element: Option<NonlinearMk>,
 }
 
 impl FilRun {
     /// The rig this run's board is built from (the simulator's own rig, plus the fault and
     /// the probe's place).
     pub fn rig(&self) -> RigConfig {
+        let defaults = RigConfig::default();
         let base = RigConfig {
             fault: self.fault,
-            ..RigConfig::default()
+            effects: Effects {
+                element: self.element,
+                ..defaults.effects
+            },
+            ..defaults
         };
         match self.finger {
             Some((probe, seed)) => RigConfig {
@@ -70,19 +80,25 @@ const fn calibration_run(name: &'static str, taxel: TaxelId) -> FilRun {
         protocol: Protocol::CALIBRATION,
         fault: None,
         finger: Some((taxel, CALIBRATION_FINGER_SEED)),
+        element: None,
     }
 }
 
 /// The QEMU calibration session (`-append "session=calibration"`): the calibration protocol
 /// with the probe over each of the four calibration taxels of the simulated finger in turn,
-/// recorded over defmt for `tactile calibrate`.
-pub const CALIBRATION_SESSION: [FilRun; 4] = {
+/// then over the first of them on a finger whose springs stiffen by other laws
+/// ([`LINEAR_SATURATING_ELEMENT`]), recorded over defmt for `tactile calibrate`.
+pub const CALIBRATION_SESSION: [FilRun; 5] = {
     let [a, b, c, d] = CALIBRATION_TAXELS;
     [
         calibration_run("calibrate-3-2", a),
         calibration_run("calibrate-1-5", b),
         calibration_run("calibrate-5-1", c),
         calibration_run("calibrate-6-6", d),
+        FilRun {
+            element: Some(LINEAR_SATURATING_ELEMENT),
+            ..calibration_run("calibrate-3-2-linear-saturating", a)
+        },
     ]
 };
 
@@ -150,6 +166,7 @@ const fn fault_run(name: &'static str, fault: InjectedFault) -> FilRun {
             at_s: FIL_FAULT_AT_S,
         }),
         finger: None,
+        element: None,
     }
 }
 
@@ -164,12 +181,14 @@ pub const FIL_SESSION: [FilRun; 5] = [
         protocol: Protocol::FORCE_STEPS_MEMO,
         fault: None,
         finger: None,
+        element: None,
     },
     FilRun {
         name: "pseudo-random",
         protocol: pseudo_random(FIL_PSEUDO_RANDOM_S),
         fault: None,
         finger: None,
+        element: None,
     },
     fault_run("fault-gauge-disconnected", InjectedFault::GaugeDisconnected),
     fault_run("fault-force-spike", InjectedFault::ForceSpike { g: 80.0 }),

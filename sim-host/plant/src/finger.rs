@@ -35,6 +35,9 @@ pub struct Effects {
     /// time constant.
     pub slow_relaxation: f64,
     pub slow_relaxation_tau_s: f64,
+    /// The element every taxel varies about, for fingers unlike the memo's (springs that
+    /// stiffen by other laws, other α and relaxation times); `None`: element 4,2.
+    pub element: Option<NonlinearMk>,
 }
 
 impl Default for Effects {
@@ -54,20 +57,32 @@ impl Effects {
         delay_s: 0.0,
         slow_relaxation: 0.0,
         slow_relaxation_tau_s: 40.0,
+        element: None,
     };
 }
 
 /// Stress at which [`Effects::stiffening`] pivots.
 const STIFFENING_PIVOT_G: f64 = 30.0;
 
+/// The power law's load dependence scaled by `s` about its 30 g stiffness (other laws are
+/// given whole by [`Effects::element`] and left as they are).
 fn scale_law(law: SpringLaw, s: f64) -> SpringLaw {
-    let pivot = law.stiffness(STIFFENING_PIVOT_G);
-    let varying =
-        law.sqrt_coeff * libm::sqrt(STIFFENING_PIVOT_G) + law.linear_coeff * STIFFENING_PIVOT_G;
-    SpringLaw {
-        base: (pivot - s * varying).max(0.2),
-        sqrt_coeff: s * law.sqrt_coeff,
-        linear_coeff: s * law.linear_coeff,
+    match law {
+        SpringLaw::Power {
+            sqrt_coeff,
+            linear_coeff,
+            ..
+        } => {
+            let pivot = law.stiffness(STIFFENING_PIVOT_G);
+            let varying =
+                sqrt_coeff * libm::sqrt(STIFFENING_PIVOT_G) + linear_coeff * STIFFENING_PIVOT_G;
+            SpringLaw::power(
+                (pivot - s * varying).max(0.2),
+                s * sqrt_coeff,
+                s * linear_coeff,
+            )
+        }
+        other => other,
     }
 }
 
@@ -83,6 +98,22 @@ pub const CALIBRATION_TAXELS: [TaxelId; 4] = [
     TaxelId::from_index(5 * COLS + 1),
     TaxelId::from_index(6 * COLS + 6),
 ];
+
+/// A finger unlike the memo's, of the same physics (eq. 14): G₁ grows linearly with load
+/// (1 + 0.08σ, 3.4 g/% at 30 g as element 4,2's), G₂ stiffens and saturates (15 + 45(1 −
+/// e^(−σ/30 g)), 43 g/% at 30 g), α = 6 g/%. The calibration tests and the QEMU calibration
+/// session's last run use it.
+pub const LINEAR_SATURATING_ELEMENT: NonlinearMk = NonlinearMk {
+    g1: SpringLaw::power(1.0, 0.0, 0.08),
+    n1: 5000.0,
+    alpha: 6.0,
+    n2: 500.0,
+    g2: SpringLaw::Saturating {
+        base: 15.0,
+        gain: 45.0,
+        scale_g: 30.0,
+    },
+};
 
 /// Seed of the simulated finger those calibrations run on.
 pub const CALIBRATION_FINGER_SEED: u64 = 7;
@@ -177,17 +208,13 @@ impl Finger {
     pub fn new(seed: u64, probe: TaxelId, effects: Effects, readout: ReadoutParams) -> Self {
         let mut rng = Noise::new(seed ^ 0x7461_7869);
         let mut vary = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
-        let nominal = NonlinearMk::ELEMENT_4_2;
+        let nominal = effects.element.unwrap_or(NonlinearMk::ELEMENT_4_2);
         let taxels = core::array::from_fn(|i| {
             let is_nominal = i == NOMINAL_TAXEL.index();
             let mut f = |lo: f64, hi: f64| if is_nominal { 1.0 } else { vary(lo, hi) };
             let (k1, k2, kn1, kn2) = (f(0.8, 1.3), f(0.8, 1.3), f(0.8, 1.4), f(0.7, 1.3));
             let (kv, kpf, trim_err) = (f(0.9, 1.1), f(0.95, 1.05), f(0.95, 1.05));
-            let scale = |l: SpringLaw, k: f64| SpringLaw {
-                base: l.base * k,
-                sqrt_coeff: l.sqrt_coeff * k,
-                linear_coeff: l.linear_coeff * k,
-            };
+            let scale = |l: SpringLaw, k: f64| l.scaled(k);
             let element = NonlinearMk {
                 g1: scale_law(scale(nominal.g1, k1), effects.stiffening),
                 n1: nominal.n1 * kn1,

@@ -14,6 +14,7 @@
 //! ```
 //! Exit codes: 0 done, 1 failed while running, 2 bad usage (unknown scenario, effect, option).
 
+use sim_host::fingers::FingerKind;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -129,6 +130,9 @@ enum Command {
         /// Seed of the simulated finger whose four taxels are calibrated and scored.
         #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
         seed: u64,
+        /// The kind of finger: the memo's, or one whose springs stiffen by other laws.
+        #[arg(long, value_enum, default_value_t = FingerKind::Memo)]
+        finger: FingerKind,
         /// Also the firmware's row: a folder `tactile-decode` wrote from a QEMU session
         /// (`boards/qemu-netduinoplus2/run.sh DIR`), with its `estimators.json`.
         #[arg(long)]
@@ -146,6 +150,9 @@ enum Command {
         /// Seed of the simulated finger (without records).
         #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
         seed: u64,
+        /// The kind of simulated finger (without records).
+        #[arg(long, value_enum, default_value_t = FingerKind::Memo)]
+        finger: FingerKind,
     },
     /// The main job without a board: the memo's experiment set, plots and a report.
     Demo {
@@ -433,7 +440,12 @@ fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         },
-        Command::Estimators { out, seed, qemu } => {
+        Command::Estimators {
+            out,
+            seed,
+            finger,
+            qemu,
+        } => {
             let firmware = match qemu.map(|dir| read_firmware_figures(&dir)).transpose() {
                 Ok(f) => f,
                 Err(e) => {
@@ -441,7 +453,7 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             };
-            match sim_host::estimators::compare(seed) {
+            match sim_host::estimators::compare(seed, finger) {
                 Ok(t) => {
                     let mut text = sim_host::estimators::render(&t);
                     if let Some(f) = &firmware {
@@ -457,7 +469,12 @@ fn main() -> ExitCode {
                 }
             }
         }
-        Command::Calibrate { records, out, seed } => match cli::calibrate(&records, &out, seed) {
+        Command::Calibrate {
+            records,
+            out,
+            seed,
+            finger,
+        } => match cli::calibrate(&records, &out, seed, finger) {
             Ok(text) => {
                 outln!("{text}");
                 ExitCode::SUCCESS
