@@ -69,7 +69,8 @@ pub struct Scanner {
     estimators: [TaxelEstimator; TAXELS],
     /// Each taxel's strain conditioning from its calibration (offset, interference notch).
     conditioners: [StrainConditioner; TAXELS],
-    probe_bench: TaxelEstimators,
+    /// `None` until [`Scanner::reset`] has run.
+    probe_bench: Option<TaxelEstimators>,
     probe_estimates_g: [f32; 4],
     status: CalibrationStatus,
     bad_taxels: u64,
@@ -83,6 +84,42 @@ impl Scanner {
         config: &FirmwareConfig,
         calibration: [TaxelCalibration; TAXELS],
     ) -> Result<Self, ConfigError> {
+        let mut scanner = Self::blank(config, calibration);
+        scanner.reset(config, calibration)?;
+        Ok(scanner)
+    }
+
+    /// A scanner whose estimators are not built yet: [`Self::reset`] builds them in place. A
+    /// board writes this into its static and resets it there (the 64 estimators are 20 KB,
+    /// too much to build on a stack and move).
+    pub fn blank(config: &FirmwareConfig, calibration: [TaxelCalibration; TAXELS]) -> Self {
+        Self {
+            sequencer: ScanSequencer::new(),
+            calibration,
+            adc: config.taxel_adc,
+            probe: config.probe,
+            strain_pct: ArrayFrame::default(),
+            force_g: ArrayFrame::default(),
+            estimators: [TaxelEstimator::Elastic { g_per_pct: 0.0 }; TAXELS],
+            conditioners: [StrainConditioner::default(); TAXELS],
+            probe_bench: None,
+            probe_estimates_g: [0.0; 4],
+            status: CalibrationStatus {
+                calibrated_taxels: 0,
+                flagged_taxels: 0,
+                refused: None,
+            },
+            bad_taxels: 0,
+        }
+    }
+
+    /// Starts over in place, as [`Self::new`] would build it (64 observers are 20 KB: a board
+    /// starting a new run rebuilds them where they are rather than on its stack).
+    pub fn reset(
+        &mut self,
+        config: &FirmwareConfig,
+        calibration: [TaxelCalibration; TAXELS],
+    ) -> Result<(), ConfigError> {
         let frame_s = f64::from(config.scan.frame_period_s());
         let (view, status) = match TableView::check(config.calibration) {
             Ok(v) => (
@@ -112,15 +149,13 @@ impl Scanner {
             view.and_then(|v| v.get(taxel))
                 .unwrap_or_else(|| TaxelModel::nominal(taxel))
         };
-        let probe_model = model(config.probe);
-        let probe_bench =
-            TaxelEstimators::new(&probe_model, frame_s).map_err(ConfigError::Estimator)?;
-        // Every entry is built in the loop below (or the scanner is refused).
-        let mut estimators = [TaxelEstimator::Elastic { g_per_pct: 0.0 }; TAXELS];
-        let mut conditioners = [StrainConditioner::default(); TAXELS];
-        for (i, (est, cond)) in estimators
+        self.probe_bench = Some(
+            TaxelEstimators::new(&model(config.probe), frame_s).map_err(ConfigError::Estimator)?,
+        );
+        for (i, (est, cond)) in self
+            .estimators
             .iter_mut()
-            .zip(conditioners.iter_mut())
+            .zip(self.conditioners.iter_mut())
             .enumerate()
         {
             let m = model(TaxelId::from_index(i));
@@ -130,24 +165,20 @@ impl Scanner {
             *est = TaxelEstimator::new(kind, &m, frame_s).map_err(ConfigError::Estimator)?;
             *cond = StrainConditioner::new(&m, frame_s);
         }
-        Ok(Self {
-            sequencer: ScanSequencer::new(),
-            calibration,
-            adc: config.taxel_adc,
-            probe: config.probe,
-            strain_pct: ArrayFrame::default(),
-            force_g: ArrayFrame::default(),
-            estimators,
-            conditioners,
-            probe_bench,
-            probe_estimates_g: [0.0; 4],
-            status,
-            bad_taxels: 0,
-        })
+        self.sequencer = ScanSequencer::new();
+        self.calibration = calibration;
+        self.adc = config.taxel_adc;
+        self.probe = config.probe;
+        self.strain_pct = ArrayFrame::default();
+        self.force_g = ArrayFrame::default();
+        self.probe_estimates_g = [0.0; 4];
+        self.status = status;
+        self.bad_taxels = 0;
+        Ok(())
     }
 
     /// The probed taxel's side-by-side estimators (a copy, to time each on its own).
-    pub fn probe_bench(&self) -> TaxelEstimators {
+    pub fn probe_bench(&self) -> Option<TaxelEstimators> {
         self.probe_bench
     }
 
@@ -194,7 +225,9 @@ impl Scanner {
             .map_or(0.0, |e| e.force_g(conditioned));
         self.force_g.set(taxel, force);
         if taxel == self.probe {
-            self.probe_estimates_g = self.probe_bench.update(strain);
+            if let Some(bench) = &mut self.probe_bench {
+                self.probe_estimates_g = bench.update(strain);
+            }
         }
         step.frame_complete.then(|| self.report(board_tick))
     }

@@ -137,8 +137,7 @@ mod app {
         if let Some(c) = crash {
             defmt::warn!("deliberate crash requested: {}", defmt::Debug2Format(&c));
         }
-        let (controller, scanner) = session::task_state(0, hw);
-        let scanner: &'static mut Scanner = cx.local.scanner_slot.write(scanner);
+        let (controller, scanner) = session::task_state(0, hw, cx.local.scanner_slot);
         let (control_tx, control_rx) = cx.local.control_queue.split();
         let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
         let mut syst = cx.core.SYST;
@@ -289,16 +288,16 @@ mod app {
         if session::RESET_SCANNER.swap(false, Ordering::AcqRel) {
             // A new run: fresh per-taxel state, calibrated on the new board.
             let calibration = cx.shared.hw.lock(|hw| *hw.calibration());
-            if let Some(s) = session::scanner(calibration) {
-                **local.scanner = s;
+            if !session::reset_scanner(local.scanner, calibration) {
+                defmt::error!("the scanner's configuration was refused");
             }
             *local.started = false;
         }
-        let bench = local.bench.get_or_insert_with(|| {
+        if local.bench.is_none() {
             let status = local.scanner.calibration_status();
             defmt::info!("{}", status);
-            local.scanner.probe_bench()
-        });
+            *local.bench = local.scanner.probe_bench();
+        }
         for _ in 0..SCAN_STEPS_PER_TICK {
             let scanner = &mut **local.scanner;
             let started = &mut *local.started;
@@ -319,7 +318,7 @@ mod app {
             });
             // Once a frame, each estimator's update on the probed taxel's strain, timed alone.
             let mut per_estimator = [None; 4];
-            if report.is_some() {
+            if let (Some(_), Some(bench)) = (&report, local.bench.as_mut()) {
                 let strain = bench.corrected(scanner.probe_strain_pct());
                 for (slot, kind) in per_estimator.iter_mut().zip(EstimatorKind::ALL) {
                     let estimator = bench.estimator_mut(kind);

@@ -1,6 +1,7 @@
 //! What the QEMU firmware runs: the protocols, a fresh simulated board and fresh task state per
 //! run, the simulator truth that rides with each control frame, and the instruction counts.
 
+use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use tactile_core::profile::Protocol;
@@ -46,9 +47,14 @@ pub fn board() -> SimHardware {
     SimHardware::new(&rig(0))
 }
 
-/// The control and scan state for run `run`, calibrated on `hw`.
+/// The control state for run `run`, calibrated on `hw`, and the scan state built straight
+/// into `slot` (kept out of line: init's stack frame never holds a scanner).
 #[inline(never)]
-pub fn task_state(run: usize, hw: &SimHardware) -> (Controller, Scanner) {
+pub fn task_state(
+    run: usize,
+    hw: &SimHardware,
+    slot: &'static mut MaybeUninit<Scanner>,
+) -> (Controller, &'static mut Scanner) {
     let fw = FirmwareConfig::from_rig(&rig(run));
     let protocol = runs()
         .get(run)
@@ -56,8 +62,10 @@ pub fn task_state(run: usize, hw: &SimHardware) -> (Controller, Scanner) {
     let calibration = *hw.calibration();
     let probe = calibration.get(fw.probe.index()).copied();
     let controller = probe.and_then(|cal| Controller::new(&fw, protocol, cal).ok());
-    match (controller, scanner(calibration)) {
-        (Some(controller), Some(scanner)) => (controller, scanner),
+    let scan_config = FirmwareConfig::from_rig(&rig(0));
+    let scanner = slot.write(Scanner::blank(&scan_config, calibration));
+    match (controller, reset_scanner(scanner, calibration)) {
+        (Some(controller), true) => (controller, scanner),
         _ => fail(),
     }
 }
@@ -79,10 +87,14 @@ pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
     }
 }
 
+/// The scanner started over in place on a new board's rest calibration (no copy of it on the
+/// scan task's stack). The scan configuration is the same in every run (faults do not change
+/// it).
 #[inline(never)]
-pub fn scanner(calibration: [TaxelCalibration; TAXELS]) -> Option<Scanner> {
-    // The scan configuration is the same in every run (faults do not change it).
-    Scanner::new(&FirmwareConfig::from_rig(&rig(0)), calibration).ok()
+pub fn reset_scanner(scanner: &mut Scanner, calibration: [TaxelCalibration; TAXELS]) -> bool {
+    scanner
+        .reset(&FirmwareConfig::from_rig(&rig(0)), calibration)
+        .is_ok()
 }
 
 /// The constant configuration was refused: nothing sensible to run.

@@ -80,6 +80,7 @@ const CONTROL_FRAME_EVERY: u32 = 5;
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART1, USART2])]
 mod app {
+    use core::mem::MaybeUninit;
     use core::sync::atomic::{AtomicU32, Ordering};
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SCB;
@@ -118,7 +119,7 @@ mod app {
         control_board: ControlBoard,
         scan_board: ScanBoard,
         controller: Controller,
-        scanner: Scanner,
+        scanner: &'static mut Scanner,
         control_out: Outbox<'static, ControlMsg>,
         taxel_out: Outbox<'static, TaxelMsg>,
         control_rx: Consumer<'static, ControlMsg>,
@@ -130,6 +131,8 @@ mod app {
     #[init(local = [
         control_queue: Queue<ControlMsg, CONTROL_QUEUE> = Queue::new(),
         taxel_queue: Queue<TaxelMsg, TAXEL_QUEUE> = Queue::new(),
+        // NOTE: the scanner (64 estimators, about 26 KB) is built in place, never on a stack.
+        scanner_slot: MaybeUninit<Scanner> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let config = FirmwareConfig::BOARD;
@@ -146,9 +149,13 @@ mod app {
         // Calibrate with the probe lifted (the actuator output is at its safe zero).
         let calibration = scan_board.rest_calibration(&mut adc, 16);
         let probe = calibration.get(config.probe.index()).copied();
-        let (Some(controller), Ok(mut scanner)) = (
+        let scanner = cx
+            .local
+            .scanner_slot
+            .write(Scanner::blank(&config, calibration));
+        let (Some(controller), Ok(())) = (
             probe.and_then(|cal| Controller::new(&config, PROTOCOL, cal).ok()),
-            Scanner::new(&config, calibration),
+            scanner.reset(&config, calibration),
         ) else {
             defmt::panic!("the core library refused the board configuration");
         };

@@ -123,10 +123,34 @@ const PLAY_RADII_G: [f64; 3] = [2.0, 5.0, 10.0];
 /// Longest read-out delay the ring buffer holds, in control ticks.
 pub const MAX_DELAY_TICKS: usize = 512;
 
+/// How a taxel's element differs from the finger's: each spring's stiffness and each
+/// dashpot scaled (the finger holds one element, so 64 taxels do not hold 64 copies of its
+/// spring curves).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElementScale {
+    pub g1: f64,
+    pub n1: f64,
+    pub n2: f64,
+    pub g2: f64,
+}
+
+impl ElementScale {
+    /// The taxel's element from the finger's.
+    pub fn of(&self, finger: &NonlinearMk) -> NonlinearMk {
+        NonlinearMk {
+            g1: finger.g1.scaled(self.g1),
+            n1: finger.n1 * self.n1,
+            alpha: finger.alpha,
+            n2: finger.n2 * self.n2,
+            g2: finger.g2.scaled(self.g2),
+        }
+    }
+}
+
 /// One taxel: mechanics and read-out.
 #[derive(Clone, Copy, Debug)]
 pub struct Taxel {
-    pub element: NonlinearMk,
+    pub scale: ElementScale,
     pub state: NonlinearMkState,
     /// Amplified |V_s| with no strain (about 5 V).
     pub rest_amplitude_v: f64,
@@ -186,6 +210,9 @@ impl Default for ReadoutParams {
 /// The finger under the probe.
 #[derive(Clone, Debug)]
 pub struct Finger {
+    /// The element every taxel's varies about ([`Effects::element`], stiffened as
+    /// [`Effects::stiffening`] asks).
+    pub element: NonlinearMk,
     pub taxels: [Taxel; TAXELS],
     pub probe: TaxelId,
     pub effects: Effects,
@@ -209,18 +236,21 @@ impl Finger {
         let mut rng = Noise::new(seed ^ 0x7461_7869);
         let mut vary = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
         let nominal = effects.element.unwrap_or(NonlinearMk::ELEMENT_4_2);
+        let element = NonlinearMk {
+            g1: scale_law(nominal.g1, effects.stiffening),
+            g2: scale_law(nominal.g2, effects.stiffening),
+            ..nominal
+        };
         let taxels = core::array::from_fn(|i| {
             let is_nominal = i == NOMINAL_TAXEL.index();
             let mut f = |lo: f64, hi: f64| if is_nominal { 1.0 } else { vary(lo, hi) };
             let (k1, k2, kn1, kn2) = (f(0.8, 1.3), f(0.8, 1.3), f(0.8, 1.4), f(0.7, 1.3));
             let (kv, kpf, trim_err) = (f(0.9, 1.1), f(0.95, 1.05), f(0.95, 1.05));
-            let scale = |l: SpringLaw, k: f64| l.scaled(k);
-            let element = NonlinearMk {
-                g1: scale_law(scale(nominal.g1, k1), effects.stiffening),
-                n1: nominal.n1 * kn1,
-                alpha: nominal.alpha,
-                n2: nominal.n2 * kn2,
-                g2: scale_law(scale(nominal.g2, k2), effects.stiffening),
+            let scale = ElementScale {
+                g1: k1,
+                n1: kn1,
+                n2: kn2,
+                g2: k2,
             };
             let rest_amplitude_v = 5.0 * kv;
             let mut amplifier = ReadoutAmplifier {
@@ -234,7 +264,7 @@ impl Finger {
                 .unwrap_or(73.5e3);
             let c0 = readout.geometry.capacitance_f(0.0);
             Taxel {
-                element,
+                scale,
                 state: NonlinearMkState::default(),
                 rest_amplitude_v,
                 preamp_gain: rest_amplitude_v / readout.node.sensed_amplitude_v(c0),
@@ -257,6 +287,7 @@ impl Finger {
             }
         }
         Self {
+            element,
             taxels,
             probe,
             effects,
@@ -276,10 +307,22 @@ impl Finger {
         &self.taxels[self.probe.index()]
     }
 
+    /// The element of taxel `index` (the finger's, scaled as the taxel is).
+    pub fn element_of(&self, index: usize) -> NonlinearMk {
+        self.taxels
+            .get(index)
+            .map_or(self.element, |t| t.scale.of(&self.element))
+    }
+
+    /// The element under the probe.
+    pub fn probe_element(&self) -> NonlinearMk {
+        self.element_of(self.probe.index())
+    }
+
     /// Rest strain of the surface under the probe (what the probe must indent past).
     pub fn probe_rest_strain_pct(&self) -> f64 {
         let t = self.probe_taxel();
-        t.element.rest_strain_pct(&t.state)
+        t.scale.of(&self.element).rest_strain_pct(&t.state)
     }
 
     /// Advances the finger by one control tick under the probe stress `probe_stress_g` (the
@@ -292,8 +335,9 @@ impl Finger {
             }
         }
         let probe = self.probe.index();
+        let element = self.element_of(probe);
         let t = &mut self.taxels[probe];
-        t.element.step(&mut t.state, probe_stress_g, dt_s);
+        element.step(&mut t.state, probe_stress_g, dt_s);
         t.stress_integral_g_s = 0.0;
         t.last_update_s += dt_s;
         // Sensor-side effects of the element under the probe.
@@ -310,6 +354,7 @@ impl Finger {
 
     /// Brings a neighbour's viscoelastic state up to time `t_s` with its mean stress.
     fn catch_up(&mut self, index: usize, t_s: f64) -> f64 {
+        let element = self.element_of(index);
         let Some(t) = self.taxels.get_mut(index) else {
             return 0.0;
         };
@@ -324,7 +369,7 @@ impl Finger {
             // Nothing to relax: skip the exponentials (most of the array, most of the time).
             t.last_update_s = t_s;
         } else if elapsed > 0.0 {
-            t.element.step(&mut t.state, mean, elapsed);
+            element.step(&mut t.state, mean, elapsed);
             t.stress_integral_g_s = 0.0;
             t.last_update_s = t_s;
         }
@@ -335,7 +380,7 @@ impl Finger {
     /// effects (hysteresis, slow relaxation, drift, interference) but before the read-out.
     fn probe_sensor_strain_pct(&self, stress_g: f64, t_s: f64) -> f64 {
         let t = self.probe_taxel();
-        let mut e = t.element.strain_pct(&t.state, stress_g);
+        let mut e = self.probe_element().strain_pct(&t.state, stress_g);
         if self.effects.hysteresis_pct > 0.0 {
             let mean = self
                 .plays_g
@@ -416,7 +461,7 @@ impl Finger {
             let w = crosstalk_weight(taxel.row() as i32 - pr, taxel.col() as i32 - pc);
             self.catch_up(i, t_s);
             let t = &self.taxels[i];
-            t.element.strain_pct(&t.state, w * probe_stress_g) + self.time_effects_pct(t_s)
+            self.element_of(i).strain_pct(&t.state, w * probe_stress_g) + self.time_effects_pct(t_s)
         } + self.readout.noise_pct * self.noise.gaussian();
         let target = self.detector_target_v(&self.taxels[i], strain);
         // The detector starts from the previous taxel's level and settles toward this one's.
@@ -486,10 +531,7 @@ mod tests {
         let cal = f.rest_calibration(4);
         let probe = f.probe.index();
         for stress in [0.0, 10.0, 50.0, 100.0] {
-            let truth = f
-                .probe_taxel()
-                .element
-                .strain_pct(&f.probe_taxel().state, stress);
+            let truth = f.probe_element().strain_pct(&f.probe_taxel().state, stress);
             let code = f.sample_probe_channel(stress, 0.0);
             let got = code_to_strain_pct(&f.readout.adc, &cal[probe], code);
             // One 12-bit code is 4.9 mV, about 0.012 % strain through the 8.5× stage; the

@@ -127,7 +127,7 @@ impl SimHardware {
         let p = self.config.applicator;
         let mut contact = Contact::new(
             &p,
-            self.finger.probe_taxel().element.g1,
+            self.finger.probe_element().g1,
             self.finger.probe_rest_strain_pct(),
         );
         if let Some(FaultInjection {
