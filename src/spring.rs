@@ -65,7 +65,8 @@ impl SpringCurve {
         let at = |v: &[f32; CURVE_KNOTS], k: usize| {
             k.checked_sub(1)
                 .and_then(|i| v.get(i))
-                .map_or(0.0, |x| f64::from(*x))
+                .copied()
+                .unwrap_or(0.0)
         };
         let width = |k: usize| at(&stress_g, k + 1) - at(&stress_g, k);
         let mean = |k: usize| (at(&strain_pct, k + 1) - at(&strain_pct, k)) / width(k);
@@ -87,10 +88,10 @@ impl SpringCurve {
                 }
             };
             // Under twice the mean, the segment's slope stays positive to its end.
-            *slot = t.clamp(0.05 * m, 1.9 * m) as f32;
+            *slot = t.clamp(0.05 * m, 1.9 * m);
         }
         let last = CURVE_KNOTS - 1;
-        let end_slope = (2.0 * mean(last) - f64::from(start_slope[CURVE_KNOTS - 1])) as f32;
+        let end_slope = 2.0 * mean(last) - start_slope[CURVE_KNOTS - 1];
         Ok(Self {
             stress_g,
             strain_pct,

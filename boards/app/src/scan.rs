@@ -145,26 +145,34 @@ impl Scanner {
                 },
             ),
         };
-        let model = |taxel: TaxelId| {
-            view.and_then(|v| v.get(taxel))
-                .unwrap_or_else(|| TaxelModel::nominal(taxel))
-        };
-        self.probe_bench = Some(
-            TaxelEstimators::new(&model(config.probe), frame_s).map_err(ConfigError::Estimator)?,
-        );
-        for (i, (est, cond)) in self
-            .estimators
-            .iter_mut()
-            .zip(self.conditioners.iter_mut())
-            .enumerate()
-        {
-            let m = model(TaxelId::from_index(i));
-            // The estimator the taxel's calibration held out best with, unless the build
-            // fixes one for the whole array.
+        // The nominal models once for every taxel without a calibration, then the table's
+        // taxels over them: a start-up that decodes each record once and tabulates the
+        // nominal springs once (a new run on the QEMU board resets within a few ticks).
+        let nominal = TaxelModel::nominal(config.probe);
+        let build = |m: &TaxelModel| -> Result<(TaxelEstimator, StrainConditioner), ConfigError> {
+            // The estimator the taxel's calibration held out best with, unless the build fixes
+            // one for the whole array.
             let kind = config.array_estimator.unwrap_or(m.estimator);
-            *est = TaxelEstimator::new(kind, &m, frame_s).map_err(ConfigError::Estimator)?;
-            *cond = StrainConditioner::new(&m, frame_s);
+            let est = TaxelEstimator::new(kind, m, frame_s).map_err(ConfigError::Estimator)?;
+            Ok((est, StrainConditioner::new(m, frame_s)))
+        };
+        let (nominal_est, nominal_cond) = build(&nominal)?;
+        self.estimators.fill(nominal_est);
+        self.conditioners.fill(nominal_cond);
+        let mut probe_model = nominal;
+        for m in view.iter().flat_map(|v| v.models()) {
+            let i = m.taxel.index();
+            if let (Some(est), Some(cond)) =
+                (self.estimators.get_mut(i), self.conditioners.get_mut(i))
+            {
+                (*est, *cond) = build(&m)?;
+            }
+            if m.taxel == config.probe {
+                probe_model = m;
+            }
         }
+        self.probe_bench =
+            Some(TaxelEstimators::new(&probe_model, frame_s).map_err(ConfigError::Estimator)?);
         self.sequencer = ScanSequencer::new();
         self.calibration = calibration;
         self.adc = config.taxel_adc;

@@ -380,13 +380,17 @@ mod tests {
             Session::FirmwareInTheLoop
         );
         assert_eq!(Session::Calibration.runs(), &CALIBRATION_SESSION[..]);
-        // Each calibration run puts the probe over its own taxel of the calibration finger.
+        // Each calibration run puts the probe over its own taxel of the calibration finger;
+        // the last over the first again, on a finger with other spring laws.
         let probes: Vec<_> = CALIBRATION_SESSION.iter().map(|r| r.rig().probe).collect();
-        assert_eq!(probes, CALIBRATION_TAXELS);
+        assert_eq!(probes[..4], CALIBRATION_TAXELS);
+        assert_eq!(probes[4], CALIBRATION_TAXELS[0]);
         for r in &CALIBRATION_SESSION {
             let (row, col) = (r.rig().probe.row(), r.rig().probe.col());
-            assert_eq!(r.name, format!("calibrate-{row}-{col}"));
+            let other = r.element.map_or("", |_| "-linear-saturating");
+            assert_eq!(r.name, format!("calibrate-{row}-{col}{other}"));
             assert_eq!(r.rig().seed, CALIBRATION_FINGER_SEED);
+            assert_eq!(r.rig().effects.element, r.element);
         }
     }
 
