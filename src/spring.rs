@@ -88,7 +88,9 @@ impl SpringCurve {
                 }
             };
             // Under twice the mean, the segment's slope stays positive to its end.
-            *slot = t.clamp(0.05 * m, 1.9 * m);
+            // (max/min, not clamp: clamp panics on NaN bounds, which pulls float formatting
+            // into the firmware.)
+            *slot = t.max(0.05 * m).min(1.9 * m);
         }
         let last = CURVE_KNOTS - 1;
         let end_slope = 2.0 * mean(last) - start_slope[CURVE_KNOTS - 1];
