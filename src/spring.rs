@@ -285,19 +285,38 @@ impl SpringLaw {
                 let u = (b + libm::sqrt(b * b + 4.0 * a * base * e)) / (2.0 * a);
                 u * u
             }
-            SpringLaw::Saturating { .. } => {
-                // Monotone and bracketed by the end stiffnesses: bisection on the strain.
-                let (soft, stiff) = (self.stiffness(0.0), self.stiffness(f64::INFINITY));
-                let (mut lo, mut hi) = (soft * e, stiff * e);
-                for _ in 0..60 {
-                    let mid = 0.5 * (lo + hi);
-                    if self.strain_pct(mid) < e {
-                        lo = mid;
+            SpringLaw::Saturating {
+                base,
+                gain,
+                scale_g,
+            } => {
+                // Monotone and bracketed by the end stiffnesses: Newton's method on the strain,
+                // kept inside the bracket (bisecting when a step would leave it).
+                let (mut lo, mut hi) = (base * e, (base + gain) * e);
+                let mut s = 0.5 * (lo + hi);
+                for _ in 0..50 {
+                    let decay = libm::exp(-s / scale_g);
+                    let g = base + gain * (1.0 - decay);
+                    let miss = s / g - e;
+                    if miss < 0.0 {
+                        lo = s;
                     } else {
-                        hi = mid;
+                        hi = s;
                     }
+                    // dε/dσ = (G − σ G')/G², G' = gain e^(−σ/scale)/scale.
+                    let slope = (g - s * gain * decay / scale_g) / (g * g);
+                    let next = s - miss / slope;
+                    let next = if next > lo && next < hi {
+                        next
+                    } else {
+                        0.5 * (lo + hi)
+                    };
+                    if (next - s).abs() <= 1e-13 * s.max(1e-12) {
+                        return next;
+                    }
+                    s = next;
                 }
-                0.5 * (lo + hi)
+                s
             }
             SpringLaw::Curve(c) => f64::from(c.stress_g(e as f32).0),
         }

@@ -39,6 +39,9 @@ const SETTLE_S: f64 = 2.0;
 /// The nominal models replace a calibration only if they hold out below this share of its
 /// error (a tie keeps the taxel's own).
 const NOMINAL_MARGIN: f64 = 0.9;
+/// Levenberg–Marquardt's budget: evaluations per parameter (each also costs a finite-difference
+/// Jacobian of 23 runs of the element over the record).
+const PATIENCE: usize = 8;
 /// Blocks each load level is cut into for the held-out scores.
 pub const FOLDS: usize = 4;
 
@@ -497,7 +500,7 @@ pub fn fit_element(
         };
         problem.set_params(&DVector::from_vec(theta));
         let (solved, report) = LevenbergMarquardt::new()
-            .with_patience(30)
+            .with_patience(PATIENCE)
             .minimize(problem);
         if report.objective_function.is_finite()
             && best
