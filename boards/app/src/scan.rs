@@ -35,6 +35,9 @@ pub struct ArrayEstimate {
     /// The probed element's force by every estimator, side by side (elastic, second-order
     /// inverse, scheduled inverse, observer), grams.
     pub probe_estimates_g: [f32; 4],
+    /// Taxels whose force this frame lies beyond the load their calibration covered (the
+    /// spring curves extrapolated): bit `TaxelId::index`.
+    pub extrapolated_taxels: u64,
 }
 
 /// What the scanner made of the calibration table at start-up.
@@ -74,6 +77,9 @@ pub struct Scanner {
     probe_estimates_g: [f32; 4],
     status: CalibrationStatus,
     bad_taxels: u64,
+    /// The load each taxel's calibration covered, grams (infinite without a calibration).
+    range_g: [f32; TAXELS],
+    extrapolated_taxels: u64,
 }
 
 impl Scanner {
@@ -110,6 +116,8 @@ impl Scanner {
                 refused: None,
             },
             bad_taxels: 0,
+            range_g: [f32::INFINITY; TAXELS],
+            extrapolated_taxels: 0,
         }
     }
 
@@ -159,6 +167,7 @@ impl Scanner {
         let (nominal_est, nominal_cond) = build(&nominal)?;
         self.estimators.fill(nominal_est);
         self.conditioners.fill(nominal_cond);
+        self.range_g.fill(f32::INFINITY);
         let mut probe_model = nominal;
         for m in view.iter().flat_map(|v| v.models()) {
             let i = m.taxel.index();
@@ -166,6 +175,9 @@ impl Scanner {
                 (self.estimators.get_mut(i), self.conditioners.get_mut(i))
             {
                 (*est, *cond) = build(&m)?;
+            }
+            if let Some(range) = self.range_g.get_mut(i).filter(|_| m.range_g > 0.0) {
+                *range = m.range_g as f32;
             }
             if m.taxel == config.probe {
                 probe_model = m;
@@ -182,6 +194,7 @@ impl Scanner {
         self.probe_estimates_g = [0.0; 4];
         self.status = status;
         self.bad_taxels = 0;
+        self.extrapolated_taxels = 0;
         Ok(())
     }
 
@@ -232,6 +245,11 @@ impl Scanner {
             .get_mut(taxel.index())
             .map_or(0.0, |e| e.force_g(conditioned));
         self.force_g.set(taxel, force);
+        if self.range_g.get(taxel.index()).is_some_and(|r| force > *r) {
+            self.extrapolated_taxels |= bit;
+        } else {
+            self.extrapolated_taxels &= !bit;
+        }
         if taxel == self.probe {
             if let Some(bench) = &mut self.probe_bench {
                 self.probe_estimates_g = bench.update(strain);
@@ -281,6 +299,7 @@ impl Scanner {
                 centroid_col,
                 probe_force_g: self.force_g.get(self.probe).unwrap_or(0.0),
                 probe_estimates_g: self.probe_estimates_g,
+                extrapolated_taxels: self.extrapolated_taxels,
             },
         }
     }
@@ -402,5 +421,59 @@ mod tests {
             "{status:?}"
         );
         assert_eq!(status.calibrated_taxels, 0);
+    }
+
+    #[test]
+    fn a_force_beyond_the_calibrated_range_is_flagged_extrapolated() {
+        use tactile_core::calibration::{CalibrationTable, MAX_TABLE_BYTES};
+        // Taxel 0 calibrated to 20 g and flagged poor; the rest nominal (never extrapolated).
+        let taxel = TaxelId::from_index(0);
+        let mut table = CalibrationTable::default();
+        let model = TaxelModel {
+            range_g: 20.0,
+            flags: CalibrationFlags::POOR,
+            estimator: tactile_core::estimator::EstimatorKind::Elastic,
+            ..TaxelModel::nominal(taxel)
+        };
+        table.taxels.push(model.clone()).unwrap();
+        let mut bytes = vec![0u8; MAX_TABLE_BYTES];
+        let n = table.encode(&mut bytes).unwrap();
+        bytes.truncate(n);
+        let config = FirmwareConfig {
+            calibration: Box::leak(bytes.into_boxed_slice()),
+            ..FirmwareConfig::BOARD
+        };
+        let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
+        let rest = calibration(rest_v);
+        let mut scanner = Scanner::new(&config, rest).unwrap();
+        assert_eq!(scanner.calibration_status().flagged_taxels, 1);
+        // Every taxel at the same strain: taxel 0 runs the elastic model (G = 3.23 g/%), so a
+        // strain of 3 % reads 9.7 g (inside 20 g) and 9 % reads 29 g (beyond).
+        let frame_with = |scanner: &mut Scanner, strain_pct: f32| {
+            // The output volts of that strain (the read-out is monotone: bisection).
+            let (mut lo, mut hi) = (rest_v, 10.0f32);
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if rest[0].strain_pct(mid, StrainForm::Exact) < strain_pct {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let mut panel = Panel {
+                volts: [lo; TAXELS],
+                selected: TaxelId::default(),
+                adc: config.taxel_adc,
+            };
+            scanner.start(&mut panel);
+            (0..TAXELS)
+                .find_map(|k| scanner.step(&mut panel, k as u32))
+                .map(|r| r.estimate)
+                .unwrap()
+        };
+        let inside = frame_with(&mut scanner, 3.0);
+        assert_eq!(inside.extrapolated_taxels, 0, "{inside:?}");
+        let beyond = frame_with(&mut scanner, 9.0);
+        assert_eq!(beyond.extrapolated_taxels, 1, "{beyond:?}");
     }
 }

@@ -344,6 +344,7 @@ fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
                 format!("probe_estimates_g: {} values, expected 4", v.len())
             })?
         },
+        extrapolated_taxels: f.num("extrapolated_taxels")?,
     })
 }
 
