@@ -411,13 +411,19 @@ impl StructuralInverse {
     /// reports 0.
     #[inline]
     pub fn force_g(&mut self, strain_pct: f32) -> f32 {
+        self.force_g_f64(f64::from(strain_pct)) as f32
+    }
+
+    /// [`Self::force_g`] in `f64` throughout (host-side fits run the element backwards).
+    #[inline]
+    pub fn force_g_f64(&mut self, strain_pct: f64) -> f64 {
         if !strain_pct.is_finite() {
             return 0.0;
         }
-        let spring_pct = f64::from(strain_pct) - self.model.rest_strain_pct(&self.state);
+        let spring_pct = strain_pct - self.model.rest_strain_pct(&self.state);
         let stress_g = self.model.g1.stress_g(spring_pct);
         self.model.step(&mut self.state, stress_g, self.dt_s);
-        stress_g as f32
+        stress_g
     }
 }
 

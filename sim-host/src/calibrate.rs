@@ -27,7 +27,7 @@ use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G, CALIBRATION_REST_S};
 use tactile_core::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use tactile_core::tactile::{ScanConfig, TaxelId};
-use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState};
+use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState, StructuralInverse};
 
 use crate::finger::Effects;
 use crate::fit::{fit, Base, ModelSpec, Series};
@@ -76,14 +76,14 @@ fn frame_s() -> f64 {
 
 /// The record as the chip sees one taxel: every `step`-th sample, `step` the whole number of
 /// samples nearest the scan frame.
-pub struct Frames {
-    pub dt_s: f64,
-    pub force: Vec<f64>,
-    pub strain: Vec<f64>,
+struct Frames {
+    dt_s: f64,
+    force: Vec<f64>,
+    strain: Vec<f64>,
 }
 
 impl Frames {
-    pub fn new(dt_s: f64, force_g: &[f64], strain_pct: &[f64]) -> Frames {
+    fn new(dt_s: f64, force_g: &[f64], strain_pct: &[f64]) -> Frames {
         let step = (frame_s() / dt_s).round().max(1.0) as usize;
         Frames {
             dt_s: dt_s * step as f64,
@@ -183,6 +183,12 @@ pub fn fit_taxel(
         )
         .ok_or_else(|| failed("second-order"))
     };
+    // The nominal models do not depend on the fold: their estimates are run once.
+    let nominal = TaxelModel {
+        strain_offset_pct: offset,
+        ..TaxelModel::nominal(taxel)
+    };
+    let nominal_est = run_estimators(&nominal, &raw)?;
     let mut sums = [[0.0f64; 4]; 2];
     let mut scored = 0usize;
     for fold in 0..FOLDS {
@@ -192,13 +198,8 @@ pub fn fit_taxel(
             .collect();
         let fold_fit = fit_element(&frames, &in_fit, &knots, Some(&whole.theta))
             .ok_or_else(|| failed("element"))?;
-        let calibrated = model_from(&fold_fit, &in_fit)?;
-        let nominal = TaxelModel {
-            strain_offset_pct: offset,
-            ..TaxelModel::nominal(taxel)
-        };
-        for (sum, model) in sums.iter_mut().zip([&calibrated, &nominal]) {
-            let est = run_estimators(model, &raw)?;
+        let calibrated_est = run_estimators(&model_from(&fold_fit, &in_fit)?, &raw)?;
+        for (sum, est) in sums.iter_mut().zip([&calibrated_est, &nominal_est]) {
             for (i, e) in est.iter().enumerate() {
                 if placed[i].is_some_and(|(_, b)| b == fold) {
                     for (s, v) in sum.iter_mut().zip(e) {
@@ -210,28 +211,20 @@ pub fn fit_taxel(
         scored += in_fit.iter().filter(|b| !**b).count();
     }
     let [held_out, nominal_held_out] = sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt()));
-    let best = |e: &[f64; 4]| {
-        (0..4)
-            .min_by(|a, b| e[*a].total_cmp(&e[*b]))
-            .map_or(EstimatorKind::Elastic, |k| EstimatorKind::ALL[k])
-    };
-    let kind_index =
-        |k: EstimatorKind| EstimatorKind::ALL.iter().position(|x| *x == k).unwrap_or(0);
+    // The estimator that held out best, by its index in `EstimatorKind::ALL`.
+    let best = |e: &[f64; 4]| (0..4).min_by(|a, b| e[*a].total_cmp(&e[*b])).unwrap_or(0);
     let mut model = model_from(&whole, &everything)?;
     let mut flags = CalibrationFlags::empty();
     let (calibrated_best, nominal_best) = (best(&held_out), best(&nominal_held_out));
-    let mut chosen = held_out[kind_index(calibrated_best)];
+    let mut chosen = held_out[calibrated_best];
     // The taxel's own calibration unless the nominal models hold out clearly better.
-    if nominal_held_out[kind_index(nominal_best)] < NOMINAL_MARGIN * chosen {
-        model = TaxelModel {
-            strain_offset_pct: offset,
-            ..TaxelModel::nominal(taxel)
-        };
-        model.estimator = nominal_best;
-        chosen = nominal_held_out[kind_index(nominal_best)];
+    if nominal_held_out[nominal_best] < NOMINAL_MARGIN * chosen {
+        model = nominal;
+        model.estimator = EstimatorKind::ALL[nominal_best];
+        chosen = nominal_held_out[nominal_best];
         flags |= CalibrationFlags::NOMINAL;
     } else {
-        model.estimator = calibrated_best;
+        model.estimator = EstimatorKind::ALL[calibrated_best];
     }
     if chosen > POOR_FIT_G {
         flags |= CalibrationFlags::POOR;
@@ -271,7 +264,7 @@ fn run_estimators(model: &TaxelModel, raw: &Frames) -> Result<Vec<[f32; 4]>, Str
 
 /// Knot stresses over `range_g`: [`SpringCurve::DEFAULT_STRESS_G`]'s spacing (dense at light
 /// loads) stretched to end at the calibrated range.
-pub fn knots_for(range_g: f64) -> [f32; CURVE_KNOTS] {
+fn knots_for(range_g: f64) -> [f32; CURVE_KNOTS] {
     let top = f64::from(SpringCurve::DEFAULT_STRESS_G[CURVE_KNOTS - 1]);
     SpringCurve::DEFAULT_STRESS_G.map(|s| (f64::from(s) * range_g / top) as f32)
 }
@@ -339,13 +332,13 @@ const MEMO_LEVEL: usize = 1;
 
 /// An element fitted to a record.
 #[derive(Clone, Debug)]
-pub struct ElementFit {
-    pub element: NonlinearMk,
+struct ElementFit {
+    element: NonlinearMk,
     /// The internal parameters (see [`element_of`]).
-    pub theta: Vec<f64>,
+    theta: Vec<f64>,
     /// RMS and mean of (measured − predicted) strain over the fitted samples, percent.
-    pub rms_pct: f64,
-    pub mean_miss_pct: f64,
+    rms_pct: f64,
+    mean_miss_pct: f64,
 }
 
 /// Internal parameters of a spring: the log mean compliance (%/g) of each segment between its
@@ -355,7 +348,7 @@ const SPRING_THETA: usize = CURVE_KNOTS;
 /// The element of internal parameters `theta` (G₁'s and G₂'s [`SPRING_THETA`] log
 /// compliances, then ln N₁, ln α, ln N₂) with springs tabulated at `knots`; `None` if a curve
 /// cannot be built.
-pub fn element_of(theta: &[f64], knots: &[f32; CURVE_KNOTS]) -> Option<NonlinearMk> {
+fn element_of(theta: &[f64], knots: &[f32; CURVE_KNOTS]) -> Option<NonlinearMk> {
     let curve = |logs: &[f64]| {
         let mut strain = [0.0f32; CURVE_KNOTS];
         let (mut e, mut s0) = (0.0f64, 0.0f64);
@@ -379,20 +372,13 @@ pub fn element_of(theta: &[f64], knots: &[f32; CURVE_KNOTS]) -> Option<Nonlinear
 
 /// The force the element reads from `strain_pct` sample by sample (the core's structural
 /// inverse: the strain beyond the dashpots' is the instantaneous spring's).
-pub fn inverse_force(element: &NonlinearMk, strain_pct: &[f64], dt_s: f64) -> Vec<f64> {
-    let mut state = NonlinearMkState::default();
-    strain_pct
-        .iter()
-        .map(|&e| {
-            let s = element.g1.stress_g(e - element.rest_strain_pct(&state));
-            element.step(&mut state, s, dt_s);
-            s
-        })
-        .collect()
+fn inverse_force(element: &NonlinearMk, strain_pct: &[f64], dt_s: f64) -> Vec<f64> {
+    let mut inverse = StructuralInverse::new(*element, dt_s);
+    strain_pct.iter().map(|&e| inverse.force_g_f64(e)).collect()
 }
 
 /// The element's strain under the record's force (the stress held over each sample).
-pub fn simulate(element: &NonlinearMk, force: &[f64], dt_s: f64) -> Vec<f64> {
+fn simulate(element: &NonlinearMk, force: &[f64], dt_s: f64) -> Vec<f64> {
     let mut state = NonlinearMkState::default();
     force
         .iter()
@@ -477,7 +463,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for ElementProblem<'_> {
 
 /// Fits eq. 14 with tabulated springs to the samples `in_fit` of `frames` (strain offset
 /// already removed), from `start` or from element 4,2 scaled to the record's compliance.
-pub fn fit_element(
+fn fit_element(
     frames: &Frames,
     in_fit: &[bool],
     knots: &[f32; CURVE_KNOTS],

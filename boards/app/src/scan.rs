@@ -129,18 +129,13 @@ impl Scanner {
         calibration: [TaxelCalibration; TAXELS],
     ) -> Result<(), ConfigError> {
         let frame_s = f64::from(config.scan.frame_period_s());
-        let (view, status) = match TableView::check(config.calibration) {
+        let (view, mut status) = match TableView::check(config.calibration) {
             Ok(v) => (
                 Some(v),
                 CalibrationStatus {
                     calibrated_taxels: v.len() as u8,
-                    flagged_taxels: v
-                        .models()
-                        .filter(|m| {
-                            m.flags
-                                .intersects(CalibrationFlags::POOR | CalibrationFlags::OFFSET)
-                        })
-                        .fold(0, |bits, m| bits | 1 << m.taxel.index()),
+                    // Filled in below, as each record is read.
+                    flagged_taxels: 0,
                     refused: None,
                 },
             ),
@@ -178,6 +173,11 @@ impl Scanner {
             }
             if let Some(range) = self.range_g.get_mut(i).filter(|_| m.range_g > 0.0) {
                 *range = m.range_g as f32;
+            }
+            if m.flags
+                .intersects(CalibrationFlags::POOR | CalibrationFlags::OFFSET)
+            {
+                status.flagged_taxels |= 1 << i;
             }
             if m.taxel == config.probe {
                 probe_model = m;
