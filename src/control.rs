@@ -45,7 +45,7 @@ impl ForceLawConfig {
         kp: 2.0,
         kd_s: 0.03,
         ke: 1.0,
-        dt_s: 0.001,
+        dt_s: crate::CONTROL_PERIOD_S as f32,
         schedule: GainSchedule::Proportional { reference_g: 100.0 },
         adjusted_min_g: -192.0,
         adjusted_max_g: 192.0,

@@ -142,7 +142,7 @@ impl LowpassNotchConfig {
         omega_o_rad_s: 168.0,
         q: 2.8,
         omega_n_rad_s: 2.0 * core::f64::consts::PI * 190.0,
-        sample_period_s: 0.001,
+        sample_period_s: crate::CONTROL_PERIOD_S,
     };
 
     /// The analog response H(jω), as (re, im).

@@ -14,6 +14,8 @@
 //! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
 //! - [`supervisor`]: the force loop (command check, slew, A1, filter, DAC) and its fault table.
 //! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
+//! - [`io`]: what a board puts behind the task bodies (converter codes in, DAC codes out).
+//! - [`tasks`]: the firmware's control and scan tasks, run by every board and the simulator.
 //!
 //! Units: force in grams-force (`_g`), strain in percent deflection (`_pct`), time in seconds
 //! (`_s`), voltages in volts (`_v`), raw converter codes as [`gauge::AdcCode`].
@@ -34,12 +36,19 @@ pub mod control;
 pub mod estimator;
 pub mod filter;
 pub mod gauge;
+pub mod io;
 pub mod profile;
 pub mod spring;
 pub mod supervisor;
 pub mod tactile;
+pub mod tasks;
 pub mod telemetry;
 pub mod viscoelastic;
+
+/// Control period, s (memo: Δt = 1 ms): the force loop's tick, the filter's and the law's
+/// sample period, the simulator's step of record. `f64`, so command times computed from a tick
+/// count agree to the bit wherever they are computed.
+pub const CONTROL_PERIOD_S: f64 = 1e-3;
 
 /// `x` limited to `[lo, hi]` without a panic path: `f32::clamp` asserts `lo <= hi` and its panic
 /// message pulls about 15 KB of float formatting into the firmware. NaN passes through as NaN

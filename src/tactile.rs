@@ -9,6 +9,9 @@
 pub const ROWS: usize = 8;
 pub const COLS: usize = 8;
 pub const TAXELS: usize = ROWS * COLS;
+/// The taxel under the force probe: element 4,2 of the memo (row 4, column 2 counted from one),
+/// read on its own channel every control tick.
+pub const PROBED_TAXEL: TaxelId = TaxelId::from_index(3 * COLS + 2);
 
 /// Permittivity of free space, F/m.
 pub const EPSILON_0_F_PER_M: f64 = 8.854_187_812_8e-12;

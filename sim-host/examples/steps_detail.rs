@@ -13,7 +13,7 @@ fn main() {
             ..Default::default()
         };
         if let Some(ke) = std::env::var("KE").ok().and_then(|v| v.parse().ok()) {
-            config.law.ke = ke;
+            config.firmware.law.ke = ke;
         }
         let run = run_named("force-steps", &ScenarioOptions::default(), config, |_| {})
             .expect("rig builds");

@@ -195,7 +195,7 @@ mod tests {
     #[test]
     fn the_memo_gains_are_unstable_on_this_plant_and_the_sim_gain_is_not() {
         let c = RigConfig::default();
-        let filter = c.filter.discretize().unwrap();
+        let filter = c.firmware.filter.discretize().unwrap();
         let spring = NonlinearMk::ELEMENT_4_2.g1;
         let memo = ForceLawConfig::MEMO;
         // Memo gains at 100 g: one net encirclement of −1.
@@ -203,13 +203,17 @@ mod tests {
         assert_eq!(n, 1);
         // The simulator's K_e: stable from 2 g to 120 g with gain margin above 1.3.
         for load in [2.0, 5.0, 10.0, 30.0, 50.0, 80.0, 120.0] {
-            let (n, worst) = loop_encirclements(&c.law, &filter, &c.applicator, &spring, load);
+            let (n, worst) =
+                loop_encirclements(&c.firmware.law, &filter, &c.applicator, &spring, load);
             assert_eq!(n, 0, "{load} g");
             assert!(worst < 1.0 / 1.3, "{load} g: |L| = {worst} at −180°");
         }
         for load in [2.0, 5.0, 10.0, 20.0, 50.0, 100.0] {
             let (_, worst) = loop_encirclements(
-                &ForceLawConfig { ke: 1.0, ..c.law },
+                &ForceLawConfig {
+                    ke: 1.0,
+                    ..c.firmware.law
+                },
                 &filter,
                 &c.applicator,
                 &spring,
@@ -223,7 +227,7 @@ mod tests {
         // Fixed gains at their 100 g value are unstable below about 20 g: the schedule's job.
         let fixed = ForceLawConfig {
             schedule: GainSchedule::Fixed { command_g: 100.0 },
-            ..c.law
+            ..c.firmware.law
         };
         for load in [2.0, 5.0, 10.0] {
             assert_eq!(

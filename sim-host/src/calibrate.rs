@@ -582,13 +582,13 @@ pub fn simulate_calibration(
     seed: u64,
     effects: Effects,
 ) -> Result<Vec<TickRecord>, ScenarioError> {
-    let config = RigConfig {
+    let mut config = RigConfig {
         seed,
-        probe: taxel,
         scan_array: false,
         effects,
         ..RigConfig::default()
     };
+    config.firmware.probe = taxel;
     Ok(run_protocol("calibration", Protocol::CALIBRATION, config, false, |_| {})?.ticks)
 }
 

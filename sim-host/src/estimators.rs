@@ -92,13 +92,13 @@ fn run_on(
     p: Protocol,
     name: &str,
 ) -> Result<Vec<TickRecord>, ScenarioError> {
-    let config = RigConfig {
+    let mut config = RigConfig {
         seed,
-        probe: taxel,
         scan_array: false,
         effects,
         ..RigConfig::default()
     };
+    config.firmware.probe = taxel;
     Ok(run_protocol(name, p, config, false, |_| {})?.ticks)
 }
 

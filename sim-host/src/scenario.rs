@@ -134,8 +134,8 @@ pub fn run_protocol(
     if fixed_gains {
         // The memo's failing loop: fixed gains and no contact supervision (the supervisor's
         // bounded re-approach would otherwise hide the failure this demonstrates).
-        config.law.schedule = GainSchedule::Fixed { command_g: 100.0 };
-        config.supervisor.contact_ticks = u16::MAX;
+        config.firmware.law.schedule = GainSchedule::Fixed { command_g: 100.0 };
+        config.firmware.supervisor.contact_ticks = u16::MAX;
     }
     config.command_slew_g_per_s = protocol.slew_limit_g_per_s();
     let mut rig = Rig::new(config).map_err(ScenarioError::Rig)?;

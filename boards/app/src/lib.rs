@@ -1,19 +1,15 @@
-//! The firmware's task bodies, written once for every board (issue 5).
+//! What every board's firmware shares around the core's task bodies.
 //!
-//! The RTIC applications under `boards/` are thin: they own the peripherals, run these bodies
-//! from their tasks and move frames to defmt. Everything here is `no_std`, allocation-free and
-//! panic-free, and reuses the core library for the law, filter, gauge path, scan, models,
-//! profiles and frames:
+//! The RTIC applications under `boards/` are thin: they own the peripherals, run the core's
+//! task bodies ([`tactile_core::tasks`]: control, scan) from their tasks and move frames to
+//! defmt. Everything here is `no_std`, allocation-free and panic-free:
 //!
-//! - [`board`]: the hardware layer a board implements ([`ControlIo`], [`ScanIo`]).
-//! - [`config`]: what a build runs with ([`FirmwareConfig`]).
-//! - [`control`]: the 1 kHz control tick (gauge → slew → A1 → filter → DAC) with the probed
-//!   element's estimator and the command source.
-//! - [`scan`]: the 8×8 scan, strain per taxel, the per-taxel inverse model, total force and
-//!   centroid.
+//! - [`table`]: the calibration table a build carries and a real board's configuration
+//!   ([`BOARD`]).
 //! - [`safety`]: watchdog check-ins, the reset cause, the crash handlers' report.
 //! - [`telemetry`]: bounded outboxes that number frames and count drops, never blocking.
-//! - `sim` (feature `sim`): the simulated board of `tactile-plant` behind the same traits.
+//! - `sim` (feature `sim`): the sessions the QEMU build runs on the simulated board of
+//!   `tactile-plant`.
 #![cfg_attr(not(test), no_std)]
 #![cfg_attr(
     not(test),
@@ -25,11 +21,8 @@
     )
 )]
 
-pub mod board;
-pub mod config;
-pub mod control;
 pub mod safety;
-pub mod scan;
+pub mod table;
 pub mod telemetry;
 
 #[cfg(any(test, feature = "sim"))]
@@ -39,9 +32,11 @@ pub use sim::{
     session_from_cmdline, DeliberateCrash, FilRun, Session, CALIBRATION_SESSION, FIL_SESSION,
 };
 
-pub use board::{ControlIo, ScanIo};
-pub use config::{ConfigError, FirmwareConfig, CONTROL_PERIOD_S};
-pub use control::Controller;
 pub use safety::{CheckIns, ResetCause, SafeStop};
-pub use scan::{ArrayEstimate, CalibrationStatus, ScanReport, Scanner};
+pub use table::{BOARD, CALIBRATION_TABLE};
+pub use tactile_core::io::{ControlIo, ScanIo};
+pub use tactile_core::tasks::{
+    ArrayEstimate, CalibrationStatus, ConfigError, Controller, FirmwareConfig, ScanReport, Scanner,
+};
+pub use tactile_core::CONTROL_PERIOD_S;
 pub use telemetry::{Message, Numbered, Outbox, RunEnd, RunStart};

@@ -2,37 +2,16 @@
 //! firmware-in-the-loop build (QEMU) and the host check that the task bodies reproduce the
 //! simulator's rig.
 
-use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::TaxelId;
+use tactile_core::tasks::FirmwareConfig;
 use tactile_core::viscoelastic::NonlinearMk;
 use tactile_plant::finger::{
     Effects, CALIBRATION_FINGER_SEED, CALIBRATION_TAXELS, LINEAR_SATURATING_ELEMENT,
 };
-use tactile_plant::hardware::SimHardware;
 use tactile_plant::rig::{FaultInjection, InjectedFault, RigConfig};
 
-use crate::board::{ControlIo, ScanIo};
-use crate::config::FirmwareConfig;
-
-impl FirmwareConfig {
-    /// The configuration of a simulator rig (`RigConfig::default()` for the simulator's own
-    /// runs), so firmware and simulator traces agree.
-    pub fn from_rig(rig: &RigConfig) -> Self {
-        FirmwareConfig {
-            law: rig.law,
-            filter: rig.filter,
-            gauge: rig.gauge,
-            actuator: rig.actuator,
-            taxel_adc: rig.readout.adc,
-            scan: rig.readout.scan,
-            probe: rig.probe,
-            estimator: rig.estimator,
-            supervisor: rig.supervisor,
-            ..FirmwareConfig::BOARD
-        }
-    }
-}
+use crate::table::CALIBRATION_TABLE;
 
 /// One run of the firmware-in-the-loop session: a protocol on a fresh simulated board, with
 /// the fault that board injects. The QEMU firmware runs [`FIL_SESSION`] in order; the QEMU
@@ -51,11 +30,16 @@ pub struct FilRun {
 }
 
 impl FilRun {
-    /// The rig this run's board is built from (the simulator's own rig, plus the fault and
-    /// the probe's place).
+    /// The rig this run's board is built from (the simulator's own rig with the table this
+    /// build carries, plus the fault and the probe's place).
     pub fn rig(&self) -> RigConfig {
         let defaults = RigConfig::default();
+        let firmware = FirmwareConfig {
+            calibration: &CALIBRATION_TABLE,
+            ..defaults.firmware
+        };
         let base = RigConfig {
+            firmware,
             fault: self.fault,
             effects: Effects {
                 element: self.element,
@@ -65,7 +49,7 @@ impl FilRun {
         };
         match self.finger {
             Some((probe, seed)) => RigConfig {
-                probe,
+                firmware: FirmwareConfig { probe, ..firmware },
                 seed,
                 ..base
             },
@@ -232,34 +216,13 @@ impl DeliberateCrash {
     }
 }
 
-impl ControlIo for SimHardware {
-    fn read_gauge(&mut self) -> [AdcCode; SAMPLES_PER_TICK] {
-        self.gauge_codes()
-    }
-    fn read_probe_channel(&mut self) -> AdcCode {
-        self.probe_code()
-    }
-    fn write_actuator(&mut self, code: AdcCode) {
-        self.write_dac(code);
-    }
-}
-
-impl ScanIo for SimHardware {
-    fn select_taxel(&mut self, taxel: TaxelId) {
-        SimHardware::select_taxel(self, taxel);
-    }
-    fn read_taxel(&mut self) -> AdcCode {
-        self.sample_selected_taxel()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::control::Controller;
-    use crate::scan::Scanner;
+    use crate::{Controller, Scanner};
     use tactile_core::telemetry::FaultFlags;
     use tactile_core::telemetry::TaxelFrame;
+    use tactile_plant::hardware::SimHardware;
     use tactile_plant::rig::Rig;
 
     /// The task bodies on the simulated board, in the order the QEMU build runs them (control,
@@ -273,7 +236,7 @@ mod tests {
             fault,
             ..RigConfig::default()
         };
-        let fw = FirmwareConfig::from_rig(&config);
+        let fw = config.firmware;
         let mut rig = Rig::new(config.clone()).unwrap();
         let mut hw = SimHardware::new(&config);
         let calibration = *hw.calibration();
@@ -382,11 +345,14 @@ mod tests {
         assert_eq!(Session::Calibration.runs(), &CALIBRATION_SESSION[..]);
         // Each calibration run puts the probe over its own taxel of the calibration finger;
         // the last over the first again, on a finger with other spring laws.
-        let probes: Vec<_> = CALIBRATION_SESSION.iter().map(|r| r.rig().probe).collect();
+        let probes: Vec<_> = CALIBRATION_SESSION
+            .iter()
+            .map(|r| r.rig().firmware.probe)
+            .collect();
         assert_eq!(probes[..4], CALIBRATION_TAXELS);
         assert_eq!(probes[4], CALIBRATION_TAXELS[0]);
         for r in &CALIBRATION_SESSION {
-            let (row, col) = (r.rig().probe.row(), r.rig().probe.col());
+            let (row, col) = (r.rig().firmware.probe.row(), r.rig().firmware.probe.col());
             let other = r.element.map_or("", |_| "-linear-saturating");
             assert_eq!(r.name, format!("calibrate-{row}-{col}{other}"));
             assert_eq!(r.rig().seed, CALIBRATION_FINGER_SEED);

@@ -194,7 +194,7 @@ mod tests {
     /// received sequence has no gap.
     #[test]
     fn a_full_telemetry_queue_never_blocks_or_changes_control() {
-        use crate::{Controller, FirmwareConfig};
+        use crate::Controller;
         use tactile_core::profile::Protocol;
         use tactile_plant::hardware::SimHardware;
         use tactile_plant::rig::RigConfig;
@@ -206,7 +206,7 @@ mod tests {
             command_slew_g_per_s: protocol.slew_limit_g_per_s(),
             ..RigConfig::default()
         };
-        let fw = FirmwareConfig::from_rig(&rig);
+        let fw = rig.firmware;
         // Control outputs with a queue drained every tick (`slow` false) or every 10th.
         let run = |slow: bool| {
             let mut hw = SimHardware::new(&rig);

@@ -507,7 +507,7 @@ fn calibration_on_the_firmware_end_to_end() {
             "{}",
             run.name
         );
-        let taxel = spec.rig().probe;
+        let taxel = spec.rig().firmware.probe;
         let records = run.tick_records();
         assert!(
             records.len() >= 76_000,

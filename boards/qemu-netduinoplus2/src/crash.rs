@@ -15,7 +15,10 @@ static SAFE_CODE: AtomicU16 = AtomicU16::new(0);
 
 /// Gives the crash handlers the board's DAC (call once the board sits in its static).
 pub fn arm(hw: &'static mut SimHardware) -> &'static mut SimHardware {
-    SAFE_CODE.store(hw.config().actuator.zero_code().0, Ordering::Relaxed);
+    SAFE_CODE.store(
+        hw.config().firmware.actuator.zero_code().0,
+        Ordering::Relaxed,
+    );
     SIM_DAC.store(hw.dac_register(), Ordering::Release);
     hw
 }

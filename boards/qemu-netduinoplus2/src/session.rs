@@ -6,7 +6,7 @@ use core::sync::atomic::{AtomicBool, Ordering};
 
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{TaxelCalibration, TAXELS};
-use tactile_firmware::{Controller, FirmwareConfig, Scanner};
+use tactile_firmware::{Controller, Scanner};
 use tactile_plant::hardware::SimHardware;
 use tactile_plant::rig::RigConfig;
 
@@ -55,14 +55,14 @@ pub fn task_state(
     hw: &SimHardware,
     slot: &'static mut MaybeUninit<Scanner>,
 ) -> (Controller, &'static mut Scanner) {
-    let fw = FirmwareConfig::from_rig(&rig(run));
+    let fw = rig(run).firmware;
     let protocol = runs()
         .get(run)
         .map_or(Protocol::FORCE_STEPS_MEMO, |r| r.protocol);
     let calibration = *hw.calibration();
     let probe = calibration.get(fw.probe.index()).copied();
     let controller = probe.and_then(|cal| Controller::new(&fw, protocol, cal).ok());
-    let scan_config = FirmwareConfig::from_rig(&rig(0));
+    let scan_config = rig(0).firmware;
     let scanner = slot.write(Scanner::blank(&scan_config, calibration));
     match (controller, reset_scanner(scanner, calibration)) {
         (Some(controller), true) => (controller, scanner),
@@ -75,7 +75,7 @@ pub fn task_state(
 #[inline(never)]
 pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
     let config = rig(run);
-    let fw = FirmwareConfig::from_rig(&config);
+    let fw = config.firmware;
     let protocol = runs()
         .get(run)
         .map_or(Protocol::FORCE_STEPS_MEMO, |r| r.protocol);
@@ -92,9 +92,7 @@ pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
 /// it).
 #[inline(never)]
 pub fn reset_scanner(scanner: &mut Scanner, calibration: [TaxelCalibration; TAXELS]) -> bool {
-    scanner
-        .reset(&FirmwareConfig::from_rig(&rig(0)), calibration)
-        .is_ok()
+    scanner.reset(&rig(0).firmware, calibration).is_ok()
 }
 
 /// The constant configuration was refused: nothing sensible to run.

@@ -19,7 +19,7 @@ use stm32f4xx_hal::watchdog::IndependentWatchdog;
 use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{ReadoutAmplifier, TaxelCalibration, TaxelId, TAXELS};
-use tactile_firmware::{ControlIo, FirmwareConfig, ResetCause, SafeStop, ScanIo};
+use tactile_firmware::{ControlIo, ResetCause, SafeStop, ScanIo};
 
 /// Core clock, Hz (HSE 8 MHz crystal of the DISC1 through the PLL).
 pub const CORE_HZ: u32 = 168_000_000;
@@ -174,7 +174,7 @@ pub fn setup(dp: pac::Peripherals) -> Hardware {
 /// register, read back. No driver, no lock, nothing that can fail or wait; harmless before
 /// `setup` (a write to an unclocked peripheral is ignored, and the read-back then says 0).
 pub fn zero_actuator_register(cause: &'static str) -> SafeStop {
-    let safe_code = FirmwareConfig::BOARD.actuator.zero_code().0;
+    let safe_code = tactile_firmware::BOARD.actuator.zero_code().0;
     // SAFETY: DHR12R1 is channel 1's right-aligned 12-bit data register; with the trigger off
     // (as `setup` leaves it) the output follows one APB1 clock later. Nothing else runs after a
     // crash, so taking the register from its owner here races with no one.
@@ -194,7 +194,7 @@ pub fn zero_actuator_register(cause: &'static str) -> SafeStop {
 impl ControlBoard {
     /// Zero volts into the current amplifier (mid-scale code through the level shifter).
     pub fn zero_actuator(&mut self) {
-        let code = FirmwareConfig::BOARD.actuator.zero_code();
+        let code = tactile_firmware::BOARD.actuator.zero_code();
         self.dac.set_value(code.0);
     }
 }
@@ -258,7 +258,7 @@ impl ScanBoard {
         adc: &mut Converter,
         frames: u32,
     ) -> [TaxelCalibration; TAXELS] {
-        let config = FirmwareConfig::BOARD;
+        let config = tactile_firmware::BOARD;
         let dwell_cycles = (config.scan.dwell_s * CORE_HZ as f32) as u32;
         let mut sums = [0.0f32; TAXELS];
         for _ in 0..frames.max(1) {

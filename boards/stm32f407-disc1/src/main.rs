@@ -89,8 +89,7 @@ mod app {
     use stm32f4xx_hal::{pac, prelude::*, timer};
     use tactile_core::telemetry::TaxelFrame;
     use tactile_firmware::{
-        ArrayEstimate, CheckIns, Controller, FirmwareConfig, Message, Outbox, RunEnd, RunStart,
-        Scanner,
+        ArrayEstimate, CheckIns, Controller, Message, Outbox, RunEnd, RunStart, Scanner,
     };
 
     use crate::board::{self, ControlBoard, ScanBoard, WithAdc, CORE_HZ, PROTOCOL, PROTOCOL_NAME};
@@ -135,7 +134,7 @@ mod app {
         scanner_slot: MaybeUninit<Scanner> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        let config = FirmwareConfig::BOARD;
+        let config = tactile_firmware::BOARD;
         let board::Hardware {
             mut adc,
             mut control_board,

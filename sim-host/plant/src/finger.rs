@@ -87,8 +87,8 @@ fn scale_law(law: SpringLaw, s: f64) -> SpringLaw {
 }
 
 /// The taxel with element 4,2's parameters (the memo's element, row 4 column 2 counted from
-/// one): the simulator's default probe position.
-pub const NOMINAL_TAXEL: TaxelId = TaxelId::from_index(3 * COLS + 2);
+/// one): the probed taxel of the firmware's configuration.
+pub const NOMINAL_TAXEL: TaxelId = tactile_core::tactile::PROBED_TAXEL;
 
 /// The taxels the dynamic calibration visits, on the simulator and on the QEMU firmware: the
 /// nominal element and three others of the finger's spread.
@@ -181,12 +181,10 @@ pub fn crosstalk_weight(dr: i32, dc: i32) -> f64 {
 pub struct ReadoutParams {
     pub geometry: ElementGeometry,
     pub node: SenseNode,
-    pub adc: AdcScale,
     /// Where the trims put the at-rest amplifier output (headroom for the negative swing).
     pub rest_output_target_v: f32,
     /// Strain noise of the finger signal, percent RMS (memo: 0.022 g equivalent).
     pub noise_pct: f64,
-    pub scan: ScanConfig,
 }
 
 impl Default for ReadoutParams {
@@ -199,10 +197,8 @@ impl Default for ReadoutParams {
                 drive_amplitude_v: 10.0,
                 drive_frequency_hz: 200e3,
             },
-            adc: AdcScale::BIPOLAR_10V_12BIT,
             rest_output_target_v: 4.0,
             noise_pct: 0.022 / 3.6,
-            scan: ScanConfig::DESIGN,
         }
     }
 }
@@ -217,6 +213,8 @@ pub struct Finger {
     pub probe: TaxelId,
     pub effects: Effects,
     pub readout: ReadoutParams,
+    /// The taxel converter (the firmware's `taxel_adc`).
+    pub adc: AdcScale,
     noise: Noise,
     /// Taxels that carry part of the probe's load, with their share.
     loaded: heapless::Vec<(usize, f64), TAXELS>,
@@ -231,8 +229,16 @@ pub struct Finger {
 impl Finger {
     /// A finger with per-taxel variation drawn from `seed`; [`NOMINAL_TAXEL`] keeps the nominal
     /// element 4,2 parameters, so experiments with the probe there (the default) compare with
-    /// the memo's tables, and a probe moved elsewhere meets a taxel of its own.
-    pub fn new(seed: u64, probe: TaxelId, effects: Effects, readout: ReadoutParams) -> Self {
+    /// the memo's tables, and a probe moved elsewhere meets a taxel of its own. `adc` and
+    /// `scan` are the board's taxel converter and scan timing.
+    pub fn new(
+        seed: u64,
+        probe: TaxelId,
+        effects: Effects,
+        readout: ReadoutParams,
+        adc: AdcScale,
+        scan: ScanConfig,
+    ) -> Self {
         let mut rng = Noise::new(seed ^ 0x7461_7869);
         let mut vary = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
         let nominal = effects.element.unwrap_or(NonlinearMk::ELEMENT_4_2);
@@ -292,8 +298,9 @@ impl Finger {
             probe,
             effects,
             readout,
+            adc,
             loaded,
-            blend: f64::from(readout.scan.blend()),
+            blend: f64::from(scan.blend()),
             noise: Noise::new(seed ^ 0x6e6f_6973),
             plays_g: [0.0; 3],
             slow_kelvin_pct: 0.0,
@@ -422,7 +429,7 @@ impl Finger {
         let amp = &t.amplifier;
         let out =
             -amp.rpf_ohm * (amp.offset_supply_v / amp.rp1_ohm + detector_v as f32 / amp.r1_ohm);
-        self.readout.adc.code(out)
+        self.adc.code(out)
     }
 
     /// The element-under-probe channel: one converter code per control tick, with the probe
@@ -487,7 +494,7 @@ impl Finger {
             for _ in 0..frames.max(1) {
                 let noise = self.readout.noise_pct * self.noise.gaussian();
                 let target = self.detector_target_v(&self.taxels[i], noise);
-                sum += f64::from(self.readout.adc.volts(self.convert(i, target)));
+                sum += f64::from(self.adc.volts(self.convert(i, target)));
             }
             TaxelCalibration {
                 amplifier: self.taxels[i].amplifier,
@@ -516,6 +523,8 @@ mod tests {
             TaxelId::new(3, 2).unwrap_or_default(),
             effects,
             ReadoutParams::default(),
+            AdcScale::BIPOLAR_10V_12BIT,
+            ScanConfig::DESIGN,
         )
     }
 
@@ -533,7 +542,7 @@ mod tests {
         for stress in [0.0, 10.0, 50.0, 100.0] {
             let truth = f.probe_element().strain_pct(&f.probe_taxel().state, stress);
             let code = f.sample_probe_channel(stress, 0.0);
-            let got = code_to_strain_pct(&f.readout.adc, &cal[probe], code);
+            let got = code_to_strain_pct(&f.adc, &cal[probe], code);
             // One 12-bit code is 4.9 mV, about 0.012 % strain through the 8.5× stage; the
             // residual eq. 2 nonlinearity after the gain calibration is below 0.01 % at 20 %.
             assert!(
@@ -545,16 +554,19 @@ mod tests {
 
     #[test]
     fn a_short_dwell_reads_a_blend_of_the_previous_taxel() {
-        let mut quick = ReadoutParams {
+        let quick = ReadoutParams {
             noise_pct: 0.0,
             ..Default::default()
         };
-        quick.scan.dwell_s = quick.scan.envelope_tau_s; // one τ: 37 % of the previous taxel
+        let mut scan = ScanConfig::DESIGN;
+        scan.dwell_s = scan.envelope_tau_s; // one τ: 37 % of the previous taxel
         let mut f = Finger::new(
             3,
             TaxelId::new(3, 2).unwrap_or_default(),
             Effects::MEMO,
             quick,
+            AdcScale::BIPOLAR_10V_12BIT,
+            scan,
         );
         let cal = f.rest_calibration(1);
         let probe = f.probe;
@@ -562,7 +574,7 @@ mod tests {
         // Load the probe taxel hard, then read its unloaded-far neighbour after it.
         let _ = f.sample_scan(probe, TaxelId::from_index(probe.index() - 1), 80.0, 0.0);
         let code = f.sample_scan(next, probe, 0.0, 0.0);
-        let blended = code_to_strain_pct(&f.readout.adc, &cal[next.index()], code);
+        let blended = code_to_strain_pct(&f.adc, &cal[next.index()], code);
         assert!(
             blended > 3.0,
             "a one-τ dwell should carry the 80 g taxel over: {blended}"
@@ -573,7 +585,7 @@ mod tests {
         let cal = g.rest_calibration(1);
         let _ = g.sample_scan(probe, TaxelId::from_index(probe.index() - 1), 80.0, 0.0);
         let code = g.sample_scan(next, probe, 0.0, 0.0);
-        let clean = code_to_strain_pct(&g.readout.adc, &cal[next.index()], code);
+        let clean = code_to_strain_pct(&g.adc, &cal[next.index()], code);
         assert!(clean.abs() < 0.02, "{clean}");
     }
 

@@ -12,12 +12,15 @@
 //! deadline) are announced by [`SimHardware::fault_starting`] for the harness to act on.
 
 use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
+use tactile_core::io::{ControlIo, ScanIo};
 use tactile_core::tactile::{TaxelCalibration, TaxelId, TAXELS};
 
 use crate::applicator::{self, ApplicatorState, Contact, Lumped};
+use crate::config::RigConfig;
+use crate::fault::{inject_gauge_fault, FaultInjection, InjectedFault};
 use crate::finger::Finger;
 use crate::noise::Noise;
-use crate::rig::{FaultInjection, InjectedFault, RigConfig, SUBSTEPS, TICK_S};
+use crate::rig::{SUBSTEPS, TICK_S};
 
 /// Converter samples the rig takes of the element under the probe when calibrating at rest.
 const CALIBRATION_FRAMES: usize = 16;
@@ -49,7 +52,15 @@ impl SimHardware {
     /// The board of `config`'s rig, probe lifted and at rest. Takes the technician's rest
     /// calibration at once, as [`crate::rig::Rig::new`] does (same noise draws).
     pub fn new(config: &RigConfig) -> Self {
-        let mut finger = Finger::new(config.seed, config.probe, config.effects, config.readout);
+        let fw = &config.firmware;
+        let mut finger = Finger::new(
+            config.seed,
+            fw.probe,
+            config.effects,
+            config.readout,
+            fw.taxel_adc,
+            fw.scan,
+        );
         let calibration = finger.rest_calibration(CALIBRATION_FRAMES);
         let plant = ApplicatorState {
             stuck: true,
@@ -57,9 +68,8 @@ impl SimHardware {
         };
         // Before the first period the converters read the unloaded gauge, noise-free (no
         // draw, so the noise stream stays the rig's).
-        let rest_code = config.gauge.adc.code(
-            config
-                .gauge
+        let rest_code = fw.gauge.adc.code(
+            fw.gauge
                 .volts(plant.gauge_force_g(&config.applicator) as f32),
         );
         Self {
@@ -68,7 +78,7 @@ impl SimHardware {
             finger,
             calibration,
             gauge_noise: Noise::new(config.seed ^ 0x6761_7567),
-            dac: config.actuator.zero_code(),
+            dac: fw.actuator.zero_code(),
             gauge_codes: [rest_code; SAMPLES_PER_TICK],
             probe_code: AdcCode(0),
             true_force_g: 0.0,
@@ -122,7 +132,7 @@ impl SimHardware {
     pub fn advance_period(&mut self) {
         let t_s = self.periods as f64 * TICK_S;
         let fault = self.config.fault.filter(|f| f.active_in(t_s));
-        let actuator = &self.config.actuator;
+        let actuator = &self.config.firmware.actuator;
         let drive_v = f64::from(actuator.dac.volts(self.dac));
         let p = self.config.applicator;
         let mut contact = Contact::new(
@@ -150,15 +160,16 @@ impl SimHardware {
                     + self.config.gauge_noise_g * self.gauge_noise.gaussian();
                 *slot = self
                     .config
+                    .firmware
                     .gauge
                     .adc
-                    .code(self.config.gauge.volts(force as f32));
+                    .code(self.config.firmware.gauge.volts(force as f32));
             }
         }
         if let Some(f) = fault {
             // The noise was drawn all the same: the streams stay the rig's.
             inject_gauge_fault(
-                &self.config,
+                &self.config.firmware.gauge,
                 f.fault,
                 f.starts_in(t_s),
                 &self.gauge_codes,
@@ -233,43 +244,24 @@ impl SimHardware {
     }
 }
 
-impl FaultInjection {
-    /// True in the control period that starts at `t_s` once the fault has begun (the rig's
-    /// test: `t_s ≥ at_s`).
-    pub fn active_in(&self, t_s: f64) -> bool {
-        t_s >= self.at_s
+impl ControlIo for SimHardware {
+    fn read_gauge(&mut self) -> [AdcCode; SAMPLES_PER_TICK] {
+        self.gauge_codes()
     }
-
-    /// True only in the first period the fault is active (one-tick faults: spike, NaN command,
-    /// missed deadline).
-    pub fn starts_in(&self, t_s: f64) -> bool {
-        t_s >= self.at_s && t_s - self.at_s < TICK_S
+    fn read_probe_channel(&mut self) -> AdcCode {
+        self.probe_code()
+    }
+    fn write_actuator(&mut self, code: AdcCode) {
+        self.write_dac(code);
     }
 }
 
-/// What a converter fault does to one period's gauge samples (`previous`: the last period's
-/// codes, which a stuck converter repeats). The rig's own rules: a disconnected gauge reads the
-/// lower rail, a saturated one the upper, a spike adds `g` grams to every sample of its one
-/// period.
-pub fn inject_gauge_fault(
-    config: &RigConfig,
-    fault: InjectedFault,
-    first_period: bool,
-    previous: &[AdcCode; SAMPLES_PER_TICK],
-    samples: &mut [AdcCode; SAMPLES_PER_TICK],
-) {
-    let gauge = &config.gauge;
-    match fault {
-        InjectedFault::GaugeDisconnected => *samples = [AdcCode(0); SAMPLES_PER_TICK],
-        InjectedFault::GaugeSaturated => *samples = [gauge.adc.code(f32::MAX); SAMPLES_PER_TICK],
-        InjectedFault::GaugeStuck => *samples = *previous,
-        InjectedFault::ForceSpike { g } if first_period => {
-            for s in samples.iter_mut() {
-                let v = gauge.adc.volts(*s) + g / gauge.grams_per_volt;
-                *s = gauge.adc.code(v);
-            }
-        }
-        _ => {}
+impl ScanIo for SimHardware {
+    fn select_taxel(&mut self, taxel: TaxelId) {
+        SimHardware::select_taxel(self, taxel);
+    }
+    fn read_taxel(&mut self) -> AdcCode {
+        self.sample_selected_taxel()
     }
 }
 
@@ -289,12 +281,16 @@ mod tests {
             "the zero code must leave the probe lifted"
         );
         // 30 g at the probe through the actuator path.
-        hw.write_dac(config.actuator.code(30.0));
+        hw.write_dac(config.firmware.actuator.code(30.0));
         for _ in 0..1500 {
             hw.advance_period();
         }
         assert!(hw.in_contact());
-        let gauge = config.gauge.average_force(&hw.gauge_codes()).unwrap();
+        let gauge = config
+            .firmware
+            .gauge
+            .average_force(&hw.gauge_codes())
+            .unwrap();
         assert!((gauge - 30.0).abs() < 3.0, "gauge {gauge} g");
         assert!(
             (hw.true_force_g() - 30.0).abs() < 3.0,

@@ -3,11 +3,15 @@
 //!
 //! - [`applicator`]: current amplifier, motor, beam, probe and the unilateral finger contact.
 //! - [`finger`]: the 8×8 array of Maxwell–Kelvin elements with their read-out chain and effects.
-//! - [`rig`]: the core's control and estimation code closed around the two.
+//! - [`hardware`]: the two seen through the board's converters, behind the core's I/O traits.
+//! - [`rig`]: the firmware's own control and scan tasks closed around the simulated board.
+//! - [`config`], [`fault`]: what a run is made of, and the faults the board can inject.
 //! - [`noise`]: seeded Gaussian noise.
 #![cfg_attr(not(test), no_std)]
 
 pub mod applicator;
+pub mod config;
+pub mod fault;
 pub mod finger;
 pub mod hardware;
 pub mod noise;

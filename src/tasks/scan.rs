@@ -5,16 +5,16 @@
 //! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
-use tactile_core::calibration::{CalibrationFlags, TableError, TableView, TaxelModel};
-use tactile_core::estimator::{StrainConditioner, TaxelEstimator, TaxelEstimators};
-use tactile_core::gauge::AdcScale;
-use tactile_core::tactile::{
+use crate::calibration::{CalibrationFlags, TableError, TableView, TaxelModel};
+use crate::estimator::{StrainConditioner, TaxelEstimator, TaxelEstimators};
+use crate::gauge::AdcScale;
+use crate::io::ScanIo;
+use crate::tactile::{
     ArrayFrame, ScanSequencer, StrainForm, TaxelCalibration, TaxelId, COLS, ROWS, TAXELS,
 };
-use tactile_core::telemetry::TaxelFrame;
+use crate::telemetry::TaxelFrame;
 
-use crate::board::ScanIo;
-use crate::config::{ConfigError, FirmwareConfig};
+use super::config::{ConfigError, FirmwareConfig};
 
 /// Array force below which the centroid is not defined (no contact), grams.
 pub const CONTACT_THRESHOLD_G: f32 = 0.5;
@@ -304,6 +304,12 @@ impl Scanner {
         }
     }
 
+    /// Taxels at a converter rail in their latest sample (open or shorted): bit
+    /// `TaxelId::index`.
+    pub fn bad_taxels(&self) -> u64 {
+        self.bad_taxels
+    }
+
     /// The latest strain of every taxel, percent.
     pub fn strain_pct(&self) -> &[[f32; COLS]; ROWS] {
         &self.strain_pct.cells
@@ -313,8 +319,14 @@ impl Scanner {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::CALIBRATION_TABLE;
-    use tactile_core::gauge::AdcCode;
+    use crate::gauge::AdcCode;
+
+    /// The table the firmware builds carry (`boards/calibration/table.bin`).
+    static CALIBRATION_TABLE: &[u8] = include_bytes!("../../boards/calibration/table.bin");
+    const BOARD: FirmwareConfig = FirmwareConfig {
+        calibration: CALIBRATION_TABLE,
+        ..FirmwareConfig::MEMO
+    };
 
     /// A fake multiplexer: per-taxel output volts, converted by the memo's converter.
     struct Panel {
@@ -334,7 +346,7 @@ mod tests {
 
     fn calibration(rest_v: f32) -> [TaxelCalibration; TAXELS] {
         [TaxelCalibration {
-            amplifier: tactile_core::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
+            amplifier: crate::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
             rest_output_v: rest_v,
             gain: 1.0,
         }; TAXELS]
@@ -345,7 +357,7 @@ mod tests {
         // Nominal models everywhere (no table), so every unpressed taxel reads zero force.
         let config = FirmwareConfig {
             calibration: &[],
-            ..FirmwareConfig::BOARD
+            ..BOARD
         };
         // The rest output as the converter reads it, so unpressed taxels read zero strain.
         let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
@@ -395,11 +407,11 @@ mod tests {
     #[test]
     fn the_build_carries_a_table_of_four_calibrated_taxels_and_a_damaged_one_is_refused() {
         let rest = [TaxelCalibration {
-            amplifier: tactile_core::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
+            amplifier: crate::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
             rest_output_v: 4.0,
             gain: 1.0,
         }; TAXELS];
-        let scanner = Scanner::new(&FirmwareConfig::BOARD, rest).unwrap();
+        let scanner = Scanner::new(&BOARD, rest).unwrap();
         assert_eq!(
             scanner.calibration_status(),
             CalibrationStatus {
@@ -413,7 +425,7 @@ mod tests {
         let leaked: &'static [u8] = Box::leak(damaged.into_boxed_slice());
         let config = FirmwareConfig {
             calibration: leaked,
-            ..FirmwareConfig::BOARD
+            ..BOARD
         };
         let status = Scanner::new(&config, rest).unwrap().calibration_status();
         assert!(
@@ -425,14 +437,14 @@ mod tests {
 
     #[test]
     fn a_force_beyond_the_calibrated_range_is_flagged_extrapolated() {
-        use tactile_core::calibration::{CalibrationTable, MAX_TABLE_BYTES};
+        use crate::calibration::{CalibrationTable, MAX_TABLE_BYTES};
         // Taxel 0 calibrated to 20 g and flagged poor; the rest nominal (never extrapolated).
         let taxel = TaxelId::from_index(0);
         let mut table = CalibrationTable::default();
         let model = TaxelModel {
             range_g: 20.0,
             flags: CalibrationFlags::POOR,
-            estimator: tactile_core::estimator::EstimatorKind::Elastic,
+            estimator: crate::estimator::EstimatorKind::Elastic,
             ..TaxelModel::nominal(taxel)
         };
         table.taxels.push(model.clone()).unwrap();
@@ -441,7 +453,7 @@ mod tests {
         bytes.truncate(n);
         let config = FirmwareConfig {
             calibration: Box::leak(bytes.into_boxed_slice()),
-            ..FirmwareConfig::BOARD
+            ..BOARD
         };
         let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
         let rest = calibration(rest_v);

@@ -1,11 +1,12 @@
-//! The thin hardware layer: what the task bodies need from a board, in converter codes.
+//! The hardware a board puts behind the task bodies ([`crate::tasks`]), in converter codes: a
+//! real board, QEMU's simulated one and the simulator's rig implement these two traits.
 //!
 //! Codes are right-aligned 12-bit values on the signal's own scale (the core's
-//! [`AdcScale`](tactile_core::gauge::AdcScale) maps them back to the memo's ±10 V); any level
+//! [`AdcScale`](crate::gauge::AdcScale) maps them back to the memo's ±10 V); any level
 //! shifting lives in the board's analog front end and its scale constants.
 
-use tactile_core::gauge::{AdcCode, SAMPLES_PER_TICK};
-use tactile_core::tactile::TaxelId;
+use crate::gauge::{AdcCode, SAMPLES_PER_TICK};
+use crate::tactile::TaxelId;
 
 /// The control task's peripherals: strain-gauge converter, actuator DAC and the probed
 /// element's own channel.
