@@ -170,40 +170,6 @@ pub fn compare_with(
     Ok(out)
 }
 
-/// The estimators as the QEMU firmware ran them (written by `tactile-decode` as
-/// `estimators.json` beside the records, read by `tactile estimators --qemu DIR`).
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-pub struct FirmwareFigures {
-    /// The protocol scored and how many scan frames of it.
-    pub protocol: String,
-    pub frames: usize,
-    /// RMS of estimate − true contact force on the probed taxel (g), in
-    /// `EstimatorKind::ALL`'s order.
-    pub rms_g: [f64; 4],
-    /// Instructions per taxel update, (min, max), same order.
-    pub instructions: [(u32, u32); 4],
-}
-
-/// The firmware's row, for the table.
-pub fn render_firmware(f: &FirmwareFigures) -> String {
-    let names = EstimatorKind::ALL.map(EstimatorKind::name);
-    let mut s = format!(
-        "On the QEMU firmware ({}, probed taxel, the build's calibration table, {} frames):\n\n| | {} |\n|---|---|---|---|---|\n| RMS (g) |",
-        f.protocol,
-        f.frames,
-        names.join(" | ")
-    );
-    for v in f.rms_g {
-        let _ = write!(s, " {v:.3} |");
-    }
-    s.push_str("\n| instructions per taxel update (Cortex-M4F) |");
-    for (lo, hi) in f.instructions {
-        let _ = write!(s, " {lo}–{hi} |");
-    }
-    s.push('\n');
-    s
-}
-
 pub fn render(t: &EstimatorTable) -> String {
     let names = column_names();
     let mut s = format!(

@@ -15,9 +15,10 @@ pub mod fit;
 pub mod fuzz;
 pub mod metrics;
 pub mod plot;
-pub mod record;
 pub mod report;
 pub mod scenario;
 pub mod tables;
 
 pub use tactile_plant::{applicator, finger, noise, rig};
+/// The record format lives in its own crate (`record/`), shared with the decoder.
+pub use tactile_record as record;

@@ -11,10 +11,10 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use defmt_decoder::{DecodeError, Table};
-use sim_host::rig::TickRecord;
 use tactile_core::tactile::{COLS, ROWS};
 use tactile_core::telemetry::{ControlFrame, FaultFlags, SequenceCheck, TaxelFrame};
 use tactile_firmware::ArrayEstimate;
+use tactile_plant::rig::TickRecord;
 
 pub mod text;
 
@@ -305,7 +305,7 @@ impl Session {
     /// The estimators' figures of a firmware-in-the-loop session: their RMS on the
     /// pseudo-random run (after its first second, the probe's approach) and the instructions
     /// per taxel update the firmware measured. `None` without both.
-    pub fn estimator_figures(&self) -> Option<sim_host::estimators::FirmwareFigures> {
+    pub fn estimator_figures(&self) -> Option<tactile_record::FirmwareFigures> {
         let run = self.run("pseudo-random")?;
         let (rms_g, frames) = run.probe_estimator_rms(1.0);
         let counts = self
@@ -322,7 +322,7 @@ impl Session {
                 Some((f.num("min").ok()?, f.num("max").ok()?))
             })
             .collect();
-        Some(sim_host::estimators::FirmwareFigures {
+        Some(tactile_record::FirmwareFigures {
             protocol: format!("pseudo-random, {:.0} s", run.duration_s),
             frames,
             rms_g,
@@ -453,7 +453,7 @@ pub fn write_run(
     let ticks = run.tick_records();
     if run.has_truth() {
         // The simulator's own writer: same columns as its records.
-        sim_host::record::write_record(&record, &meta, &ticks, 1)?;
+        tactile_record::write_record(&record, &meta, &ticks, 1)?;
     } else {
         // A board knows no true force: the same columns without the simulator's truth.
         let mut w = std::io::BufWriter::new(std::fs::File::create(&record)?);
@@ -480,7 +480,7 @@ pub fn write_run(
         w.flush()?;
     }
     let frames = dir.join(format!("{}_frames.csv", run.name));
-    sim_host::record::write_frames(&frames, &meta, &run.strain_frames())?;
+    tactile_record::write_frames(&frames, &meta, &run.strain_frames())?;
     let array = dir.join(format!("{}_array.csv", run.name));
     let mut w = std::io::BufWriter::new(std::fs::File::create(&array)?);
     for (k, v) in &meta {

@@ -384,7 +384,7 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     );
     let figures = session.estimator_figures().expect("estimator figures");
     assert_eq!(figures.rms_g, rms);
-    eprint!("{}", sim_host::estimators::render_firmware(&figures));
+    eprint!("{}", figures.render());
     // Instructions per taxel update: elastic < inverse < scheduled < observer, the observer
     // under 1 000 (the budget: 8 400 a millisecond for control and four taxel updates).
     let worst: Vec<u32> = figures.instructions.iter().map(|(_, hi)| *hi).collect();

@@ -181,7 +181,7 @@ macro_rules! out {
 /// The firmware's estimator figures from a decoded QEMU session's folder.
 fn read_firmware_figures(
     dir: &std::path::Path,
-) -> Result<sim_host::estimators::FirmwareFigures, String> {
+) -> Result<sim_host::record::FirmwareFigures, String> {
     let path = dir.join("estimators.json");
     let text = std::fs::read_to_string(&path).map_err(|e| {
         format!(
@@ -458,7 +458,7 @@ fn main() -> ExitCode {
                     let mut text = sim_host::estimators::render(&t);
                     if let Some(f) = &firmware {
                         text.push('\n');
-                        text.push_str(&sim_host::estimators::render_firmware(f));
+                        text.push_str(&f.render());
                     }
                     let data = serde_json::json!({ "simulator": t, "firmware": firmware });
                     print_and_write(&out, "estimators", &text, &data)

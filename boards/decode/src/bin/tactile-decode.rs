@@ -93,7 +93,7 @@ fn run(elf: &Path, log: &Path, out: &Path) -> Result<(), String> {
             serde_json::to_string_pretty(&figures).unwrap_or_default(),
         )
         .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
-        print!("{}", sim_host::estimators::render_firmware(&figures));
+        print!("{}", figures.render());
         println!("-> {}", path.display());
     }
     println!(

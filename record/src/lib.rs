@@ -8,12 +8,14 @@
 //!
 //! Writing and strict reading: every problem names the file, the line and the column.
 
-use std::fmt;
-use std::io::{BufRead, Write};
+use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
-use crate::finger::StrainGrid;
-use crate::rig::TickRecord;
+mod figures;
+mod write;
+
+pub use figures::FirmwareFigures;
+pub use write::{write_frames, write_record};
 
 /// A record read back: the three required columns, any extra ones, and the metadata.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -56,8 +58,9 @@ impl Record {
     }
 }
 
-/// What is wrong with a record, and where.
-#[derive(Clone, Debug, PartialEq)]
+/// What is wrong with a record, and where: `file:line: column 'name': message`.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{}{}{}: {message}", .file.display(), at_line(.line), in_column(.column))]
 pub struct RecordError {
     pub file: PathBuf,
     /// 1-based line, when the problem has one.
@@ -67,20 +70,16 @@ pub struct RecordError {
     pub message: String,
 }
 
-impl fmt::Display for RecordError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file.display())?;
-        if let Some(l) = self.line {
-            write!(f, ":{l}")?;
-        }
-        if let Some(c) = &self.column {
-            write!(f, ": column '{c}'")?;
-        }
-        write!(f, ": {}", self.message)
-    }
+fn at_line(line: &Option<usize>) -> String {
+    line.map(|l| format!(":{l}")).unwrap_or_default()
 }
 
-impl std::error::Error for RecordError {}
+fn in_column(column: &Option<String>) -> String {
+    column
+        .as_ref()
+        .map(|c| format!(": column '{c}'"))
+        .unwrap_or_default()
+}
 
 const REQUIRED: [&str; 3] = ["t_s", "force_g", "strain_pct"];
 
@@ -227,69 +226,6 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         ));
     }
     Ok(rec)
-}
-
-/// Writes ticks (decimated to `record_hz`) as a record with the extra columns the simulator
-/// knows: command, adjusted command, the on-chip estimate, and the true contact force.
-pub fn write_record(
-    path: &Path,
-    meta: &[(String, String)],
-    ticks: &[TickRecord],
-    every: usize,
-) -> std::io::Result<()> {
-    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
-    for (k, v) in meta {
-        writeln!(w, "# {k}={v}")?;
-    }
-    writeln!(
-        w,
-        "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g,true_force_g,contact,faults"
-    )?;
-    for r in ticks.iter().skip(every.max(1) - 1).step_by(every.max(1)) {
-        writeln!(
-            w,
-            "{:.4},{:.3},{:.5},{:.3},{:.3},{:.3},{:.3},{},{}",
-            r.t_s,
-            r.sensed_g,
-            r.strain_pct,
-            r.command_g,
-            r.adjusted_g,
-            r.estimate_g,
-            r.true_force_g,
-            u8::from(r.in_contact),
-            r.faults.0
-        )?;
-    }
-    w.flush()
-}
-
-/// Writes whole 8×8 frames: `t_s,r0c0,…,r7c7` (strain in percent).
-pub fn write_frames(
-    path: &Path,
-    meta: &[(String, String)],
-    frames: &[(f64, StrainGrid)],
-) -> std::io::Result<()> {
-    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
-    for (k, v) in meta {
-        writeln!(w, "# {k}={v}")?;
-    }
-    write!(w, "t_s")?;
-    for r in 0..8 {
-        for c in 0..8 {
-            write!(w, ",r{r}c{c}")?;
-        }
-    }
-    writeln!(w)?;
-    for (t, grid) in frames {
-        write!(w, "{t:.4}")?;
-        for row in grid {
-            for v in row {
-                write!(w, ",{v:.4}")?;
-            }
-        }
-        writeln!(w)?;
-    }
-    w.flush()
 }
 
 /// A cell as an error message shows it: at most 40 characters, control characters escaped
