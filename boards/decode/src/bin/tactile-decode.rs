@@ -5,40 +5,25 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-const USAGE: &str = "usage: tactile-decode --elf FIRMWARE.elf --log DEFMT.log --out DIR";
+/// Turns the firmware's defmt log (board or QEMU) into the project's records.
+#[derive(clap::Parser, Debug)]
+#[command(name = "tactile-decode", version)]
+struct Args {
+    /// The firmware ELF the log was produced by (its defmt table).
+    #[arg(long, value_name = "FIRMWARE.elf")]
+    elf: PathBuf,
+    /// The raw defmt bytes (RTT up-channel 0, or QEMU's semihosting output).
+    #[arg(long, value_name = "DEFMT.log")]
+    log: PathBuf,
+    /// Where the records go (one CSV per protocol run).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+}
 
+/// Bad usage exits 2 (clap), a failed run 1.
 fn main() -> ExitCode {
-    let mut elf = None;
-    let mut log = None;
-    let mut out = None;
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        let slot = match a.as_str() {
-            "--elf" => &mut elf,
-            "--log" => &mut log,
-            "--out" => &mut out,
-            "-h" | "--help" => {
-                println!("{USAGE}");
-                return ExitCode::SUCCESS;
-            }
-            other => {
-                eprintln!("tactile-decode: unknown argument '{other}'\n{USAGE}");
-                return ExitCode::from(2);
-            }
-        };
-        match args.next() {
-            Some(v) => *slot = Some(PathBuf::from(v)),
-            None => {
-                eprintln!("tactile-decode: {a} needs a value\n{USAGE}");
-                return ExitCode::from(2);
-            }
-        }
-    }
-    let (Some(elf), Some(log), Some(out)) = (elf, log, out) else {
-        eprintln!("tactile-decode: --elf, --log and --out are all required\n{USAGE}");
-        return ExitCode::from(2);
-    };
-    match run(&elf, &log, &out) {
+    let args = <Args as clap::Parser>::parse();
+    match run(&args.elf, &args.log, &args.out) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("tactile-decode: {e}");
@@ -88,11 +73,10 @@ fn run(elf: &Path, log: &Path, out: &Path) -> Result<(), String> {
     }
     if let Some(figures) = session.estimator_figures() {
         let path = out.join("estimators.json");
-        std::fs::write(
-            &path,
-            serde_json::to_string_pretty(&figures).unwrap_or_default(),
-        )
-        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        let json = serde_json::to_string_pretty(&figures)
+            .map_err(|e| format!("estimator figures: cannot encode: {e}"))?;
+        std::fs::write(&path, json)
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         print!("{}", figures.render());
         println!("-> {}", path.display());
     }
