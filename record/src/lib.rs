@@ -15,7 +15,7 @@ mod figures;
 mod write;
 
 pub use figures::FirmwareFigures;
-pub use write::{write_frames, write_record};
+pub use write::{write_frames, write_record, write_ticks};
 
 /// A record read back: the three required columns, any extra ones, and the metadata.
 #[derive(Clone, Debug, Default, PartialEq)]

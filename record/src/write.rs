@@ -6,36 +6,45 @@ use std::path::Path;
 use tactile_plant::finger::StrainGrid;
 use tactile_plant::rig::TickRecord;
 
-/// Writes ticks (decimated to `record_hz`) as a record with the extra columns the simulator
-/// knows: command, adjusted command, the on-chip estimate, and the true contact force.
+/// Writes ticks (decimated to every `every`th) as a record with the extra columns the
+/// firmware streams: command, adjusted command, the on-chip estimate and the faults, plus the
+/// simulator's truth (the contact force and whether the probe touches) from the simulator.
 pub fn write_record(
     path: &Path,
     meta: &[(String, String)],
     ticks: &[TickRecord],
     every: usize,
 ) -> std::io::Result<()> {
+    write_ticks(path, meta, ticks, every, true)
+}
+
+/// [`write_record`] with the truth columns only when `truth` (a board knows no true force).
+pub fn write_ticks(
+    path: &Path,
+    meta: &[(String, String)],
+    ticks: &[TickRecord],
+    every: usize,
+    truth: bool,
+) -> std::io::Result<()> {
     let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
     for (k, v) in meta {
         writeln!(w, "# {k}={v}")?;
     }
+    let truth_header = if truth { ",true_force_g,contact" } else { "" };
     writeln!(
         w,
-        "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g,true_force_g,contact,faults"
+        "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g{truth_header},faults"
     )?;
     for r in ticks.iter().skip(every.max(1) - 1).step_by(every.max(1)) {
-        writeln!(
+        write!(
             w,
-            "{:.4},{:.3},{:.5},{:.3},{:.3},{:.3},{:.3},{},{}",
-            r.t_s,
-            r.sensed_g,
-            r.strain_pct,
-            r.command_g,
-            r.adjusted_g,
-            r.estimate_g,
-            r.true_force_g,
-            u8::from(r.in_contact),
-            r.faults.0
+            "{:.4},{:.3},{:.5},{:.3},{:.3},{:.3}",
+            r.t_s, r.sensed_g, r.strain_pct, r.command_g, r.adjusted_g, r.estimate_g,
         )?;
+        if truth {
+            write!(w, ",{:.3},{}", r.true_force_g, u8::from(r.in_contact))?;
+        }
+        writeln!(w, ",{}", r.faults.0)?;
     }
     w.flush()
 }

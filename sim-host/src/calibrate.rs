@@ -31,8 +31,8 @@ use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState, StructuralInvers
 
 use crate::finger::Effects;
 use crate::fit::{fit, Base, ModelSpec, Series};
-use crate::rig::{RigConfig, TickRecord};
-use crate::scenario::{run_protocol, ScenarioError};
+use crate::rig::TickRecord;
+use crate::scenario::ScenarioError;
 
 /// Time left out at the start of each load level (the slew and the transient), s.
 const SETTLE_S: f64 = 2.0;
@@ -582,14 +582,7 @@ pub fn simulate_calibration(
     seed: u64,
     effects: Effects,
 ) -> Result<Vec<TickRecord>, ScenarioError> {
-    let mut config = RigConfig {
-        seed,
-        scan_array: false,
-        effects,
-        ..RigConfig::default()
-    };
-    config.firmware.probe = taxel;
-    Ok(run_protocol("calibration", Protocol::CALIBRATION, config, false, |_| {})?.ticks)
+    crate::scenario::run_on_taxel("calibration", Protocol::CALIBRATION, taxel, seed, effects)
 }
 
 /// Calibrates `taxels` of the simulated finger `seed` (with `effects`) one after the other.

@@ -11,14 +11,14 @@ use serde::Serialize;
 use tactile_core::calibration::{CalibrationTable, TaxelModel};
 use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::profile::Protocol;
-use tactile_core::tactile::{ScanConfig, TaxelId};
+use tactile_core::tactile::ScanConfig;
 use tactile_core::viscoelastic::StructuralInverse;
 
 use crate::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS};
 use crate::finger::Effects;
 use crate::fingers::FingerKind;
-use crate::rig::{RigConfig, TickRecord};
-use crate::scenario::{protocol, run_protocol, ScenarioError, ScenarioOptions};
+use crate::rig::TickRecord;
+use crate::scenario::{protocol, ScenarioOptions};
 
 /// The protocols of the table: the memo's pseudo-random record, its four step loads, its sum
 /// of sinusoids.
@@ -85,23 +85,6 @@ fn rms(est: &[[f64; COLUMNS]], ticks: &[TickRecord]) -> [f64; COLUMNS] {
     sum.map(|s| (s / est.len().max(1) as f64).sqrt())
 }
 
-fn run_on(
-    taxel: TaxelId,
-    seed: u64,
-    effects: Effects,
-    p: Protocol,
-    name: &str,
-) -> Result<Vec<TickRecord>, ScenarioError> {
-    let mut config = RigConfig {
-        seed,
-        scan_array: false,
-        effects,
-        ..RigConfig::default()
-    };
-    config.firmware.probe = taxel;
-    Ok(run_protocol(name, p, config, false, |_| {})?.ticks)
-}
-
 /// Calibrates the four taxels of the simulated finger `finger_seed` (`FINGER_SEED` in the
 /// report) of kind `finger`, then scores every estimator on each.
 pub fn compare(finger_seed: u64, finger: FingerKind) -> Result<EstimatorTable, String> {
@@ -137,8 +120,8 @@ pub fn compare_with(
         let nominal = TaxelModel::nominal(model.taxel);
         for (k, name) in PROTOCOLS.iter().enumerate() {
             let p = protocol(name, &options).map_err(|e| e.to_string())?;
-            let ticks =
-                run_on(model.taxel, finger_seed, effects, p, name).map_err(|e| e.to_string())?;
+            let ticks = crate::scenario::run_on_taxel(name, p, model.taxel, finger_seed, effects)
+                .map_err(|e| e.to_string())?;
             let cal = rms(&estimates(&ticks, model, frame_s)?, &ticks);
             let nom = rms(&estimates(&ticks, &nominal, frame_s)?, &ticks);
             for c in 0..COLUMNS {
@@ -155,8 +138,8 @@ pub fn compare_with(
             on_s: 50.0,
             off_s: 25.0,
         };
-        let ticks =
-            run_on(model.taxel, finger_seed, effects, step, "step").map_err(|e| e.to_string())?;
+        let ticks = crate::scenario::run_on_taxel("step", step, model.taxel, finger_seed, effects)
+            .map_err(|e| e.to_string())?;
         let est = estimates(&ticks, model, frame_s)?;
         // The step is applied at 2 s: its first 5 s, in frames.
         let window = (2.0 / frame_s) as usize..(7.0 / frame_s) as usize;

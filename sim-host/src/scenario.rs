@@ -3,8 +3,9 @@
 use tactile_core::control::GainSchedule;
 use tactile_core::profile::{CommandSource, Protocol};
 
-use crate::finger::StrainGrid;
+use crate::finger::{Effects, StrainGrid};
 use crate::rig::{Rig, RigConfig, RigError, TickRecord};
+use tactile_core::tactile::TaxelId;
 
 /// The named scenarios, in the order `tactile` lists them.
 pub const SCENARIOS: [&str; 12] = [
@@ -186,4 +187,23 @@ pub fn probe_run(
     };
     config.effects.stiffening = stiffening;
     Ok(run_named(name, &options, config, |_| {})?.ticks)
+}
+
+/// The ticks of `protocol` with the probe over `taxel` of the simulated finger `seed` with
+/// `effects`, without the array scan.
+pub fn run_on_taxel(
+    name: &str,
+    protocol: Protocol,
+    taxel: TaxelId,
+    seed: u64,
+    effects: Effects,
+) -> Result<Vec<TickRecord>, ScenarioError> {
+    let mut config = RigConfig {
+        seed,
+        scan_array: false,
+        effects,
+        ..RigConfig::default()
+    };
+    config.firmware.probe = taxel;
+    Ok(run_protocol(name, protocol, config, false, |_| {})?.ticks)
 }

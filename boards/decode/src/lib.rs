@@ -451,34 +451,8 @@ pub fn write_run(
     meta.push(("sample_rate_hz".into(), format!("{}", 1.0 / TICK_S)));
     let record = dir.join(format!("{}.csv", run.name));
     let ticks = run.tick_records();
-    if run.has_truth() {
-        // The simulator's own writer: same columns as its records.
-        tactile_record::write_record(&record, &meta, &ticks, 1)?;
-    } else {
-        // A board knows no true force: the same columns without the simulator's truth.
-        let mut w = std::io::BufWriter::new(std::fs::File::create(&record)?);
-        for (k, v) in &meta {
-            writeln!(w, "# {k}={v}")?;
-        }
-        writeln!(
-            w,
-            "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g,faults"
-        )?;
-        for r in &ticks {
-            writeln!(
-                w,
-                "{:.4},{:.3},{:.5},{:.3},{:.3},{:.3},{}",
-                r.t_s,
-                r.sensed_g,
-                r.strain_pct,
-                r.command_g,
-                r.adjusted_g,
-                r.estimate_g,
-                r.faults.0
-            )?;
-        }
-        w.flush()?;
-    }
+    // A board knows no true force: the same columns without the simulator's truth.
+    tactile_record::write_ticks(&record, &meta, &ticks, 1, run.has_truth())?;
     let frames = dir.join(format!("{}_frames.csv", run.name));
     tactile_record::write_frames(&frames, &meta, &run.strain_frames())?;
     let array = dir.join(format!("{}_array.csv", run.name));
