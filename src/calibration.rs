@@ -248,72 +248,33 @@ pub fn secant_schedule(
 }
 
 /// Why a table was refused (the firmware then runs the nominal models and says so).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum TableError {
     /// Fewer bytes than the header and the records it announces.
-    TooShort {
-        bytes: usize,
-        needed: usize,
-    },
+    #[error("calibration table too short: {bytes} bytes, need {needed}")]
+    TooShort { bytes: usize, needed: usize },
     /// Not a table (an erased flash sector reads `0xFF…`).
+    #[error("not a calibration table (no TCAL header)")]
     BadMagic,
-    UnsupportedVersion {
-        found: u16,
-    },
+    #[error("calibration table version {found}; this build reads version {VERSION}")]
+    UnsupportedVersion { found: u16 },
     /// The stored checksum does not match the contents.
-    Checksum {
-        stored: u32,
-        computed: u32,
-    },
+    #[error(
+        "calibration table checksum {stored:#010x} does not match its contents ({computed:#010x})"
+    )]
+    Checksum { stored: u32, computed: u32 },
     /// More taxels than the array has, or the same taxel twice.
-    BadCount {
-        count: u16,
-    },
-    DuplicateTaxel {
-        row: u8,
-        col: u8,
-    },
+    #[error("calibration table lists {count} taxels; the array has {TAXELS}")]
+    BadCount { count: u16 },
+    #[error("calibration table lists taxel ({row}, {col}) twice")]
+    DuplicateTaxel { row: u8, col: u8 },
     /// A record with a position off the array, a non-finite value or a bad schedule length.
-    BadRecord {
-        index: u16,
-    },
+    #[error("calibration table record {index}: position off the array, a non-finite value, a spring that is not a rising curve, or a bad schedule length, estimator or flag")]
+    BadRecord { index: u16 },
     /// The output buffer is too small to hold the table.
-    BufferTooSmall {
-        needed: usize,
-    },
-}
-
-impl core::fmt::Display for TableError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            TableError::TooShort { bytes, needed } => {
-                write!(f, "calibration table too short: {bytes} bytes, need {needed}")
-            }
-            TableError::BadMagic => write!(f, "not a calibration table (no TCAL header)"),
-            TableError::UnsupportedVersion { found } => write!(
-                f,
-                "calibration table version {found}; this build reads version {VERSION}"
-            ),
-            TableError::Checksum { stored, computed } => write!(
-                f,
-                "calibration table checksum {stored:#010x} does not match its contents ({computed:#010x})"
-            ),
-            TableError::BadCount { count } => {
-                write!(f, "calibration table lists {count} taxels; the array has {TAXELS}")
-            }
-            TableError::DuplicateTaxel { row, col } => {
-                write!(f, "calibration table lists taxel ({row}, {col}) twice")
-            }
-            TableError::BadRecord { index } => write!(
-                f,
-                "calibration table record {index}: position off the array, a non-finite value, a spring that is not a rising curve, or a bad schedule length, estimator or flag"
-            ),
-            TableError::BufferTooSmall { needed } => {
-                write!(f, "calibration table needs a {needed}-byte buffer")
-            }
-        }
-    }
+    #[error("calibration table needs a {needed}-byte buffer")]
+    BufferTooSmall { needed: usize },
 }
 
 /// Calibrated taxels (the rest run [`TaxelModel::nominal`]).

@@ -48,7 +48,9 @@ impl ChainStep {
     ) -> Result<ChainStep, ModelError> {
         let c = [so.a1, so.a2, so.b0, so.b1, so.b2];
         if c.iter().any(|v| !v.is_finite()) || !dt_s.is_finite() || dt_s <= 0.0 {
-            return Err(ModelError::InvalidParameter);
+            return Err(ModelError::InvalidParameter {
+                name: crate::viscoelastic::ModelParameter::SecondOrder,
+            });
         }
         if so.b0 <= 0.0 {
             return Err(ModelError::NotBiproper);
@@ -105,12 +107,16 @@ impl Schedule {
     /// A schedule from models fitted at the given loads (any order; sorted here).
     pub fn new(fits: &[(f32, SecondOrder)], dt_s: f64) -> Result<Schedule, ModelError> {
         if fits.is_empty() || fits.len() > SCHEDULE_POINTS {
-            return Err(ModelError::InvalidParameter);
+            return Err(ModelError::InvalidParameter {
+                name: crate::viscoelastic::ModelParameter::ScheduleLength,
+            });
         }
         let mut s = Schedule::default();
         for (slot, (load, so)) in s.points.iter_mut().zip(fits) {
             if !load.is_finite() || *load < 0.0 {
-                return Err(ModelError::InvalidParameter);
+                return Err(ModelError::InvalidParameter {
+                    name: crate::viscoelastic::ModelParameter::ScheduleLoad,
+                });
             }
             *slot = ChainStep::from_second_order(*load, so, dt_s)?;
         }
@@ -256,7 +262,9 @@ impl MkObserver {
             || !model.alpha.is_finite()
             || model.alpha < 0.0
         {
-            return Err(ModelError::InvalidParameter);
+            return Err(ModelError::InvalidParameter {
+                name: crate::viscoelastic::ModelParameter::Observer,
+            });
         }
         let (g1, g2) = (model.g1.curve()?, model.g2.curve()?);
         let (maxwell_phi, maxwell_gain) = if model.alpha > 0.0 {
@@ -446,7 +454,9 @@ impl TaxelEstimator {
             EstimatorKind::Elastic => {
                 let g = model.elastic_g_per_pct;
                 if !(g.is_finite() && g > 0.0) {
-                    return Err(ModelError::InvalidParameter);
+                    return Err(ModelError::InvalidParameter {
+                        name: crate::viscoelastic::ModelParameter::Elastic,
+                    });
                 }
                 TaxelEstimator::Elastic {
                     g_per_pct: g as f32,

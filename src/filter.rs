@@ -106,12 +106,36 @@ fn complex_mul((a, b): (f64, f64), (c, d): (f64, f64)) -> (f64, f64) {
 }
 
 /// Why a filter configuration was refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum FilterError {
     /// A frequency, Q or the sample period is not finite and positive.
-    NonPositiveParameter,
+    #[error("lowpass-notch filter: {name} must be finite and positive")]
+    NonPositiveParameter { name: FilterParameter },
     /// A corner is at or above the Nyquist frequency, where the bilinear prewarp breaks down.
-    AboveNyquist,
+    #[error("lowpass-notch filter: {name} is at or above the Nyquist frequency")]
+    AboveNyquist { name: FilterParameter },
+}
+
+/// A parameter of [`LowpassNotchConfig`], as an error names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterParameter {
+    OmegaL,
+    OmegaO,
+    Q,
+    OmegaN,
+    SamplePeriod,
+}
+
+impl core::fmt::Display for FilterParameter {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            FilterParameter::OmegaL => "omega_l_rad_s",
+            FilterParameter::OmegaO => "omega_o_rad_s",
+            FilterParameter::Q => "q",
+            FilterParameter::OmegaN => "omega_n_rad_s",
+            FilterParameter::SamplePeriod => "sample_period_s",
+        })
+    }
 }
 
 /// The analog filter as built: corners in rad/s, and the loop's sample period.
@@ -172,15 +196,22 @@ impl LowpassNotchConfig {
             self.omega_n_rad_s,
             t,
         ];
-        if all.iter().any(|v| !v.is_finite() || *v <= 0.0) {
-            return Err(FilterError::NonPositiveParameter);
+        use FilterParameter::*;
+        const NAMES: [FilterParameter; 5] = [OmegaL, OmegaO, Q, OmegaN, SamplePeriod];
+        if let Some((_, name)) = all
+            .iter()
+            .zip(NAMES)
+            .find(|(v, _)| !v.is_finite() || **v <= 0.0)
+        {
+            return Err(FilterError::NonPositiveParameter { name });
         }
         let nyquist = core::f64::consts::PI / t;
-        if [self.omega_l_rad_s, self.omega_o_rad_s, self.omega_n_rad_s]
+        if let Some((_, name)) = [self.omega_l_rad_s, self.omega_o_rad_s, self.omega_n_rad_s]
             .iter()
-            .any(|w| *w >= 0.999 * nyquist)
+            .zip([OmegaL, OmegaO, OmegaN])
+            .find(|(w, _)| **w >= 0.999 * nyquist)
         {
-            return Err(FilterError::AboveNyquist);
+            return Err(FilterError::AboveNyquist { name });
         }
         // Bilinear s = K (z-1)/(z+1), with K chosen so that ω maps onto itself.
         let prewarp = |w: f64| w / tan(w * t / 2.0);
@@ -353,13 +384,33 @@ mod tests {
     fn refuses_bad_configurations() {
         let mut c = LowpassNotchConfig::MEMO;
         c.q = 0.0;
-        assert_eq!(c.discretize(), Err(FilterError::NonPositiveParameter));
+        assert_eq!(
+            c.discretize(),
+            Err(FilterError::NonPositiveParameter {
+                name: FilterParameter::Q
+            })
+        );
         let mut c = LowpassNotchConfig::MEMO;
         c.omega_n_rad_s = 4000.0;
-        assert_eq!(c.discretize(), Err(FilterError::AboveNyquist));
+        let e = c.discretize().unwrap_err();
+        assert_eq!(
+            e,
+            FilterError::AboveNyquist {
+                name: FilterParameter::OmegaN
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "lowpass-notch filter: omega_n_rad_s is at or above the Nyquist frequency"
+        );
         let mut c = LowpassNotchConfig::MEMO;
         c.sample_period_s = f64::NAN;
-        assert_eq!(c.discretize(), Err(FilterError::NonPositiveParameter));
+        assert_eq!(
+            c.discretize(),
+            Err(FilterError::NonPositiveParameter {
+                name: FilterParameter::SamplePeriod
+            })
+        );
     }
 
     proptest::proptest! {

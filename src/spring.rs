@@ -59,7 +59,9 @@ impl SpringCurve {
                 && v.windows(2).all(|w| matches!(w, [a, b] if b > a))
         };
         if !(rising(&stress_g) && rising(&strain_pct)) {
-            return Err(ModelError::InvalidParameter);
+            return Err(ModelError::InvalidParameter {
+                name: crate::viscoelastic::ModelParameter::SpringCurve,
+            });
         }
         // Segment k runs from knot k − 1 (the origin for k = 0) to knot k.
         let at = |v: &[f32; CURVE_KNOTS], k: usize| {
@@ -352,7 +354,9 @@ impl SpringLaw {
                 let stress = SpringCurve::DEFAULT_STRESS_G;
                 SpringCurve::new(stress, stress.map(|s| law.strain_pct(f64::from(s)) as f32))
             }
-            _ => Err(ModelError::InvalidParameter),
+            _ => Err(ModelError::InvalidParameter {
+                name: crate::viscoelastic::ModelParameter::SpringLaw,
+            }),
         }
     }
 }

@@ -58,17 +58,52 @@ impl Real for f64 {
 }
 
 /// Why a model could not be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum ModelError {
     /// A parameter is NaN, infinite, or negative where the physics needs it positive.
-    InvalidParameter,
+    #[error("model parameter {name} is not finite, or not positive where it must be")]
+    InvalidParameter { name: ModelParameter },
     /// The leading coefficient is zero: the transfer function is not biproper.
+    #[error("the transfer function is not biproper (leading coefficient zero)")]
     NotBiproper,
     /// The poles of the requested direction are not in the left half-plane.
+    #[error("the model's poles are not in the left half-plane")]
     Unstable,
     /// The inverse would have a zero at the origin (b₂ = 0, pure Maxwell–Kelvin): it cannot
     /// report a static force, which is why the memo adds α.
+    #[error("the inverse has no static gain (b2 = 0: a pure Maxwell–Kelvin model needs alpha)")]
     NoStaticGain,
+}
+
+/// The parameter a model refused (a byte on the chip; its name on the host).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModelParameter {
+    TransferFunction,
+    MaxwellKelvin,
+    SpringCurve,
+    SpringLaw,
+    SecondOrder,
+    ScheduleLength,
+    ScheduleLoad,
+    Observer,
+    Elastic,
+}
+
+impl core::fmt::Display for ModelParameter {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            ModelParameter::TransferFunction => "transfer-function coefficients or dt_s",
+            ModelParameter::MaxwellKelvin => "Maxwell–Kelvin G1, N1, N2, G2 or alpha",
+            ModelParameter::SpringCurve => "spring curve knots (finite, positive, rising)",
+            ModelParameter::SpringLaw => "spring law",
+            ModelParameter::SecondOrder => "second-order a1, a2, b0, b1, b2 or dt_s",
+            ModelParameter::ScheduleLength => "schedule length",
+            ModelParameter::ScheduleLoad => "schedule load",
+            ModelParameter::Observer => "observer N1, N2, alpha or dt_s",
+            ModelParameter::Elastic => "elastic_g_per_pct",
+        })
+    }
 }
 
 /// A biproper rational function (n₂s² + n₁s + n₀)/(d₂s² + d₁s + d₀), coefficients in order
@@ -114,7 +149,9 @@ impl Rational2 {
     pub fn discretize<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
         let all = self.num.iter().chain(self.den.iter());
         if !dt_s.is_finite() || dt_s <= 0.0 || all.clone().any(|c| !c.is_finite()) {
-            return Err(ModelError::InvalidParameter);
+            return Err(ModelError::InvalidParameter {
+                name: ModelParameter::TransferFunction,
+            });
         }
         let [d2, d1, d0] = self.den;
         if d2 == 0.0 {
@@ -296,7 +333,9 @@ impl MaxwellKelvin {
     /// Forward model strain(stress) at sample period `dt_s`.
     pub fn forward<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
         if !self.is_valid() {
-            return Err(ModelError::InvalidParameter);
+            return Err(ModelError::InvalidParameter {
+                name: ModelParameter::MaxwellKelvin,
+            });
         }
         self.second_order().forward(dt_s)
     }
@@ -304,7 +343,9 @@ impl MaxwellKelvin {
     /// Inverse model stress(strain); needs α > 0 (pure Maxwell–Kelvin has a zero at the origin).
     pub fn inverse<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
         if !self.is_valid() {
-            return Err(ModelError::InvalidParameter);
+            return Err(ModelError::InvalidParameter {
+                name: ModelParameter::MaxwellKelvin,
+            });
         }
         self.second_order().inverse(dt_s)
     }
@@ -663,10 +704,9 @@ mod tests {
             .inverse::<f32>(0.001)
             .is_ok());
         let bad = MaxwellKelvin { g1: f64::NAN, ..mk };
-        assert_eq!(
-            bad.forward::<f32>(0.001).unwrap_err(),
-            ModelError::InvalidParameter
-        );
+        let e = bad.forward::<f32>(0.001).unwrap_err();
+        assert!(matches!(e, ModelError::InvalidParameter { .. }), "{e:?}");
+        assert!(e.to_string().contains("G1, N1, N2, G2 or alpha"), "{e}");
     }
 
     #[test]

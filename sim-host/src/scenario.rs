@@ -48,28 +48,13 @@ impl Default for ScenarioOptions {
 }
 
 /// Why a scenario could not start.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ScenarioError {
+    #[error("unknown scenario '{0}'; valid scenarios: {valid}", valid = SCENARIOS.join(", "))]
     Unknown(String),
-    Rig(RigError),
+    #[error(transparent)]
+    Rig(#[from] RigError),
 }
-
-impl core::fmt::Display for ScenarioError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            ScenarioError::Unknown(name) => {
-                write!(
-                    f,
-                    "unknown scenario '{name}'; valid scenarios: {}",
-                    SCENARIOS.join(", ")
-                )
-            }
-            ScenarioError::Rig(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl std::error::Error for ScenarioError {}
 
 /// The protocol a named scenario runs.
 pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioError> {

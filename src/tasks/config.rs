@@ -56,19 +56,10 @@ impl FirmwareConfig {
 }
 
 /// Why the task bodies could not be built from a configuration.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum ConfigError {
-    Filter(FilterError),
-    Estimator(ModelError),
+    #[error(transparent)]
+    Filter(#[from] FilterError),
+    #[error(transparent)]
+    Estimator(#[from] ModelError),
 }
-
-impl core::fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            ConfigError::Filter(e) => write!(f, "lowpass-notch filter refused: {e:?}"),
-            ConfigError::Estimator(e) => write!(f, "estimator model refused: {e:?}"),
-        }
-    }
-}
-
-impl core::error::Error for ConfigError {}

@@ -7,7 +7,6 @@
 //! frame delimiters, and parses each message's text back into those types by struct and field
 //! name, so a field the firmware stops sending is an error that names it.
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 use defmt_decoder::{DecodeError, Table};
@@ -25,24 +24,13 @@ pub const TICK_S: f64 = tactile_firmware::CONTROL_PERIOD_S;
 
 /// What went wrong, and where: the file, and the defmt frame (0-based, counted from the start
 /// of the log) when there is one.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{}{}: {message}", .file.display(), .frame.map(|n| format!(": frame {n}")).unwrap_or_default())]
 pub struct Error {
     pub file: PathBuf,
     pub frame: Option<usize>,
     pub message: String,
 }
-
-impl fmt::Display for Error {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file.display())?;
-        if let Some(n) = self.frame {
-            write!(f, ": frame {n}")?;
-        }
-        write!(f, ": {}", self.message)
-    }
-}
-
-impl std::error::Error for Error {}
 
 /// One control tick as decoded, with the simulator's truth when the log carries it.
 #[derive(Clone, Copy, Debug, PartialEq)]

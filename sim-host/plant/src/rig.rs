@@ -43,24 +43,15 @@ pub struct TickRecord {
 }
 
 /// Why a rig could not be built.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum RigError {
     /// The firmware refused its configuration.
-    Config(ConfigError),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     /// A taxel index outside the array.
+    #[error("taxel {0} is outside the 8×8 array")]
     Taxel(usize),
 }
-
-impl core::fmt::Display for RigError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            RigError::Config(e) => write!(f, "{e}"),
-            RigError::Taxel(i) => write!(f, "taxel {i} is outside the 8×8 array"),
-        }
-    }
-}
-
-impl core::error::Error for RigError {}
 
 /// The closed-loop rig.
 pub struct Rig {
