@@ -10,7 +10,7 @@ use crate::finger::Effects;
 use crate::metrics;
 use crate::record::{write_frames, write_record};
 use crate::rig::{RigConfig, TICK_S};
-use crate::scenario::{self, Run, ScenarioOptions, SCENARIOS};
+use crate::scenario::{self, Run, Scenario, ScenarioOptions};
 use tactile_core::tactile::TaxelId;
 
 /// Effects the command line can switch on, with what their strength means.
@@ -32,8 +32,43 @@ pub const EFFECTS: [(&str, &str); 6] = [
     ),
 ];
 
-/// Parses `NAME=VALUE` into the effects.
-pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
+/// One `--effect NAME=VALUE` as typed on the command line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EffectSetting {
+    Stiffening(f64),
+    Hysteresis { pct: f64 },
+    Drift { pct_per_s: f64 },
+    Interference { pct: f64, hz: Option<f64> },
+    Delay { s: f64 },
+    SlowRelaxation { strength: f64, tau_s: Option<f64> },
+}
+
+impl EffectSetting {
+    /// Switches the effect on in `effects`.
+    pub fn apply(self, effects: &mut Effects) {
+        match self {
+            EffectSetting::Stiffening(v) => effects.stiffening = v,
+            EffectSetting::Hysteresis { pct } => effects.hysteresis_pct = pct,
+            EffectSetting::Drift { pct_per_s } => effects.drift_pct_per_s = pct_per_s,
+            EffectSetting::Interference { pct, hz } => {
+                effects.interference_pct = pct;
+                if let Some(hz) = hz {
+                    effects.interference_hz = hz;
+                }
+            }
+            EffectSetting::Delay { s } => effects.delay_s = s,
+            EffectSetting::SlowRelaxation { strength, tau_s } => {
+                effects.slow_relaxation = strength;
+                if let Some(tau) = tau_s {
+                    effects.slow_relaxation_tau_s = tau.max(1.0);
+                }
+            }
+        }
+    }
+}
+
+/// Parses `NAME=VALUE` (clap's value parser for `--effect`: a bad one is a usage error).
+pub fn parse_effect(spec: &str) -> Result<EffectSetting, String> {
     let valid = || {
         EFFECTS
             .iter()
@@ -58,37 +93,36 @@ pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
             .ok_or_else(|| format!("effect '{name}': '{s}' is not a non-negative number"))
     };
     let v = number(value)?;
-    match name {
-        "stiffening" => effects.stiffening = v,
-        "hysteresis" => effects.hysteresis_pct = v,
-        "drift" => effects.drift_pct_per_s = v,
-        "interference" => {
-            effects.interference_pct = v;
-            if let Some(hz) = hz {
-                effects.interference_hz = number(hz)?;
-            }
-        }
+    let extra = hz.map(number).transpose()?;
+    Ok(match name {
+        "stiffening" => EffectSetting::Stiffening(v),
+        "hysteresis" => EffectSetting::Hysteresis { pct: v },
+        "drift" => EffectSetting::Drift { pct_per_s: v },
+        "interference" => EffectSetting::Interference { pct: v, hz: extra },
         "delay" => {
             if v > 0.5 {
                 return Err(format!(
                     "effect 'delay': {v} s is longer than the 0.5 s the read-out buffer holds"
                 ));
             }
-            effects.delay_s = v;
+            EffectSetting::Delay { s: v }
         }
-        "slow-relaxation" => {
-            effects.slow_relaxation = v;
-            if let Some(tau) = hz {
-                effects.slow_relaxation_tau_s = number(tau)?.max(1.0);
-            }
-        }
+        "slow-relaxation" => EffectSetting::SlowRelaxation {
+            strength: v,
+            tau_s: extra,
+        },
         other => {
             return Err(format!(
                 "unknown effect '{other}'; valid effects: {}",
                 valid()
             ))
         }
-    }
+    })
+}
+
+/// Parses `NAME=VALUE` into the effects.
+pub fn apply_effect(effects: &mut Effects, spec: &str) -> Result<(), String> {
+    parse_effect(spec)?.apply(effects);
     Ok(())
 }
 
@@ -257,8 +291,8 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
 /// Lists the scenarios and effects.
 pub fn listing() -> String {
     let mut s = String::from("scenarios:\n");
-    for n in SCENARIOS {
-        let _ = writeln!(s, "  {n}");
+    for n in Scenario::all() {
+        let _ = writeln!(s, "  {}", n.name());
     }
     s.push_str("effects (--effect NAME=VALUE):\n");
     for (n, d) in EFFECTS {

@@ -7,21 +7,100 @@ use crate::finger::{Effects, StrainGrid};
 use crate::rig::{Rig, RigConfig, RigError, TickRecord};
 use tactile_core::tactile::TaxelId;
 
-/// The named scenarios, in the order `tactile` lists them.
-pub const SCENARIOS: [&str; 12] = [
-    "force-steps",
-    "step",
-    "step-loads",
-    "static-linearity",
-    "permanent-deformation",
-    "repeated-steps",
-    "sweep",
-    "pseudo-random",
-    "sines",
-    "low-force",
-    "bench-record",
-    "calibration",
-];
+/// The memo's experiments by the names `tactile experiment` takes, in the order it lists them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Scenario {
+    ForceSteps,
+    Step,
+    StepLoads,
+    StaticLinearity,
+    PermanentDeformation,
+    RepeatedSteps,
+    Sweep,
+    PseudoRandom,
+    Sines,
+    LowForce,
+    BenchRecord,
+    Calibration,
+}
+
+impl Scenario {
+    /// Every scenario, in the listed order.
+    pub fn all() -> &'static [Scenario] {
+        <Scenario as clap::ValueEnum>::value_variants()
+    }
+
+    /// The name a user types (`force-steps`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            Scenario::ForceSteps => "force-steps",
+            Scenario::Step => "step",
+            Scenario::StepLoads => "step-loads",
+            Scenario::StaticLinearity => "static-linearity",
+            Scenario::PermanentDeformation => "permanent-deformation",
+            Scenario::RepeatedSteps => "repeated-steps",
+            Scenario::Sweep => "sweep",
+            Scenario::PseudoRandom => "pseudo-random",
+            Scenario::Sines => "sines",
+            Scenario::LowForce => "low-force",
+            Scenario::BenchRecord => "bench-record",
+            Scenario::Calibration => "calibration",
+        }
+    }
+
+    /// The scenario called `name`.
+    pub fn parse(name: &str) -> Result<Scenario, ScenarioError> {
+        Scenario::all()
+            .iter()
+            .copied()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| ScenarioError::Unknown(name.to_string()))
+    }
+
+    /// The protocol this scenario runs.
+    pub fn protocol(self, o: &ScenarioOptions) -> Protocol {
+        match self {
+            Scenario::ForceSteps => Protocol::FORCE_STEPS_MEMO,
+            Scenario::Step => Protocol::Step {
+                load_g: o.load_g,
+                lead_s: 2.0,
+                on_s: 50.0,
+                off_s: 25.0,
+            },
+            Scenario::StepLoads => Protocol::StepLoads,
+            Scenario::StaticLinearity => Protocol::StaticLinearity { hold_s: 0.5 },
+            Scenario::PermanentDeformation => Protocol::PermanentDeformation,
+            Scenario::RepeatedSteps => Protocol::RepeatedSteps {
+                load_g: 20.0,
+                on_s: 10.0,
+                off_s: 5.0,
+                count: 6,
+            },
+            Scenario::Sweep => Protocol::Sweep {
+                offset_g: 40.0,
+                amplitude_g: 10.0,
+                f0_hz: 1.0,
+                f1_hz: 54.0,
+                duration_s: 30.0,
+            },
+            Scenario::PseudoRandom => Protocol::pseudo_random_memo(o.protocol_seed, o.duration_s),
+            Scenario::Sines => Protocol::Sines {
+                seed: o.protocol_seed,
+                offset_g: 25.0,
+                amplitude_g: 4.0,
+                duration_s: o.duration_s,
+            },
+            Scenario::LowForce => Protocol::LowForce { hold_s: 3.0 },
+            Scenario::BenchRecord => Protocol::BenchRecord {
+                seed: o.protocol_seed,
+            },
+            Scenario::Calibration => Protocol::Calibration {
+                seed: o.protocol_seed,
+                per_offset_s: 15.0,
+            },
+        }
+    }
+}
 
 /// Options a scenario takes from the command line.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,55 +129,15 @@ impl Default for ScenarioOptions {
 /// Why a scenario could not start.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ScenarioError {
-    #[error("unknown scenario '{0}'; valid scenarios: {valid}", valid = SCENARIOS.join(", "))]
+    #[error("unknown scenario '{0}'; valid scenarios: {valid}", valid = Scenario::all().iter().map(|s| s.name()).collect::<Vec<_>>().join(", "))]
     Unknown(String),
     #[error(transparent)]
     Rig(#[from] RigError),
 }
 
-/// The protocol a named scenario runs.
+/// The protocol of the scenario called `name`.
 pub fn protocol(name: &str, o: &ScenarioOptions) -> Result<Protocol, ScenarioError> {
-    Ok(match name {
-        "force-steps" => Protocol::FORCE_STEPS_MEMO,
-        "step" => Protocol::Step {
-            load_g: o.load_g,
-            lead_s: 2.0,
-            on_s: 50.0,
-            off_s: 25.0,
-        },
-        "step-loads" => Protocol::StepLoads,
-        "static-linearity" => Protocol::StaticLinearity { hold_s: 0.5 },
-        "permanent-deformation" => Protocol::PermanentDeformation,
-        "repeated-steps" => Protocol::RepeatedSteps {
-            load_g: 20.0,
-            on_s: 10.0,
-            off_s: 5.0,
-            count: 6,
-        },
-        "sweep" => Protocol::Sweep {
-            offset_g: 40.0,
-            amplitude_g: 10.0,
-            f0_hz: 1.0,
-            f1_hz: 54.0,
-            duration_s: 30.0,
-        },
-        "pseudo-random" => Protocol::pseudo_random_memo(o.protocol_seed, o.duration_s),
-        "sines" => Protocol::Sines {
-            seed: o.protocol_seed,
-            offset_g: 25.0,
-            amplitude_g: 4.0,
-            duration_s: o.duration_s,
-        },
-        "low-force" => Protocol::LowForce { hold_s: 3.0 },
-        "bench-record" => Protocol::BenchRecord {
-            seed: o.protocol_seed,
-        },
-        "calibration" => Protocol::Calibration {
-            seed: o.protocol_seed,
-            per_offset_s: 15.0,
-        },
-        other => return Err(ScenarioError::Unknown(other.to_string())),
-    })
+    Ok(Scenario::parse(name)?.protocol(o))
 }
 
 /// A finished run: every control tick and every 8×8 frame.

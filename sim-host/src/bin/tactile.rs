@@ -21,7 +21,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use sim_host::cli;
 use sim_host::rig::RigConfig;
-use sim_host::scenario::{ScenarioOptions, SCENARIOS};
+use sim_host::scenario::{Scenario, ScenarioOptions};
 
 #[derive(Parser)]
 #[command(
@@ -40,8 +40,9 @@ enum Command {
     List,
     /// Run one of the memo's experiments, write its record, frames and plot.
     Experiment {
-        /// Scenario name (see `tactile list`).
-        name: String,
+        /// The experiment (see `tactile list`).
+        #[arg(value_enum)]
+        scenario: Scenario,
         #[arg(long, default_value = "out")]
         out: PathBuf,
         /// Seed of the simulated noise and finger variation.
@@ -63,14 +64,14 @@ enum Command {
         #[arg(long, default_value_t = 200.0)]
         record_hz: f64,
         /// Switch on an effect, NAME=VALUE (repeatable; see `tactile list`).
-        #[arg(long = "effect")]
-        effects: Vec<String>,
+        #[arg(long = "effect", value_parser = cli::parse_effect)]
+        effects: Vec<cli::EffectSetting>,
         /// Skip the PNG.
         #[arg(long)]
         no_plot: bool,
         /// Inject a fault, NAME@SECONDS (see `tactile list`).
-        #[arg(long)]
-        fault: Option<String>,
+        #[arg(long, value_parser = cli::parse_fault)]
+        fault: Option<sim_host::rig::FaultInjection>,
     },
     /// Fit one of the memo's models to a record (t_s,force_g,strain_pct).
     Fit {
@@ -250,7 +251,7 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Command::Experiment {
-            name,
+            scenario,
             out,
             seed,
             load,
@@ -262,12 +263,6 @@ fn main() -> ExitCode {
             no_plot,
             fault,
         } => {
-            if !SCENARIOS.contains(&name.as_str()) {
-                return usage_error(&format!(
-                    "unknown scenario '{name}'; valid scenarios: {}",
-                    SCENARIOS.join(", ")
-                ));
-            }
             if !(record_hz > 0.0 && record_hz <= 1000.0) {
                 return usage_error(&format!("--record-hz {record_hz}: must be in (0, 1000]"));
             }
@@ -283,24 +278,17 @@ fn main() -> ExitCode {
                 seed,
                 ..Default::default()
             };
-            for spec in &effects {
-                if let Err(e) = cli::apply_effect(&mut config.effects, spec) {
-                    return usage_error(&e);
-                }
+            for effect in effects {
+                effect.apply(&mut config.effects);
             }
-            if let Some(spec) = fault {
-                match cli::parse_fault(&spec) {
-                    Ok(f) => config.fault = Some(f),
-                    Err(e) => return usage_error(&e),
-                }
-            }
+            config.fault = fault;
             let options = ScenarioOptions {
                 load_g: load,
                 protocol_seed,
                 fixed_gains,
                 duration_s: duration,
             };
-            match cli::experiment(&name, &options, config, &out, record_hz, !no_plot) {
+            match cli::experiment(scenario.name(), &options, config, &out, record_hz, !no_plot) {
                 Ok(o) => {
                     out!("{}", o.summary);
                     for f in o.files {
