@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Diagnoses records and prints the README's table: record, length, rate, verdict, held-out error
+# Diagnoses records and prints docs/results.md's table: record, length, rate, verdict, held-out error
 # before and after (g through the record's secant, and % strain), the first-order linear model
 # on the same folds (the floor to beat), and the on-chip observer's held-out force error.
 #

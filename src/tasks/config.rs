@@ -37,7 +37,7 @@ pub struct FirmwareConfig {
 
 impl FirmwareConfig {
     /// The memo's rig as built: A1 with its gains (K_e = 1; the simulator runs K_e = 0.07, see
-    /// the README's design decisions), the lowpass-notch filter, gauge and actuator paths,
+    /// docs/design.md), the lowpass-notch filter, gauge and actuator paths,
     /// element 4,2 under the probe, the second-order fit of Table IV as the estimator, no
     /// calibration table.
     pub const MEMO: FirmwareConfig = FirmwareConfig {

@@ -9,7 +9,7 @@ use tactile_core::tasks::FirmwareConfig;
 pub static CALIBRATION_TABLE: [u8; include_bytes!("../../calibration/table.bin").len()] =
     *include_bytes!("../../calibration/table.bin");
 
-/// A real board: the memo's law as built (K_e = 1; see the README's design decisions for why
+/// A real board: the memo's law as built (K_e = 1; see docs/design.md for why
 /// the simulator runs K_e = 0.07), filter, gauge and actuator paths, element 4,2 under the
 /// probe, the second-order fit of Table IV as the estimator, and the table this build carries.
 pub const BOARD: FirmwareConfig = FirmwareConfig {
