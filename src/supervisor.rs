@@ -180,8 +180,8 @@ impl ForceLoop {
     fn safe(&mut self, shaped_g: f32, mut faults: FaultFlags) -> LoopOutput {
         // Zero force now: no filter transient, no memory of the error.
         self.restart();
-        if self.latched.0 != 0 {
-            faults.insert(self.latched.0 | FaultFlags::LATCHED);
+        if !self.latched.is_empty() {
+            faults.insert(self.latched | FaultFlags::LATCHED);
         }
         LoopOutput {
             dac_code: self.config.actuator.zero_code(),
@@ -261,7 +261,7 @@ impl ForceLoop {
         let Some(sensed_g) = sensed_g else {
             return self.safe(shaped_probe, faults);
         };
-        if self.latched.0 != 0 {
+        if !self.latched.is_empty() {
             return self.safe(shaped_probe, faults);
         }
 
@@ -364,7 +364,7 @@ mod tests {
         for k in 0..ticks {
             let wobble = if k % 2 == 0 { 0.05 } else { -0.05 };
             let out = l.tick(30.0, Ok(30.0 + wobble), false);
-            assert_eq!(out.faults.0 & FaultFlags::LATCHED, 0);
+            assert!(!out.faults.contains(FaultFlags::LATCHED));
         }
     }
 
@@ -384,12 +384,12 @@ mod tests {
         assert_eq!(after.dac_code, zero());
         assert!(after
             .faults
-            .contains_all(FaultFlags::LATCHED | FaultFlags::GAUGE_AT_RAIL));
+            .contains(FaultFlags::LATCHED | FaultFlags::GAUGE_AT_RAIL));
         // ...until the explicit clear.
         l.clear_faults();
         let resumed = l.tick(30.0, Ok(0.2), false);
         assert_ne!(resumed.dac_code, zero());
-        assert_eq!(resumed.faults.0 & FaultFlags::LATCHED, 0);
+        assert!(!resumed.faults.contains(FaultFlags::LATCHED));
     }
 
     #[test]
@@ -399,7 +399,7 @@ mod tests {
         let out = l.tick(30.0, Err(GaugeFault::OutOfRange { force_g: 150.0 }), false);
         assert_eq!(out.dac_code, zero());
         let next = l.tick(30.0, Ok(30.0), false);
-        assert_eq!(next.faults.0 & FaultFlags::LATCHED, 0);
+        assert!(!next.faults.contains(FaultFlags::LATCHED));
     }
 
     #[test]
@@ -407,10 +407,10 @@ mod tests {
         let mut l = memo_loop();
         // Holding still with a frozen reading: not a fault by the table's rule.
         for _ in 0..200 {
-            assert_eq!(
-                l.tick(0.0, Ok(0.0), false).faults.0 & FaultFlags::LATCHED,
-                0
-            );
+            assert!(!l
+                .tick(0.0, Ok(0.0), false)
+                .faults
+                .contains(FaultFlags::LATCHED));
         }
         // The command ramps at 500 g/s with the reading still frozen: latched once the command
         // has moved by more than 1 g (the third tick).
@@ -440,7 +440,7 @@ mod tests {
         assert_eq!(out.dac_code, zero());
         assert!(out
             .faults
-            .contains_all(FaultFlags::FORCE_SLEW | FaultFlags::LATCHED));
+            .contains(FaultFlags::FORCE_SLEW | FaultFlags::LATCHED));
     }
 
     #[test]
@@ -451,7 +451,7 @@ mod tests {
         assert_eq!(out.dac_code, zero());
         assert!(out
             .faults
-            .contains_all(FaultFlags::DEADLINE_OVERRUN | FaultFlags::LATCHED));
+            .contains(FaultFlags::DEADLINE_OVERRUN | FaultFlags::LATCHED));
     }
 
     #[test]

@@ -4,39 +4,41 @@
 
 use crate::tactile::{COLS, ROWS};
 
-/// Fault flags carried by every control frame (bit set = fault present).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct FaultFlags(pub u16);
+bitflags::bitflags! {
+    /// Fault flags carried by every control frame (bit set = fault present).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct FaultFlags: u16 {
+        /// A gauge sample sat at a converter rail (saturated or disconnected).
+        const GAUGE_AT_RAIL = 1 << 0;
+        /// The averaged gauge force is outside the applicator's physical range.
+        const GAUGE_OUT_OF_RANGE = 1 << 1;
+        /// The adjusted command hit the actuator's range.
+        const ACTUATOR_SATURATED = 1 << 2;
+        /// A command or reading was NaN or infinite.
+        const INVALID_INPUT = 1 << 3;
+        /// The control task missed its deadline.
+        const DEADLINE_OVERRUN = 1 << 4;
+        /// The probe is not touching the finger while force is commanded.
+        const CONTACT_LOST = 1 << 5;
+        /// A taxel reads at a rail (open or shorted).
+        const TAXEL_AT_RAIL = 1 << 6;
+        /// Frames were dropped since the last frame that got through.
+        const FRAMES_DROPPED = 1 << 7;
+        /// The gauge reading has not changed for a stated time while the command did.
+        const GAUGE_STUCK = 1 << 8;
+        /// The gauge reading changed faster in one tick than the applicator can.
+        const FORCE_SLEW = 1 << 9;
+        /// The command was outside the applicator's range and was clamped.
+        const COMMAND_CLAMPED = 1 << 10;
+        /// A fault is latched: the actuator is held at zero until the fault is cleared.
+        const LATCHED = 1 << 11;
+        /// Contact was lost and the probe is re-approaching at a bounded force.
+        const APPROACHING = 1 << 12;
+    }
+}
 
 impl FaultFlags {
-    pub const NONE: FaultFlags = FaultFlags(0);
-    /// A gauge sample sat at a converter rail (saturated or disconnected).
-    pub const GAUGE_AT_RAIL: u16 = 1 << 0;
-    /// The averaged gauge force is outside the applicator's physical range.
-    pub const GAUGE_OUT_OF_RANGE: u16 = 1 << 1;
-    /// The adjusted command hit the actuator's range.
-    pub const ACTUATOR_SATURATED: u16 = 1 << 2;
-    /// A command or reading was NaN or infinite.
-    pub const INVALID_INPUT: u16 = 1 << 3;
-    /// The control task missed its deadline.
-    pub const DEADLINE_OVERRUN: u16 = 1 << 4;
-    /// The probe is not touching the finger while force is commanded.
-    pub const CONTACT_LOST: u16 = 1 << 5;
-    /// A taxel reads at a rail (open or shorted).
-    pub const TAXEL_AT_RAIL: u16 = 1 << 6;
-    /// Frames were dropped since the last frame that got through.
-    pub const FRAMES_DROPPED: u16 = 1 << 7;
-    /// The gauge reading has not changed for a stated time while the command did.
-    pub const GAUGE_STUCK: u16 = 1 << 8;
-    /// The gauge reading changed faster in one tick than the applicator can.
-    pub const FORCE_SLEW: u16 = 1 << 9;
-    /// The command was outside the applicator's range and was clamped.
-    pub const COMMAND_CLAMPED: u16 = 1 << 10;
-    /// A fault is latched: the actuator is held at zero until the fault is cleared.
-    pub const LATCHED: u16 = 1 << 11;
-    /// Contact was lost and the probe is re-approaching at a bounded force.
-    pub const APPROACHING: u16 = 1 << 12;
+    pub const NONE: FaultFlags = FaultFlags::empty();
 
     /// Names of the set flags, for logs and reports.
     pub fn names(self) -> impl Iterator<Item = &'static str> {
@@ -58,20 +60,16 @@ impl FaultFlags {
         NAMES
             .into_iter()
             .enumerate()
-            .filter(move |(i, _)| self.0 & (1 << i) != 0)
+            .filter(move |(i, _)| self.bits() & (1 << i) != 0)
             .map(|(_, n)| n)
     }
+}
 
-    /// True when any of the bits of `flag` is set.
-    pub const fn contains(self, flag: u16) -> bool {
-        self.0 & flag != 0
-    }
-    /// True when every bit of `flags` is set.
-    pub const fn contains_all(self, flags: u16) -> bool {
-        self.0 & flags == flags
-    }
-    pub fn insert(&mut self, flag: u16) {
-        self.0 |= flag;
+/// On the wire as `FaultFlags(bits)`, as the decoder reads it.
+#[cfg(feature = "defmt")]
+impl defmt::Format for FaultFlags {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "FaultFlags({=u16})", self.bits());
     }
 }
 

@@ -70,7 +70,7 @@ proptest! {
             prop_assert!(out.shaped_g.is_finite() && (0.0..=120.0).contains(&out.shaped_g), "{}", out.shaped_g);
             prop_assert!(out.adjusted_g.is_finite() && out.adjusted_g.abs() <= 192.0, "{}", out.adjusted_g);
             // Once latched, the output is the zero code until cleared.
-            if l.latched().0 != 0 {
+            if !l.latched().is_empty() {
                 prop_assert_eq!(out.dac_code, ActuatorConfig::MEMO.zero_code());
             }
         }

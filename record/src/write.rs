@@ -44,7 +44,7 @@ pub fn write_ticks(
         if truth {
             write!(w, ",{:.3},{}", r.true_force_g, u8::from(r.in_contact))?;
         }
-        writeln!(w, ",{}", r.faults.0)?;
+        writeln!(w, ",{}", r.faults.bits())?;
     }
     w.flush()
 }

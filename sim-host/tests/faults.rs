@@ -57,7 +57,7 @@ fn assert_safe_and_released(
     assert!(safe < within_ticks, "safe after {safe} ticks");
     let flagged = ticks[k0..=k0 + latch_ticks]
         .iter()
-        .any(|r| r.faults.contains_all(fault.0 | FaultFlags::LATCHED));
+        .any(|r| r.faults.contains(fault | FaultFlags::LATCHED));
     assert!(
         flagged,
         "fault {:?} not latched in time: {:?}",
@@ -83,25 +83,25 @@ fn assert_safe_and_released(
 fn a_disconnected_gauge_is_safe_within_2_ms() {
     let t = run(hold_30g(), InjectedFault::GaugeDisconnected, INJECT_S);
     // Safe on the first bad reading (the tick after the wire breaks), latched on the second.
-    assert_safe_and_released(&t, FaultFlags(FaultFlags::GAUGE_AT_RAIL), 2, 2);
+    assert_safe_and_released(&t, FaultFlags::GAUGE_AT_RAIL, 2, 2);
 }
 
 #[test]
 fn a_saturated_gauge_is_safe_within_2_ms() {
     let t = run(hold_30g(), InjectedFault::GaugeSaturated, INJECT_S);
-    assert_safe_and_released(&t, FaultFlags(FaultFlags::GAUGE_AT_RAIL), 2, 2);
+    assert_safe_and_released(&t, FaultFlags::GAUGE_AT_RAIL, 2, 2);
 }
 
 #[test]
 fn a_force_spike_is_safe_within_2_ms() {
     let t = run(hold_30g(), InjectedFault::ForceSpike { g: 80.0 }, INJECT_S);
-    assert_safe_and_released(&t, FaultFlags(FaultFlags::FORCE_SLEW), 2, 1);
+    assert_safe_and_released(&t, FaultFlags::FORCE_SLEW, 2, 1);
 }
 
 #[test]
 fn a_deadline_overrun_is_safe_in_the_same_period() {
     let t = run(hold_30g(), InjectedFault::DeadlineOverrun, INJECT_S);
-    assert_safe_and_released(&t, FaultFlags(FaultFlags::DEADLINE_OVERRUN), 1, 0);
+    assert_safe_and_released(&t, FaultFlags::DEADLINE_OVERRUN, 1, 0);
 }
 
 #[test]
@@ -112,7 +112,7 @@ fn a_stuck_gauge_is_caught_when_the_command_moves() {
     let k_move = tick_at(&t, 2.5);
     let latched = t[k_move..].iter().position(|r| {
         r.faults
-            .contains_all(FaultFlags::GAUGE_STUCK | FaultFlags::LATCHED)
+            .contains(FaultFlags::GAUGE_STUCK | FaultFlags::LATCHED)
     });
     assert!(matches!(latched, Some(k) if k <= 3), "{latched:?}");
     let zero = ActuatorConfig::MEMO.zero_code().0;
@@ -159,7 +159,7 @@ fn lost_contact_reapproaches_gently_then_latches() {
         .iter()
         .position(|r| {
             r.faults
-                .contains_all(FaultFlags::CONTACT_LOST | FaultFlags::LATCHED)
+                .contains(FaultFlags::CONTACT_LOST | FaultFlags::LATCHED)
         })
         .expect("latched");
     assert!(

@@ -265,8 +265,8 @@ mod tests {
             assert_eq!(hw.dac().0, rec.dac_code, "tick {k}");
             // The rig also flags a railed taxel per tick; the firmware marks it in the frame.
             assert_eq!(
-                frame.faults.0,
-                rec.faults.0 & !FaultFlags::TAXEL_AT_RAIL,
+                frame.faults.bits(),
+                (rec.faults - FaultFlags::TAXEL_AT_RAIL).bits(),
                 "tick {k}"
             );
             if let Some(prev) = previous.replace(rec) {

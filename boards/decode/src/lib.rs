@@ -264,7 +264,7 @@ fn control_frame(f: &Fields) -> Result<ControlFrame, String> {
         adjusted_g: f.num("adjusted_g")?,
         strain_pct: f.num("strain_pct")?,
         estimate_g: f.num("estimate_g")?,
-        faults: FaultFlags(f.wrapped_num("faults", "FaultFlags")?),
+        faults: FaultFlags::from_bits_retain(f.wrapped_num("faults", "FaultFlags")?),
     })
 }
 
@@ -401,7 +401,9 @@ impl Run {
                     estimate_g: next.frame.estimate_g,
                     true_force_g: next.true_force_g.unwrap_or(f32::NAN),
                     in_contact: next.in_contact.unwrap_or(false),
-                    faults: FaultFlags(now.frame.faults.0 | next.frame.faults.0),
+                    faults: FaultFlags::from_bits_retain(
+                        now.frame.faults.bits() | next.frame.faults.bits(),
+                    ),
                     // The code tick `k` wrote, as the simulator's record `k` holds it.
                     // 0 when the log does not carry it (a board's log).
                     dac_code: now.dac_code.unwrap_or_default(),

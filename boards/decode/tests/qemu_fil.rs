@@ -177,11 +177,11 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
     );
     let flags = |k: usize| ticks[k].frame.faults;
     let latched_at = (k0..=k0 + latch)
-        .find(|&k| flags(k).contains_all(bit | FaultFlags::LATCHED))
+        .find(|&k| flags(k).contains(bit | FaultFlags::LATCHED))
         .unwrap_or_else(|| {
             panic!(
                 "{name}: {:?} not latched within {latch} ticks: {:?}",
-                FaultFlags(bit).names().collect::<Vec<_>>(),
+                bit.names().collect::<Vec<_>>(),
                 flags(k0 + latch).names().collect::<Vec<_>>()
             )
         });
@@ -221,14 +221,14 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
                 f.command_g.to_bits(),
                 f.adjusted_g.to_bits(),
                 dac(fw),
-                f.faults.0
+                f.faults.bits()
             ),
             (
                 rig.command_g.to_bits(),
                 rig.adjusted_g.to_bits(),
                 rig.dac_code,
                 // The rig flags a railed taxel per tick; the firmware marks it in its frames.
-                rig.faults.0 & !FaultFlags::TAXEL_AT_RAIL
+                (rig.faults - FaultFlags::TAXEL_AT_RAIL).bits()
             ),
             "{name}: tick {k} differs from the host rig"
         );
