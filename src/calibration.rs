@@ -106,18 +106,8 @@ impl TaxelModel {
     /// laws of FACTS.md, and the elastic spring that is Table IV's static gain.
     pub fn nominal(taxel: TaxelId) -> TaxelModel {
         let mut schedule = Vec::new();
-        for row in [
-            MaxwellKelvin::TABLE_I_10G,
-            MaxwellKelvin::TABLE_I_30G,
-            MaxwellKelvin::TABLE_I_50G,
-            MaxwellKelvin::TABLE_I_80G,
-        ] {
-            let load = match row.g1 {
-                g if g < 3.0 => 10.0,
-                g if g < 4.0 => 30.0,
-                g if g < 5.0 => 50.0,
-                _ => 80.0,
-            };
+        for row in MaxwellKelvin::TABLE_I {
+            let (load, row) = (row.load_g as f32, row.element);
             let mk = MaxwellKelvin {
                 alpha: NonlinearMk::ELEMENT_4_2.alpha,
                 ..row

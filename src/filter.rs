@@ -16,6 +16,7 @@
 //! ([`BiquadState`]), as in quartiq/idsp.
 
 use libm::tan;
+use num_complex::Complex64;
 
 /// One second-order section, `y = (b0 + b1 z⁻¹ + b2 z⁻²) / (1 + a1 z⁻¹ + a2 z⁻²) x`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,26 +84,15 @@ impl Biquad {
         a2.abs() < 1.0 && a1.abs() < 1.0 + a2
     }
 
-    /// Complex frequency response at `omega_t = ω·T` (radians per sample), as (re, im).
-    pub fn response(&self, omega_t: f64) -> (f64, f64) {
+    /// Complex frequency response at `omega_t = ω·T` (radians per sample).
+    pub fn response(&self, omega_t: f64) -> Complex64 {
         // H(e^{jθ}) = Σ b_k e^{-jkθ} / Σ a_k e^{-jkθ}
-        let (c1, s1) = (libm::cos(omega_t), -libm::sin(omega_t));
-        let (c2, s2) = (libm::cos(2.0 * omega_t), -libm::sin(2.0 * omega_t));
+        let z1 = Complex64::from_polar(1.0, -omega_t);
+        let z2 = z1 * z1;
         let [b0, b1, b2] = self.b.map(f64::from);
         let [a1, a2] = self.a.map(f64::from);
-        let num = (b0 + b1 * c1 + b2 * c2, b1 * s1 + b2 * s2);
-        let den = (1.0 + a1 * c1 + a2 * c2, a1 * s1 + a2 * s2);
-        complex_div(num, den)
+        (z1 * b1 + z2 * b2 + b0) / (z1 * a1 + z2 * a2 + 1.0)
     }
-}
-
-fn complex_div((a, b): (f64, f64), (c, d): (f64, f64)) -> (f64, f64) {
-    let m = c * c + d * d;
-    ((a * c + b * d) / m, (b * c - a * d) / m)
-}
-
-fn complex_mul((a, b): (f64, f64), (c, d): (f64, f64)) -> (f64, f64) {
-    (a * c - b * d, a * d + b * c)
 }
 
 /// Why a filter configuration was refused.
@@ -169,21 +159,18 @@ impl LowpassNotchConfig {
         sample_period_s: crate::CONTROL_PERIOD_S,
     };
 
-    /// The analog response H(jω), as (re, im).
-    pub fn analog_response(&self, omega_rad_s: f64) -> (f64, f64) {
+    /// The analog response H(jω).
+    pub fn analog_response(&self, omega_rad_s: f64) -> Complex64 {
         let w = omega_rad_s;
-        let lowpass = complex_div((1.0, 0.0), (1.0, w / self.omega_l_rad_s));
+        let lowpass = Complex64::new(1.0, w / self.omega_l_rad_s).inv();
         let ratio = self.omega_o_rad_s / self.omega_n_rad_s;
         let gain = ratio * ratio;
-        let num = (
-            gain * (self.omega_n_rad_s * self.omega_n_rad_s - w * w),
-            0.0,
-        );
-        let den = (
+        let num = Complex64::from(gain * (self.omega_n_rad_s * self.omega_n_rad_s - w * w));
+        let den = Complex64::new(
             self.omega_o_rad_s * self.omega_o_rad_s - w * w,
             self.omega_o_rad_s / self.q * w,
         );
-        complex_mul(lowpass, complex_div(num, den))
+        lowpass * num / den
     }
 
     /// Discretizes the filter into two sections (lowpass, then notch).
@@ -282,24 +269,16 @@ impl LowpassNotch {
         }
     }
 
-    /// Digital frequency response at ω (rad/s) for sample period `t_s`, as (re, im).
-    pub fn response(&self, omega_rad_s: f64, t_s: f64) -> (f64, f64) {
+    /// Digital frequency response at ω (rad/s) for sample period `t_s`.
+    pub fn response(&self, omega_rad_s: f64, t_s: f64) -> Complex64 {
         let [lowpass, notch] = &self.sections;
-        complex_mul(
-            lowpass.response(omega_rad_s * t_s),
-            notch.response(omega_rad_s * t_s),
-        )
+        lowpass.response(omega_rad_s * t_s) * notch.response(omega_rad_s * t_s)
     }
 
     /// True when every section is stable.
     pub fn is_stable(&self) -> bool {
         self.sections.iter().all(Biquad::is_stable)
     }
-}
-
-/// Magnitude of a complex (re, im) pair.
-pub fn magnitude((re, im): (f64, f64)) -> f64 {
-    libm::sqrt(re * re + im * im)
 }
 
 #[cfg(test)]
@@ -319,8 +298,8 @@ mod tests {
         for i in 0..=300 {
             let f_hz = 0.1 * 1000f64.powf(i as f64 / 300.0);
             let w = 2.0 * std::f64::consts::PI * f_hz;
-            let analog = magnitude(config.analog_response(w));
-            let digital = magnitude(filter.response(w, config.sample_period_s));
+            let analog = config.analog_response(w).norm();
+            let digital = filter.response(w, config.sample_period_s).norm();
             worst = worst.max((db(digital) - db(analog)).abs());
         }
         assert!(worst < 0.5, "worst deviation {worst:.3} dB");
@@ -331,7 +310,7 @@ mod tests {
         let config = LowpassNotchConfig::MEMO;
         let filter = config.discretize().unwrap();
         let w = 2.0 * std::f64::consts::PI * 190.0;
-        let gain_db = db(magnitude(filter.response(w, 0.001)));
+        let gain_db = db(filter.response(w, 0.001).norm());
         assert!(gain_db < -40.0, "{gain_db} dB at 190 Hz");
     }
 
@@ -358,8 +337,8 @@ mod tests {
                 .map(|hz| (hz, f(2.0 * std::f64::consts::PI * hz)))
                 .fold((0.0, 0.0), |best, x| if x.1 > best.1 { x } else { best })
         };
-        let (f_a, m_a) = peak(&|w| magnitude(config.analog_response(w)));
-        let (f_d, m_d) = peak(&|w| magnitude(filter.response(w, 0.001)));
+        let (f_a, m_a) = peak(&|w| config.analog_response(w).norm());
+        let (f_d, m_d) = peak(&|w| filter.response(w, 0.001).norm());
         assert!(
             (f_a - f_d).abs() < 0.5,
             "analog peak {f_a} Hz, digital {f_d} Hz"
@@ -435,7 +414,7 @@ mod tests {
         let dt = 1.0 / 62.5;
         let n = Biquad::notch(7.3, 2.0, dt).unwrap();
         assert!(n.is_stable());
-        let gain = |hz: f64| magnitude(n.response(2.0 * core::f64::consts::PI * hz * dt));
+        let gain = |hz: f64| n.response(2.0 * core::f64::consts::PI * hz * dt).norm();
         assert!(gain(7.3) < 1e-3, "{}", gain(7.3));
         assert!((gain(0.0) - 1.0).abs() < 1e-6);
         assert!((gain(0.5) - 1.0).abs() < 0.01, "{}", gain(0.5));
@@ -443,7 +422,7 @@ mod tests {
         assert!((gain(7.3 + 1.9) - 0.707).abs() < 0.1, "{}", gain(9.2));
         // 50 Hz mains sampled at 62.5 Hz lands at 12.5 Hz: notched there.
         let mains = Biquad::notch(50.0, 2.0, dt).unwrap();
-        let g = |hz: f64| magnitude(mains.response(2.0 * core::f64::consts::PI * hz * dt));
+        let g = |hz: f64| mains.response(2.0 * core::f64::consts::PI * hz * dt).norm();
         assert!(g(12.5) < 1e-3);
         // A tone on a multiple of the sample rate is DC: refused.
         assert!(Biquad::notch(62.5, 2.0, dt).is_none());

@@ -18,6 +18,8 @@
 
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
+use num_complex::Complex64;
+
 /// The arithmetic the discrete models run in: f32 on the chip, f64 in the host's fits.
 pub trait Real:
     Copy
@@ -115,16 +117,10 @@ pub struct Rational2 {
 }
 
 impl Rational2 {
-    /// H(s) at a complex s = (re, im).
-    pub fn eval(&self, (re, im): (f64, f64)) -> (f64, f64) {
-        let poly = |c: &[f64; 3]| {
-            let s2 = (re * re - im * im, 2.0 * re * im);
-            (c[0] * s2.0 + c[1] * re + c[2], c[0] * s2.1 + c[1] * im)
-        };
-        let (a, b) = poly(&self.num);
-        let (c, d) = poly(&self.den);
-        let m = c * c + d * d;
-        ((a * c + b * d) / m, (b * c - a * d) / m)
+    /// H(s) at a complex s.
+    pub fn eval(&self, s: Complex64) -> Complex64 {
+        let poly = |c: &[f64; 3]| s * s * c[0] + s * c[1] + c[2];
+        poly(&self.num) / poly(&self.den)
     }
 
     /// DC gain n₀/d₀ (infinite for a pole at the origin).
@@ -261,36 +257,42 @@ pub struct MaxwellKelvin {
     pub g2: f64,
 }
 
+/// A row of the memo's Table I: the step load it was fitted at, and the element.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableIRow {
+    pub load_g: f64,
+    pub element: MaxwellKelvin,
+}
+
+impl TableIRow {
+    const fn new(load_g: f64, g1: f64, n1: f64, n2: f64, g2: f64) -> TableIRow {
+        TableIRow {
+            load_g,
+            element: MaxwellKelvin {
+                g1,
+                n1,
+                alpha: 0.0,
+                n2,
+                g2,
+            },
+        }
+    }
+}
+
 impl MaxwellKelvin {
-    /// Table I, element 4,2, fitted at the given step load.
-    pub const TABLE_I_10G: MaxwellKelvin = MaxwellKelvin {
-        g1: 2.4,
-        n1: 5000.0,
-        alpha: 0.0,
-        n2: 500.0,
-        g2: 26.0,
-    };
-    pub const TABLE_I_30G: MaxwellKelvin = MaxwellKelvin {
-        g1: 3.6,
-        n1: 5770.0,
-        alpha: 0.0,
-        n2: 500.0,
-        g2: 47.0,
-    };
-    pub const TABLE_I_50G: MaxwellKelvin = MaxwellKelvin {
-        g1: 4.4,
-        n1: 6670.0,
-        alpha: 0.0,
-        n2: 500.0,
-        g2: 66.0,
-    };
-    pub const TABLE_I_80G: MaxwellKelvin = MaxwellKelvin {
-        g1: 5.3,
-        n1: 8250.0,
-        alpha: 0.0,
-        n2: 300.0,
-        g2: 90.0,
-    };
+    /// The memo's Table I: element 4,2 fitted to step responses, one row per step load (α is
+    /// not part of the table: zero).
+    pub const TABLE_I: [TableIRow; 4] = [
+        TableIRow::new(10.0, 2.4, 5000.0, 500.0, 26.0),
+        TableIRow::new(30.0, 3.6, 5770.0, 500.0, 47.0),
+        TableIRow::new(50.0, 4.4, 6670.0, 500.0, 66.0),
+        TableIRow::new(80.0, 5.3, 8250.0, 300.0, 90.0),
+    ];
+    /// Table I's rows by load.
+    pub const TABLE_I_10G: MaxwellKelvin = Self::TABLE_I[0].element;
+    pub const TABLE_I_30G: MaxwellKelvin = Self::TABLE_I[1].element;
+    pub const TABLE_I_50G: MaxwellKelvin = Self::TABLE_I[2].element;
+    pub const TABLE_I_80G: MaxwellKelvin = Self::TABLE_I[3].element;
 
     pub fn is_valid(&self) -> bool {
         let p = [self.g1, self.n1, self.alpha, self.n2, self.g2];
@@ -301,15 +303,8 @@ impl MaxwellKelvin {
     }
 
     /// ε(s)/σ(s) = 1/G₁ + 1/(sN₁ + α) + 1/(sN₂ + G₂), evaluated directly from eq. 14.
-    pub fn compliance(&self, s: (f64, f64)) -> (f64, f64) {
-        let inv = |(a, b): (f64, f64)| {
-            let m = a * a + b * b;
-            (a / m, -b / m)
-        };
-        let t1 = (1.0 / self.g1, 0.0);
-        let t2 = inv((s.0 * self.n1 + self.alpha, s.1 * self.n1));
-        let t3 = inv((s.0 * self.n2 + self.g2, s.1 * self.n2));
-        (t1.0 + t2.0 + t3.0, t1.1 + t2.1 + t3.1)
+    pub fn compliance(&self, s: Complex64) -> Complex64 {
+        (s * self.n1 + self.alpha).inv() + (s * self.n2 + self.g2).inv() + 1.0 / self.g1
     }
 
     /// The mapping of eq. 16 to the coefficients of eq. 17 (FACTS.md).
@@ -624,10 +619,11 @@ mod tests {
             (1.5, -2.0),
             (3.0, 0.0),
         ] {
+            let s = Complex64::new(s.0, s.1);
             let direct = mk.compliance(s);
             let mapped = tf.eval(s);
-            let err = ((direct.0 - mapped.0).powi(2) + (direct.1 - mapped.1).powi(2)).sqrt();
-            let size = (direct.0.powi(2) + direct.1.powi(2)).sqrt();
+            let err = (direct - mapped).norm();
+            let size = direct.norm();
             assert!(err < 1e-9 * size, "at {s:?}: {direct:?} vs {mapped:?}");
         }
         // And the eq. 16 coefficients written out by hand for these values.

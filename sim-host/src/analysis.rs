@@ -117,9 +117,8 @@ pub fn loop_encirclements(
         let w = 2.0 * core::f64::consts::PI * hz;
         let z_inv = Complex64::new(0.0, -w * dt).exp();
         let pd = scale * (f64::from(law.kp) + f64::from(law.kd_s) * (1.0 - z_inv) / dt);
-        let (re, im) = filter.response(w, dt);
         let delay = Complex64::new(0.0, -w * 1.5 * dt).exp();
-        let l = pd * Complex64::new(re, im) * applicator_response(p, spring, load_g, w) * delay;
+        let l = pd * filter.response(w, dt) * applicator_response(p, spring, load_g, w) * delay;
         if let Some(q) = prev {
             if (q.im < 0.0) != (l.im < 0.0) {
                 let x = 0.5 * (q.re + l.re);

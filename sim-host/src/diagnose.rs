@@ -15,8 +15,12 @@ use tactile_ident::{Refusal, Series};
 use crate::fit::at_top_rail;
 use crate::record::Record;
 
-/// Load levels the exported schedule samples a stiffening law at, grams.
-pub const EXPORT_LOADS_G: [f64; 4] = [10.0, 25.0, 45.0, 70.0];
+/// Load levels the exported schedule samples a stiffening law at, grams: the scheduled
+/// inverse's table loads, as the calibration protocol excites them.
+pub const EXPORT_LOADS_G: [f64; 4] = {
+    let l = tactile_core::profile::CALIBRATION_OFFSETS_G;
+    [l[0] as f64, l[1] as f64, l[2] as f64, l[3] as f64]
+};
 
 /// The record as the identification takes it: its period, force, strain, and the strain's rail
 /// samples left out.

@@ -182,8 +182,8 @@ impl Augment {
     }
 }
 
-/// Play-operator radii of the hysteresis augmentation, grams.
-const PLAY_RADII_G: [f64; 3] = [2.0, 6.0, 15.0];
+/// Play-operator radii of the fit's hysteresis augmentation (its basis, not the finger's), grams.
+const HYSTERESIS_BASIS_RADII_G: [f64; 3] = [2.0, 6.0, 15.0];
 
 /// How an internal parameter maps to a physical one.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -434,7 +434,9 @@ impl ModelSpec {
                 Augment::Hysteresis => {
                     let mut plays = [0.0f64; 3];
                     for (y, &s) in out.iter_mut().zip(&data.force) {
-                        for ((pl, r), w) in plays.iter_mut().zip(PLAY_RADII_G).zip(q.iter()) {
+                        for ((pl, r), w) in
+                            plays.iter_mut().zip(HYSTERESIS_BASIS_RADII_G).zip(q.iter())
+                        {
                             *pl = pl.clamp(s - r, s + r);
                             *y += w * (*pl - s) / r;
                         }

@@ -9,20 +9,28 @@
 use std::fmt::Write as _;
 
 use serde::Serialize;
-use tactile_core::viscoelastic::Discrete2State;
+use tactile_core::viscoelastic::{Discrete2State, MaxwellKelvin};
 
 use crate::fit::{fit, Base, Fit, ModelSpec, Series};
 use crate::rig::TickRecord;
 use crate::scenario::{probe_run, ScenarioError, ScenarioOptions};
 
-pub const LOADS_G: [f32; 4] = [10.0, 30.0, 50.0, 80.0];
-/// FACTS.md: Table I (element 4,2), Table II, Table III, Table IV.
-pub const MEMO_TABLE_I: [[f64; 4]; 4] = [
-    [2.4, 5000.0, 500.0, 26.0],
-    [3.6, 5770.0, 500.0, 47.0],
-    [4.4, 6670.0, 500.0, 66.0],
-    [5.3, 8250.0, 300.0, 90.0],
-];
+/// The step loads of the memo's tables (Table I's rows).
+pub const LOADS_G: [f32; 4] = {
+    let t = MaxwellKelvin::TABLE_I;
+    [
+        t[0].load_g as f32,
+        t[1].load_g as f32,
+        t[2].load_g as f32,
+        t[3].load_g as f32,
+    ]
+};
+
+/// FACTS.md: Table I (element 4,2) as (G1, N1, N2, G2) per load, from the core's
+/// [`MaxwellKelvin::TABLE_I`]; then Table II, Table III, Table IV.
+pub fn memo_table_i() -> [[f64; 4]; 4] {
+    MaxwellKelvin::TABLE_I.map(|r| [r.element.g1, r.element.n1, r.element.n2, r.element.g2])
+}
 pub const MEMO_TABLE_II_MK: [f64; 4] = [0.204, 0.455, 0.474, 0.784];
 pub const MEMO_TABLE_II_ELASTIC: [f64; 4] = [0.456, 1.32, 1.91, 3.12];
 pub const MEMO_TABLE_III: [f64; 4] = [8.07, 2.33, 7.68, 14.44];
@@ -175,7 +183,7 @@ pub fn render(t: &Tables) -> String {
         let cells: Vec<String> = t
             .table_i
             .iter()
-            .zip(MEMO_TABLE_I)
+            .zip(memo_table_i())
             .map(|(sim, memo)| format!("{:.3} / {}", sim[i], memo[i]))
             .collect();
         let _ = writeln!(s, "| {name} | {} |", cells.join(" | "));

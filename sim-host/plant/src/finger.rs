@@ -118,8 +118,8 @@ pub const LINEAR_SATURATING_ELEMENT: NonlinearMk = NonlinearMk {
 /// Seed of the simulated finger those calibrations run on.
 pub const CALIBRATION_FINGER_SEED: u64 = 7;
 
-/// Play-operator radii of the hysteresis model, grams.
-const PLAY_RADII_G: [f64; 3] = [2.0, 5.0, 10.0];
+/// Play-operator radii of the simulated finger's hysteresis, grams.
+const FINGER_PLAY_RADII_G: [f64; 3] = [2.0, 5.0, 10.0];
 /// Longest read-out delay the ring buffer holds, in control ticks.
 pub const MAX_DELAY_TICKS: usize = 512;
 
@@ -348,7 +348,7 @@ impl Finger {
         t.stress_integral_g_s = 0.0;
         t.last_update_s += dt_s;
         // Sensor-side effects of the element under the probe.
-        for (p, r) in self.plays_g.iter_mut().zip(PLAY_RADII_G) {
+        for (p, r) in self.plays_g.iter_mut().zip(FINGER_PLAY_RADII_G) {
             *p = p.clamp(probe_stress_g - r, probe_stress_g + r);
         }
         if self.effects.slow_relaxation > 0.0 {
@@ -392,10 +392,10 @@ impl Finger {
             let mean = self
                 .plays_g
                 .iter()
-                .zip(PLAY_RADII_G)
+                .zip(FINGER_PLAY_RADII_G)
                 .map(|(p, r)| (p - stress_g) / r)
                 .sum::<f64>()
-                / PLAY_RADII_G.len() as f64;
+                / FINGER_PLAY_RADII_G.len() as f64;
             e += self.effects.hysteresis_pct * mean;
         }
         e + self.slow_kelvin_pct + self.time_effects_pct(t_s)
