@@ -17,10 +17,44 @@
 
 use heapless::Vec;
 
-use crate::estimator::{EstimatorKind, SCHEDULE_POINTS};
 use crate::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use crate::tactile::{TaxelId, TAXELS};
 use crate::viscoelastic::{MaxwellKelvin, NonlinearMk, SecondOrder};
+
+/// Most load levels a schedule holds (the scheduled inverse's table).
+pub const SCHEDULE_POINTS: usize = 4;
+
+/// The estimators a taxel can run, in the order [`TaxelEstimators::update`](crate::estimator::TaxelEstimators::update) reports them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EstimatorKind {
+    /// σ = G (ε − ε₀), clamped at zero.
+    Elastic,
+    /// The memo's inverted second-order model (Table IV, or the taxel's own fit).
+    SecondOrderInverse,
+    /// [`ScheduledInverse`](crate::estimator::ScheduledInverse).
+    ScheduledInverse,
+    /// [`MkObserver`](crate::estimator::MkObserver).
+    Observer,
+}
+
+impl EstimatorKind {
+    pub const ALL: [EstimatorKind; 4] = [
+        EstimatorKind::Elastic,
+        EstimatorKind::SecondOrderInverse,
+        EstimatorKind::ScheduledInverse,
+        EstimatorKind::Observer,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            EstimatorKind::Elastic => "elastic",
+            EstimatorKind::SecondOrderInverse => "second-order inverse",
+            EstimatorKind::ScheduledInverse => "scheduled inverse",
+            EstimatorKind::Observer => "observer (EKF)",
+        }
+    }
+}
 
 /// CRC-32 (IEEE, as zlib and Ethernet compute it), bit by bit: a lookup table would cost
 /// the firmware 1–16 KB of flash to check a 700-byte table once at start-up.

@@ -19,8 +19,8 @@ use crate::filter::{Biquad, BiquadState};
 use crate::spring::SpringCurve;
 use crate::viscoelastic::{InverseEstimator, ModelError, NonlinearMk, SecondOrder};
 
-/// Most load levels a [`Schedule`] holds.
-pub const SCHEDULE_POINTS: usize = 4;
+// The table format owns what the estimators read from it: the kinds and the schedule's size.
+pub use crate::calibration::{EstimatorKind, SCHEDULE_POINTS};
 
 /// One load level of a schedule, discretized for the update period: the instantaneous spring
 /// and two Kelvin branches, each advancing `x ← φ x + c σ` with the stress held over a period.
@@ -404,38 +404,6 @@ impl MkObserver {
             fp_k[0] * fm + fp_k[2] * phi_m,
             fp_m[0] * fm + fp_m[2] * phi_m + self.q[2],
         ];
-    }
-}
-
-/// The estimators a taxel can run, in the order [`TaxelEstimators::update`] reports them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum EstimatorKind {
-    /// σ = G (ε − ε₀), clamped at zero.
-    Elastic,
-    /// The memo's inverted second-order model (Table IV, or the taxel's own fit).
-    SecondOrderInverse,
-    /// [`ScheduledInverse`].
-    ScheduledInverse,
-    /// [`MkObserver`].
-    Observer,
-}
-
-impl EstimatorKind {
-    pub const ALL: [EstimatorKind; 4] = [
-        EstimatorKind::Elastic,
-        EstimatorKind::SecondOrderInverse,
-        EstimatorKind::ScheduledInverse,
-        EstimatorKind::Observer,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            EstimatorKind::Elastic => "elastic",
-            EstimatorKind::SecondOrderInverse => "second-order inverse",
-            EstimatorKind::ScheduledInverse => "scheduled inverse",
-            EstimatorKind::Observer => "observer (EKF)",
-        }
     }
 }
 
