@@ -7,6 +7,8 @@
 //! - [`control`]: the gain-scheduled PD force law of memo eq. A1.
 //! - [`gauge`]: the strain-gauge path (8× averaged ADC samples to grams, with a range check).
 //! - [`tactile`]: the 8×8 scan sequencer, the capacitive element and its read-out amplifier.
+//! - [`lti`]: the arithmetic the models run in, second-order transfer functions, their Tustin
+//!   discretization.
 //! - [`viscoelastic`]: elastic, Maxwell–Kelvin, modified Maxwell–Kelvin and second-order
 //!   models, forward (strain from stress) and inverse (stress from strain).
 //! - [`calibration`]: the per-taxel calibration table (bytes the firmware checks at start-up).
@@ -37,6 +39,7 @@ pub mod estimator;
 pub mod filter;
 pub mod gauge;
 pub mod io;
+pub mod lti;
 pub mod profile;
 pub mod spring;
 pub mod supervisor;

@@ -18,7 +18,7 @@
 //! assert!((stress - 30.0).abs() < 1e-3 && tangent > 0.0);
 //! ```
 
-use crate::viscoelastic::ModelError;
+use crate::lti::{ModelError, ModelParameter};
 
 /// Knots of a [`SpringCurve`] (besides the origin).
 pub const CURVE_KNOTS: usize = 10;
@@ -60,7 +60,7 @@ impl SpringCurve {
         };
         if !(rising(&stress_g) && rising(&strain_pct)) {
             return Err(ModelError::InvalidParameter {
-                name: crate::viscoelastic::ModelParameter::SpringCurve,
+                name: ModelParameter::SpringCurve,
             });
         }
         // Segment k runs from knot k − 1 (the origin for k = 0) to knot k.
@@ -355,7 +355,7 @@ impl SpringLaw {
                 SpringCurve::new(stress, stress.map(|s| law.strain_pct(f64::from(s)) as f32))
             }
             _ => Err(ModelError::InvalidParameter {
-                name: crate::viscoelastic::ModelParameter::SpringLaw,
+                name: ModelParameter::SpringLaw,
             }),
         }
     }

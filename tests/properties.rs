@@ -3,10 +3,11 @@
 
 use proptest::prelude::*;
 use tactile_core::control::{ActuatorConfig, ForceLawConfig};
+use tactile_core::estimator::InverseEstimator;
 use tactile_core::filter::LowpassNotchConfig;
 use tactile_core::gauge::GaugeFault;
 use tactile_core::supervisor::{ForceLoop, ForceLoopConfig, SupervisorConfig};
-use tactile_core::viscoelastic::{InverseEstimator, MaxwellKelvin, SecondOrder};
+use tactile_core::viscoelastic::{MaxwellKelvin, SecondOrder};
 
 fn any_f32() -> impl Strategy<Value = f32> {
     prop_oneof![

@@ -23,11 +23,12 @@ use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use tactile_core::calibration::{
     secant_schedule, CalibrationFlags, CalibrationTable, TaxelModel, LARGE_OFFSET_PCT, POOR_FIT_G,
 };
+use tactile_core::estimator::StructuralInverse;
 use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G, CALIBRATION_REST_S};
 use tactile_core::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use tactile_core::tactile::{ScanConfig, TaxelId};
-use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState, StructuralInverse};
+use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState};
 
 use crate::finger::Effects;
 use crate::fit::{fit, Base, ModelSpec, Series};

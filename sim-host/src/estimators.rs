@@ -9,10 +9,10 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 use tactile_core::calibration::{CalibrationTable, TaxelModel};
+use tactile_core::estimator::StructuralInverse;
 use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::ScanConfig;
-use tactile_core::viscoelastic::StructuralInverse;
 
 use crate::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS};
 use crate::finger::Effects;

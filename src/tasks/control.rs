@@ -8,13 +8,13 @@
 //! protocol; the simulator's rig acts with its scenario's command and senses after its
 //! physics. Both run these two functions in the same order, so they agree by construction.
 
+use crate::estimator::InverseEstimator;
 use crate::gauge::{AdcScale, GaugeConfig, GaugeFault};
 use crate::io::ControlIo;
 use crate::profile::{CommandSource, Protocol};
 use crate::supervisor::{ForceLoop, ForceLoopConfig};
 use crate::tactile::{StrainForm, TaxelCalibration};
 use crate::telemetry::{ControlFrame, FaultFlags};
-use crate::viscoelastic::InverseEstimator;
 use crate::CONTROL_PERIOD_S;
 
 use super::config::{ConfigError, FirmwareConfig};
