@@ -403,13 +403,6 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
     Ok(path)
 }
 
-/// Why `tactile calibrate` stopped: bad arguments (exit 2) or a failure while fitting (exit 1).
-#[derive(Debug)]
-pub enum CalibrateError {
-    Usage(String),
-    Failed(String),
-}
-
 /// `ROW,COL=FILE` → the taxel and the file.
 pub fn parse_taxel_record(arg: &str) -> Result<(TaxelId, PathBuf), String> {
     let usage =
@@ -431,13 +424,13 @@ pub fn parse_taxel(pos: &str) -> Option<TaxelId> {
 /// `tactile calibrate`: fits each record (or the simulated finger's four calibration taxels),
 /// writes the table, and returns a summary.
 pub fn calibrate(
-    records: &[String],
+    records: &[(TaxelId, PathBuf)],
     out: &Path,
     seed: u64,
     finger: crate::fingers::FingerKind,
-) -> Result<String, CalibrateError> {
+) -> Result<String, crate::Error> {
     use crate::calibrate::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS};
-    use CalibrateError::{Failed, Usage};
+    use crate::Error::{Failed, Usage};
     let (table, reports, source) = if records.is_empty() {
         let (t, r) =
             calibrate_simulated(&CALIBRATION_TAXELS, seed, finger.effects()).map_err(Failed)?;
@@ -449,16 +442,21 @@ pub fn calibrate(
     } else {
         let mut table = tactile_core::calibration::CalibrationTable::default();
         let mut reports = Vec::new();
-        for arg in records {
-            let (taxel, path) = parse_taxel_record(arg).map_err(Usage)?;
-            if table.get(taxel).is_some() {
-                return Err(Usage(format!(
-                    "taxel ({}, {}) given twice",
-                    taxel.row(),
-                    taxel.col()
-                )));
-            }
-            let r = crate::record::read_record(&path).map_err(|e| Failed(e.to_string()))?;
+        // Bad usage is refused before any record is read.
+        if let Some((t, _)) = records
+            .iter()
+            .enumerate()
+            .find_map(|(i, (t, _))| records[..i].iter().find(|(u, _)| u == t))
+        {
+            return Err(Usage(format!(
+                "taxel ({}, {}) given twice",
+                t.row(),
+                t.col()
+            )));
+        }
+        for (taxel, path) in records {
+            let taxel = *taxel;
+            let r = crate::record::read_record(path)?;
             let dt = r.sample_period_s().ok_or_else(|| {
                 Failed(format!(
                     "{}: too short to have a sample period",
@@ -484,11 +482,7 @@ pub fn calibrate(
     let n = crate::calibrate::write_table(out, &table).map_err(Failed)?;
     let json = out.with_extension("json");
     let summary = serde_json::json!({ "taxels": reports, "table_bytes": n });
-    std::fs::write(
-        &json,
-        serde_json::to_string_pretty(&summary).unwrap_or_default(),
-    )
-    .map_err(|e| Failed(format!("{}: {e}", json.display())))?;
+    crate::error::write_json(&json, &summary)?;
     let mut text = format!(
         "calibrated {} taxel(s) from {source}\n\nheld out: RMS force error (g) on the blocks of the record each fold did not fit, elastic / second order / scheduled / observer\n\n| taxel | rest offset (%) | G1(30 g) | N1 | alpha | N2 | G2(30 g) | range (g) | element RMS (%) | held out, calibrated | held out, nominal | runs | flags |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         table.taxels.len()
@@ -528,6 +522,10 @@ pub fn calibrate(
 mod calibrate_tests {
     use super::*;
 
+    fn taxel_record(arg: &str) -> (TaxelId, PathBuf) {
+        parse_taxel_record(arg).unwrap()
+    }
+
     #[test]
     fn taxel_record_arguments_are_checked() {
         let (t, f) = parse_taxel_record("3,2=rec.csv").unwrap();
@@ -536,19 +534,18 @@ mod calibrate_tests {
             let e = parse_taxel_record(bad).unwrap_err();
             assert!(e.contains("ROW,COL=FILE"), "{bad}: {e}");
         }
-        let e = calibrate(
-            &["1,1=/nonexistent/x.csv".into()],
-            Path::new("/tmp/t.bin"),
-            1,
-            crate::fingers::FingerKind::Memo,
-        )
-        .unwrap_err();
+        let memo = crate::fingers::FingerKind::Memo;
+        let missing = parse_taxel_record("1,1=/nonexistent/x.csv").unwrap();
+        let e = calibrate(&[missing], Path::new("/tmp/t.bin"), 1, memo).unwrap_err();
         assert!(
-            matches!(e, CalibrateError::Failed(ref m) if m.contains("x.csv")),
+            matches!(e, crate::Error::Record(_)) && e.to_string().contains("x.csv"),
             "{e:?}"
         );
-        let memo = crate::fingers::FingerKind::Memo;
-        let e = calibrate(&["9,9=x.csv".into()], Path::new("/tmp/t.bin"), 1, memo).unwrap_err();
-        assert!(matches!(e, CalibrateError::Usage(_)), "{e:?}");
+        assert_eq!(e.exit_code(), 1);
+        // The same taxel twice is bad usage (exit 2).
+        let twice = [taxel_record("2,2=a.csv"), taxel_record("2,2=b.csv")];
+        let e = calibrate(&twice, Path::new("/tmp/t.bin"), 1, memo).unwrap_err();
+        assert!(matches!(e, crate::Error::Usage(_)), "{e:?}");
+        assert_eq!(e.exit_code(), 2);
     }
 }

@@ -13,8 +13,8 @@ use tactile_core::viscoelastic::{
 
 use crate::record::Record;
 
-/// The memo's base models.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+/// The memo's base models (the names `tactile fit --model` takes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Base {
     Elastic,
@@ -43,16 +43,14 @@ impl Base {
             Base::MkNonlinear => "mk-nonlinear",
         }
     }
+    /// The model called `name` (the names clap offers for `--model`).
     pub fn parse(name: &str) -> Result<Base, String> {
-        Base::ALL
-            .into_iter()
-            .find(|b| b.name() == name)
-            .ok_or_else(|| {
-                format!(
-                    "unknown model '{name}'; valid models: {}",
-                    Base::ALL.map(Base::name).join(", ")
-                )
-            })
+        <Base as clap::ValueEnum>::from_str(name, false).map_err(|_| {
+            format!(
+                "unknown model '{name}'; valid models: {}",
+                Base::ALL.map(Base::name).join(", ")
+            )
+        })
     }
     /// Plausible ranges of the physical parameters (the fit works inside them).
     fn bounds(self) -> &'static [(f64, f64)] {

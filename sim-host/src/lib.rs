@@ -8,6 +8,7 @@ pub mod analysis;
 pub mod calibrate;
 pub mod cli;
 pub mod diagnose;
+pub mod error;
 pub mod estimate;
 pub mod estimators;
 pub mod fingers;
@@ -19,6 +20,7 @@ pub mod report;
 pub mod scenario;
 pub mod tables;
 
+pub use error::Error;
 pub use tactile_plant::{applicator, finger, noise, rig};
 /// The record format lives in its own crate (`record/`), shared with the decoder.
 pub use tactile_record as record;

@@ -15,13 +15,17 @@
 //! Exit codes: 0 done, 1 failed while running, 2 bad usage (unknown scenario, effect, option).
 
 use sim_host::fingers::FingerKind;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use sim_host::cli;
+use sim_host::error::write_json;
+use sim_host::fit::Base;
 use sim_host::rig::RigConfig;
 use sim_host::scenario::{Scenario, ScenarioOptions};
+use sim_host::Error;
+use tactile_core::tactile::TaxelId;
 
 #[derive(Parser)]
 #[command(
@@ -76,9 +80,9 @@ enum Command {
     /// Fit one of the memo's models to a record (t_s,force_g,strain_pct).
     Fit {
         file: PathBuf,
-        /// elastic, maxwell-kelvin, mk-alpha or second-order.
-        #[arg(long, default_value = "mk-alpha")]
-        model: String,
+        /// The model to fit.
+        #[arg(long, value_enum, default_value_t = Base::MkAlpha)]
+        model: Base,
         /// Write the fit as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -97,7 +101,7 @@ enum Command {
         table: Option<PathBuf>,
         /// The taxel the record is of, ROW,COL from zero (for --table).
         #[arg(long, default_value = "3,2", value_parser = taxel_arg)]
-        taxel: tactile_core::tactile::TaxelId,
+        taxel: TaxelId,
     },
     /// Run the chip's estimators (the firmware's own code) over a record's strain with a
     /// calibration table; write the force estimates as a record; with a reference force, print
@@ -109,7 +113,7 @@ enum Command {
         table: PathBuf,
         /// The taxel of the table the record is of, ROW,COL from zero.
         #[arg(long, default_value = "3,2", value_parser = taxel_arg)]
-        taxel: tactile_core::tactile::TaxelId,
+        taxel: TaxelId,
         /// Only this estimator (default: all four).
         #[arg(long, value_enum)]
         estimator: Option<sim_host::estimate::Estimator>,
@@ -144,7 +148,8 @@ enum Command {
     /// taxels of the simulated finger.
     Calibrate {
         /// ROW,COL=FILE: a taxel (from zero) and its record of the calibration protocol.
-        records: Vec<String>,
+        #[arg(value_parser = cli::parse_taxel_record)]
+        records: Vec<(TaxelId, PathBuf)>,
         /// The table (binary, what the firmware's calibration sector holds).
         #[arg(long, default_value = "out/calibration/table.bin")]
         out: PathBuf,
@@ -178,78 +183,62 @@ macro_rules! out {
     }};
 }
 
-/// Prints a Markdown report and writes it, with its data as JSON, as `out/NAME.{md,json}`.
 /// The firmware's estimator figures from a decoded QEMU session's folder.
-fn read_firmware_figures(
-    dir: &std::path::Path,
-) -> Result<sim_host::record::FirmwareFigures, String> {
+fn read_firmware_figures(dir: &Path) -> Result<sim_host::record::FirmwareFigures, Error> {
     let path = dir.join("estimators.json");
     let text = std::fs::read_to_string(&path).map_err(|e| {
-        format!(
+        Error::Usage(format!(
             "{}: {e} (write it with boards/qemu-netduinoplus2/run.sh {})",
             path.display(),
             dir.display()
-        )
+        ))
     })?;
-    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+    serde_json::from_str(&text).map_err(Error::json(&path))
 }
 
+/// Prints a Markdown report and writes it, with its data as JSON, as `out/NAME.{md,json}`.
 fn print_and_write(
-    out: &std::path::Path,
+    out: &Path,
     name: &str,
     text: &str,
     data: &impl serde::Serialize,
-) -> ExitCode {
+) -> Result<(), Error> {
     out!("{text}");
     let md = out.join(format!("{name}.md"));
-    let written = std::fs::create_dir_all(out)
-        .and_then(|_| std::fs::write(&md, text))
-        .and_then(|_| {
-            std::fs::write(
-                out.join(format!("{name}.json")),
-                serde_json::to_string_pretty(data).unwrap_or_default(),
-            )
-        });
-    match written {
-        Ok(()) => {
-            outln!("wrote {}", md.display());
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("tactile: {}: {e}", out.display());
-            ExitCode::from(1)
-        }
-    }
+    std::fs::create_dir_all(out).map_err(Error::io(out))?;
+    std::fs::write(&md, text).map_err(Error::io(&md))?;
+    write_json(&out.join(format!("{name}.json")), data)?;
+    outln!("wrote {}", md.display());
+    Ok(())
 }
 
-/// A record read strictly and split for fitting; on error, says why and gives exit code 1.
-fn read_series(file: &std::path::Path) -> Result<sim_host::fit::Series, ExitCode> {
-    match sim_host::record::read_record(file) {
-        Ok(r) => Ok(sim_host::fit::Series::from_record(&r)),
-        Err(e) => {
-            eprintln!("tactile: {e}");
-            Err(ExitCode::from(1))
-        }
-    }
+/// A record read strictly and split for fitting.
+fn read_series(file: &Path) -> Result<sim_host::fit::Series, Error> {
+    Ok(sim_host::fit::Series::from_record(
+        &sim_host::record::read_record(file)?,
+    ))
 }
 
 /// `--taxel ROW,COL` for clap (a bad one is a usage error, exit code 2).
-fn taxel_arg(text: &str) -> Result<tactile_core::tactile::TaxelId, String> {
+fn taxel_arg(text: &str) -> Result<TaxelId, String> {
     cli::parse_taxel(text).ok_or_else(|| "expected ROW,COL with ROW and COL in 0..8".to_string())
 }
 
-fn usage_error(message: &str) -> ExitCode {
-    eprintln!("tactile: {message}");
-    ExitCode::from(2)
+/// The one place errors become exit codes: 0 done, 1 the run failed, 2 bad usage (clap exits 2
+/// itself for what it refuses).
+fn main() -> ExitCode {
+    match run(Cli::parse().command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("tactile: {e}");
+            ExitCode::from(e.exit_code())
+        }
+    }
 }
 
-fn main() -> ExitCode {
-    let cli = Cli::parse();
-    match cli.command {
-        Command::List => {
-            out!("{}", cli::listing());
-            ExitCode::SUCCESS
-        }
+fn run(command: Command) -> Result<(), Error> {
+    match command {
+        Command::List => out!("{}", cli::listing()),
         Command::Experiment {
             scenario,
             out,
@@ -264,62 +253,52 @@ fn main() -> ExitCode {
             fault,
         } => {
             if !(record_hz > 0.0 && record_hz <= 1000.0) {
-                return usage_error(&format!("--record-hz {record_hz}: must be in (0, 1000]"));
+                return Err(Error::Usage(format!(
+                    "--record-hz {record_hz}: must be in (0, 1000]"
+                )));
             }
             if !(load.is_finite() && (0.0..=120.0).contains(&load)) {
-                return usage_error(&format!(
+                return Err(Error::Usage(format!(
                     "--load {load}: the applicator's range is 0 to 120 g"
-                ));
+                )));
             }
             if !(duration.is_finite() && duration > 0.0 && duration <= 3600.0) {
-                return usage_error(&format!("--duration {duration}: must be in (0, 3600] s"));
+                return Err(Error::Usage(format!(
+                    "--duration {duration}: must be in (0, 3600] s"
+                )));
             }
             let mut config = RigConfig {
                 seed,
+                fault,
                 ..Default::default()
             };
             for effect in effects {
                 effect.apply(&mut config.effects);
             }
-            config.fault = fault;
             let options = ScenarioOptions {
                 load_g: load,
                 protocol_seed,
                 fixed_gains,
                 duration_s: duration,
             };
-            match cli::experiment(scenario.name(), &options, config, &out, record_hz, !no_plot) {
-                Ok(o) => {
-                    out!("{}", o.summary);
-                    for f in o.files {
-                        outln!("  wrote {}", f.display());
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("tactile: {e}");
-                    ExitCode::from(1)
-                }
+            let o = cli::experiment(scenario.name(), &options, config, &out, record_hz, !no_plot)
+                .map_err(|e| Error::Failed(e.to_string()))?;
+            out!("{}", o.summary);
+            for f in o.files {
+                outln!("  wrote {}", f.display());
             }
         }
         Command::Fit { file, model, json } => {
-            let base = match sim_host::fit::Base::parse(&model) {
-                Ok(b) => b,
-                Err(e) => return usage_error(&e),
-            };
-            let series = match read_series(&file) {
-                Ok(s) => s,
-                Err(code) => return code,
-            };
+            let series = read_series(&file)?;
             let start = std::time::Instant::now();
-            let Some(fit) = sim_host::fit::fit(&sim_host::fit::ModelSpec::new(base), &series, &[])
-            else {
-                eprintln!(
-                    "tactile: no start of the {model} fit converged on {}",
-                    file.display()
-                );
-                return ExitCode::from(1);
-            };
+            let fit = sim_host::fit::fit(&sim_host::fit::ModelSpec::new(model), &series, &[])
+                .ok_or_else(|| {
+                    Error::Failed(format!(
+                        "no start of the {} fit converged on {}",
+                        model.name(),
+                        file.display()
+                    ))
+                })?;
             out!("{}", sim_host::fit::describe(&fit));
             outln!(
                 "  ({} evaluations, {:.2} s)",
@@ -327,13 +306,8 @@ fn main() -> ExitCode {
                 start.elapsed().as_secs_f64()
             );
             if let Some(path) = json {
-                let text = serde_json::to_string_pretty(&fit).unwrap_or_default();
-                if let Err(e) = std::fs::write(&path, text) {
-                    eprintln!("tactile: {}: {e}", path.display());
-                    return ExitCode::from(1);
-                }
+                write_json(&path, &fit)?;
             }
-            ExitCode::SUCCESS
         }
         Command::Diagnose {
             file,
@@ -342,68 +316,44 @@ fn main() -> ExitCode {
             table,
             taxel,
         } => {
-            let record = match sim_host::record::read_record(&file) {
-                Ok(r) => r,
-                Err(e) => {
-                    eprintln!("tactile: {e}");
-                    return ExitCode::from(1);
-                }
-            };
-            let series = match sim_host::diagnose::into_series(record) {
-                Ok(s) => s,
-                Err(reason) => {
-                    eprintln!("tactile: {}: cannot be diagnosed: {reason}", file.display());
-                    return ExitCode::from(1);
-                }
-            };
+            let record = sim_host::record::read_record(&file)?;
+            let series = sim_host::diagnose::into_series(record).map_err(|reason| {
+                Error::Failed(format!("{}: cannot be diagnosed: {reason}", file.display()))
+            })?;
             let start = std::time::Instant::now();
             let d = sim_host::diagnose::diagnose(&series, taxel);
             out!("{}", d.diagnosis.summary);
             outln!("  ({:.2} s)", start.elapsed().as_secs_f64());
             if let Some(path) = json {
-                let written = serde_json::to_string_pretty(&d)
-                    .map_err(|e| e.to_string())
-                    .and_then(|text| std::fs::write(&path, text).map_err(|e| e.to_string()));
-                if let Err(e) = written {
-                    eprintln!("tactile: {}: {e}", path.display());
-                    return ExitCode::from(1);
-                }
+                write_json(&path, &d)?;
             }
             if let Some(path) = table {
-                let Some(model) = d.table_model.clone() else {
-                    eprintln!("tactile: no calibration table: the diagnosed model has no on-chip form (see above)");
-                    return ExitCode::from(1);
-                };
+                let model = d.table_model.clone().ok_or_else(|| {
+                    Error::Failed(
+                        "no calibration table: the diagnosed model has no on-chip form (see above)"
+                            .into(),
+                    )
+                })?;
                 let mut t = tactile_core::calibration::CalibrationTable::default();
                 let _ = t.taxels.push(model);
-                match sim_host::calibrate::write_table(&path, &t) {
-                    Ok(_) => outln!(
-                        "  calibration table for taxel ({}, {}): {} (the firmware's format; {})",
-                        taxel.row(),
-                        taxel.col(),
-                        path.display(),
-                        if d.force_estimate.exported {
-                            "the accepted model"
-                        } else {
-                            "the baseline's model"
-                        }
-                    ),
-                    Err(e) => {
-                        eprintln!("tactile: {e}");
-                        return ExitCode::from(1);
+                sim_host::calibrate::write_table(&path, &t).map_err(Error::Failed)?;
+                outln!(
+                    "  calibration table for taxel ({}, {}): {} (the firmware's format; {})",
+                    taxel.row(),
+                    taxel.col(),
+                    path.display(),
+                    if d.force_estimate.exported {
+                        "the accepted model"
+                    } else {
+                        "the baseline's model"
                     }
-                }
+                );
             }
             if let Some(dir) = report {
-                match sim_host::report::diagnosis_report(&dir, &file, &series, &d) {
-                    Ok(p) => outln!("  report: {}", p.display()),
-                    Err(e) => {
-                        eprintln!("tactile: report {}: {e}", dir.display());
-                        return ExitCode::from(1);
-                    }
-                }
+                let p = sim_host::report::diagnosis_report(&dir, &file, &series, &d)
+                    .map_err(|e| Error::Failed(format!("report {}: {e}", dir.display())))?;
+                outln!("  report: {}", p.display());
             }
-            ExitCode::SUCCESS
         }
         Command::Estimate {
             file,
@@ -411,80 +361,41 @@ fn main() -> ExitCode {
             taxel,
             estimator,
             out,
-        } => match sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref()) {
-            Ok(text) => {
-                out!("{text}");
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("tactile: {e}");
-                ExitCode::from(1)
-            }
-        },
-        Command::Tables { out, seed } => match sim_host::tables::reproduce(seed) {
-            Ok(t) => print_and_write(&out, "tables", &sim_host::tables::render(&t), &t),
-            Err(e) => {
-                eprintln!("tactile: {e}");
-                ExitCode::from(1)
-            }
-        },
+        } => {
+            let text = sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref())
+                .map_err(Error::Failed)?;
+            out!("{text}");
+        }
+        Command::Tables { out, seed } => {
+            let t = sim_host::tables::reproduce(seed)?;
+            print_and_write(&out, "tables", &sim_host::tables::render(&t), &t)?;
+        }
         Command::Estimators {
             out,
             seed,
             finger,
             qemu,
         } => {
-            let firmware = match qemu.map(|dir| read_firmware_figures(&dir)).transpose() {
-                Ok(f) => f,
-                Err(e) => {
-                    eprintln!("tactile estimators: {e}");
-                    return ExitCode::from(2);
-                }
-            };
-            match sim_host::estimators::compare(seed, finger) {
-                Ok(t) => {
-                    let mut text = sim_host::estimators::render(&t);
-                    if let Some(f) = &firmware {
-                        text.push('\n');
-                        text.push_str(&f.render());
-                    }
-                    let data = serde_json::json!({ "simulator": t, "firmware": firmware });
-                    print_and_write(&out, "estimators", &text, &data)
-                }
-                Err(e) => {
-                    eprintln!("tactile: {e}");
-                    ExitCode::from(1)
-                }
+            let firmware = qemu.map(|dir| read_firmware_figures(&dir)).transpose()?;
+            let t = sim_host::estimators::compare(seed, finger).map_err(Error::Failed)?;
+            let mut text = sim_host::estimators::render(&t);
+            if let Some(f) = &firmware {
+                text.push('\n');
+                text.push_str(&f.render());
             }
+            let data = serde_json::json!({ "simulator": t, "firmware": firmware });
+            print_and_write(&out, "estimators", &text, &data)?;
         }
         Command::Calibrate {
             records,
             out,
             seed,
             finger,
-        } => match cli::calibrate(&records, &out, seed, finger) {
-            Ok(text) => {
-                outln!("{text}");
-                ExitCode::SUCCESS
-            }
-            Err(cli::CalibrateError::Usage(e)) => {
-                eprintln!("tactile calibrate: {e}");
-                ExitCode::from(2)
-            }
-            Err(cli::CalibrateError::Failed(e)) => {
-                eprintln!("tactile calibrate: {e}");
-                ExitCode::from(1)
-            }
-        },
-        Command::Demo { out, seed } => match cli::demo(&out, seed) {
-            Ok(path) => {
-                outln!("report: {}", path.display());
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("tactile: {e}");
-                ExitCode::from(1)
-            }
-        },
+        } => outln!("{}", cli::calibrate(&records, &out, seed, finger)?),
+        Command::Demo { out, seed } => {
+            let path = cli::demo(&out, seed).map_err(|e| Error::Failed(e.to_string()))?;
+            outln!("report: {}", path.display());
+        }
     }
+    Ok(())
 }

@@ -1,0 +1,64 @@
+//! The simulator's error: what stopped a `tactile` command, and the exit code it means.
+
+use std::path::PathBuf;
+
+use crate::record::RecordError;
+use crate::scenario::ScenarioError;
+
+/// Why a command stopped. [`Error::exit_code`]: 2 for bad usage, 1 for a run that failed.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The command line asked for something that cannot be (exit 2).
+    #[error("{0}")]
+    Usage(String),
+    /// A record that cannot be used, with its file, line and column.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// A file that could not be written or read.
+    #[error("{}: {source}", .path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// JSON that could not be encoded or decoded.
+    #[error("{}: {source}", .path.display())]
+    Json {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A run that could not finish, with the reason.
+    #[error("{0}")]
+    Failed(String),
+}
+
+impl Error {
+    /// The process exit code: 2 for bad usage, 1 otherwise.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Error::Usage(_) => 2,
+            _ => 1,
+        }
+    }
+
+    /// An I/O error on `path`.
+    pub fn io(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> Error {
+        let path = path.into();
+        move |source| Error::Io { path, source }
+    }
+
+    /// A JSON error on `path`.
+    pub fn json(path: impl Into<PathBuf>) -> impl FnOnce(serde_json::Error) -> Error {
+        let path = path.into();
+        move |source| Error::Json { path, source }
+    }
+}
+
+/// Writes `value` as pretty JSON to `path`.
+pub fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<(), Error> {
+    let text = serde_json::to_string_pretty(value).map_err(Error::json(path))?;
+    std::fs::write(path, text).map_err(Error::io(path))
+}
