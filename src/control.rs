@@ -34,12 +34,6 @@ pub struct ForceLawConfig {
     pub adjusted_max_g: f32,
 }
 
-impl Default for ForceLawConfig {
-    fn default() -> Self {
-        Self::MEMO
-    }
-}
-
 impl ForceLawConfig {
     pub const MEMO: ForceLawConfig = ForceLawConfig {
         kp: 2.0,
@@ -73,7 +67,7 @@ pub struct Adjusted {
 }
 
 /// State of the law: the previous error e(k).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForceLaw {
     pub config: ForceLawConfig,
     previous_error_g: f32,
@@ -170,12 +164,6 @@ pub struct ActuatorConfig {
     pub grams_per_volt: f32,
     /// The converter driving the amplifier, in the amplifier's volts (level shifting included).
     pub dac: crate::gauge::AdcScale,
-}
-
-impl Default for ActuatorConfig {
-    fn default() -> Self {
-        Self::MEMO
-    }
 }
 
 impl ActuatorConfig {

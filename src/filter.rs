@@ -143,12 +143,6 @@ pub struct LowpassNotchConfig {
     pub sample_period_s: f64,
 }
 
-impl Default for LowpassNotchConfig {
-    fn default() -> Self {
-        Self::MEMO
-    }
-}
-
 impl LowpassNotchConfig {
     /// The memo's component values; the notch placed on the 190 Hz beam resonance.
     pub const MEMO: LowpassNotchConfig = LowpassNotchConfig {

@@ -80,12 +80,6 @@ pub struct GaugeConfig {
     pub force_max_g: f32,
 }
 
-impl Default for GaugeConfig {
-    fn default() -> Self {
-        Self::MEMO
-    }
-}
-
 impl GaugeConfig {
     pub const MEMO: GaugeConfig = GaugeConfig {
         adc: AdcScale::BIPOLAR_10V_12BIT,

@@ -70,41 +70,46 @@ pub fn hold_quality(ticks: &[TickRecord], settle_s: f64) -> Vec<(f32, f64, f32)>
         .collect()
 }
 
+/// For each loaded segment, `strain_change(previous segment, the load's segment, following
+/// segments)` — the strain the load left, measured against the rest before it.
+fn per_load(
+    ticks: &[TickRecord],
+    strain_change: impl Fn(&Segment, &Segment, &[Segment]) -> Option<f64>,
+) -> Vec<(f32, f64)> {
+    let segs = segments(ticks);
+    segs.iter()
+        .enumerate()
+        .filter(|(_, s)| s.command_g > 0.0)
+        .filter_map(|(i, s)| {
+            let before = segs.get(i.checked_sub(1)?)?;
+            Some((s.command_g, strain_change(before, s, segs.get(i + 1..)?)?))
+        })
+        .collect()
+}
+
+/// The mean strain of the `n` ticks that end segment `s`.
+fn strain_at_end(ticks: &[TickRecord], s: &Segment, n: usize) -> Option<f64> {
+    Some(mean_strain(ticks.get(s.end.saturating_sub(n)..s.end)?))
+}
+
 /// Static linearity (Graph 1 procedure): for each load, the strain 0.1 s after the load was
 /// applied (mean of 10 samples 1 ms apart) minus the strain just before it (a new offset).
 /// "Applied" is when the slewed command reaches the load (`slew_g_per_s`): the memo's rig
 /// stepped, ours ramps at a rate its probe can follow.
 pub fn static_linearity(ticks: &[TickRecord], slew_g_per_s: f32) -> Vec<(f32, f64)> {
-    let segs = segments(ticks);
-    segs.iter()
-        .enumerate()
-        .filter(|(_, s)| s.command_g > 0.0)
-        .filter_map(|(i, s)| {
-            let before = segs.get(i.checked_sub(1)?)?;
-            let offset = mean_strain(ticks.get(before.end.saturating_sub(10)..before.end)?);
-            let ramp = (s.command_g / slew_g_per_s / crate::rig::TICK_S as f32).ceil() as usize;
-            let at = s.start + ramp + 100;
-            let reading = mean_strain(ticks.get(at..at + 10)?);
-            Some((s.command_g, reading - offset))
-        })
-        .collect()
+    per_load(ticks, |before, s, _| {
+        let ramp = (s.command_g / slew_g_per_s / crate::rig::TICK_S as f32).ceil() as usize;
+        let at = s.start + ramp + 100;
+        Some(mean_strain(ticks.get(at..at + 10)?) - strain_at_end(ticks, before, 10)?)
+    })
 }
 
 /// Permanent deformation (Graph 5): for each load, the strain at the end of the rest that
 /// follows it minus the strain before it was applied.
 pub fn residual_deformation(ticks: &[TickRecord]) -> Vec<(f32, f64)> {
-    let segs = segments(ticks);
-    segs.iter()
-        .enumerate()
-        .filter(|(_, s)| s.command_g > 0.0)
-        .filter_map(|(i, s)| {
-            let before = segs.get(i.checked_sub(1)?)?;
-            let after = segs.get(i + 1)?;
-            let b = mean_strain(ticks.get(before.end.saturating_sub(200)..before.end)?);
-            let a = mean_strain(ticks.get(after.end.saturating_sub(200)..after.end)?);
-            Some((s.command_g, a - b))
-        })
-        .collect()
+    per_load(ticks, |before, _, after| {
+        Some(strain_at_end(ticks, after.first()?, 200)? - strain_at_end(ticks, before, 200)?)
+    })
 }
 
 /// RMS of (a − b) over the ticks where `keep` holds.

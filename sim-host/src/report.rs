@@ -52,24 +52,14 @@ pub fn diagnosis_report(
             .x_desc("time (s)")
             .y_desc("strain (%)")
             .draw()?;
-        c.draw_series(LineSeries::new(
-            r0.iter()
-                .enumerate()
-                .step_by(every)
-                .map(|(i, v)| (t(i), *v)),
-            RED,
-        ))?
-        .label("before")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RED));
-        c.draw_series(LineSeries::new(
-            r1.iter()
-                .enumerate()
-                .step_by(every)
-                .map(|(i, v)| (t(i), *v)),
-            BLUE,
-        ))?
-        .label("after")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE));
+        for (r, color, name) in [(&r0, RED, "before"), (&r1, BLUE, "after")] {
+            c.draw_series(LineSeries::new(
+                r.iter().enumerate().step_by(every).map(|(i, v)| (t(i), *v)),
+                color,
+            ))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+        }
         c.configure_series_labels()
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)

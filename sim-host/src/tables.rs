@@ -67,22 +67,23 @@ fn record(name: &str, options: ScenarioOptions, seed: u64) -> Result<Series, Sce
     Ok(Series::whole(0.1, force, strain))
 }
 
-fn must(f: Option<Fit>, what: &str) -> Result<Fit, ScenarioError> {
-    f.ok_or_else(|| ScenarioError::Unknown(format!("{what}: the fit did not converge")))
+fn must(f: Option<Fit>, what: &str) -> Result<Fit, crate::Error> {
+    f.ok_or_else(|| crate::Error::Failed(format!("{what}: the fit did not converge")))
 }
 
 /// Runs the protocols and fits the models.
-pub fn reproduce(seed: u64) -> Result<Tables, ScenarioError> {
+pub fn reproduce(seed: u64) -> Result<Tables, crate::Error> {
     let mk = ModelSpec::new(Base::MaxwellKelvin);
     let elastic = ModelSpec::new(Base::Elastic);
-    let pseudo = record(
-        "pseudo-random",
-        ScenarioOptions {
+    // The memo's 100 s records of pseudo-random steps and of sinusoids.
+    let long = |name: &str, seed: u64| {
+        let options = ScenarioOptions {
             duration_s: 100.0,
             ..Default::default()
-        },
-        seed + 1,
-    )?;
+        };
+        record(name, options, seed)
+    };
+    let pseudo = long("pseudo-random", seed + 1)?;
     let mut tables = Tables {
         table_i: vec![],
         table_ii_mk: vec![],
@@ -112,14 +113,7 @@ pub fn reproduce(seed: u64) -> Result<Tables, ScenarioError> {
             .push(pseudo.rms_n_g(&m.model, &m.theta, m.g1).unwrap_or(f64::NAN));
     }
     // Table IV: models tuned on the sinusoids, judged on the pseudo-random record.
-    let sines = record(
-        "sines",
-        ScenarioOptions {
-            duration_s: 100.0,
-            ..Default::default()
-        },
-        seed + 2,
-    )?;
+    let sines = long("sines", seed + 2)?;
     let so_spec = ModelSpec::new(Base::SecondOrder);
     let so = must(fit(&so_spec, &sines, &[]), "second order")?;
     let m = must(fit(&mk, &sines, &[]), "Maxwell–Kelvin on the sinusoids")?;

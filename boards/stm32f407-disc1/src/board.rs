@@ -24,48 +24,18 @@ use tactile_firmware::{ControlIo, ResetCause, SafeStop, ScanIo};
 /// Core clock, Hz (HSE 8 MHz crystal of the DISC1 through the PLL).
 pub const CORE_HZ: u32 = 168_000_000;
 
-#[cfg(feature = "protocol-force-steps")]
-pub const PROTOCOL: Protocol = Protocol::FORCE_STEPS_MEMO;
-#[cfg(feature = "protocol-force-steps")]
-pub const PROTOCOL_NAME: &str = "force-steps";
-#[cfg(all(
-    feature = "protocol-pseudo-random",
-    not(feature = "protocol-force-steps")
-))]
-pub const PROTOCOL: Protocol = Protocol::PSEUDO_RANDOM_MEMO;
-#[cfg(all(
-    feature = "protocol-pseudo-random",
-    not(feature = "protocol-force-steps")
-))]
-pub const PROTOCOL_NAME: &str = "pseudo-random";
-#[cfg(all(
-    feature = "protocol-sines",
-    not(any(feature = "protocol-force-steps", feature = "protocol-pseudo-random"))
-))]
-pub const PROTOCOL: Protocol = Protocol::SINES_MEMO;
-#[cfg(all(
-    feature = "protocol-sines",
-    not(any(feature = "protocol-force-steps", feature = "protocol-pseudo-random"))
-))]
-pub const PROTOCOL_NAME: &str = "sines";
-#[cfg(all(
-    feature = "protocol-step-loads",
-    not(any(
-        feature = "protocol-force-steps",
-        feature = "protocol-pseudo-random",
-        feature = "protocol-sines"
-    ))
-))]
-pub const PROTOCOL: Protocol = Protocol::StepLoads;
-#[cfg(all(
-    feature = "protocol-step-loads",
-    not(any(
-        feature = "protocol-force-steps",
-        feature = "protocol-pseudo-random",
-        feature = "protocol-sines"
-    ))
-))]
-pub const PROTOCOL_NAME: &str = "step-loads";
+/// The protocol this build runs and its name (the first protocol feature set, in this order).
+const CHOSEN: (Protocol, &str) = if cfg!(feature = "protocol-force-steps") {
+    (Protocol::FORCE_STEPS_MEMO, "force-steps")
+} else if cfg!(feature = "protocol-pseudo-random") {
+    (Protocol::PSEUDO_RANDOM_MEMO, "pseudo-random")
+} else if cfg!(feature = "protocol-sines") {
+    (Protocol::SINES_MEMO, "sines")
+} else {
+    (Protocol::StepLoads, "step-loads")
+};
+pub const PROTOCOL: Protocol = CHOSEN.0;
+pub const PROTOCOL_NAME: &str = CHOSEN.1;
 #[cfg(not(any(
     feature = "protocol-force-steps",
     feature = "protocol-pseudo-random",

@@ -47,12 +47,6 @@ pub struct ApplicatorParams {
     pub contact_loss_factor: f64,
 }
 
-impl Default for ApplicatorParams {
-    fn default() -> Self {
-        Self::MEMO
-    }
-}
-
 impl ApplicatorParams {
     /// FACTS.md values; beam and indentation scale chosen for the 50 Hz and 190 Hz modes.
     pub const MEMO: ApplicatorParams = ApplicatorParams {

@@ -40,12 +40,6 @@ pub struct Effects {
     pub element: Option<NonlinearMk>,
 }
 
-impl Default for Effects {
-    fn default() -> Self {
-        Self::MEMO
-    }
-}
-
 impl Effects {
     /// Only the memo's own physics.
     pub const MEMO: Effects = Effects {
