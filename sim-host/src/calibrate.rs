@@ -97,6 +97,35 @@ impl Frames {
     }
 }
 
+/// Why a calibration record could not be fitted.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CalibrationError {
+    #[error("a taxel is calibrated from a record of the calibration protocol")]
+    NotTheCalibrationProtocol,
+    #[error("force and strain must have the same, evenly sampled length")]
+    Unsampled,
+    #[error("the record has a non-finite force or strain")]
+    NonFinite,
+    #[error("the record lasts {have_s:.1} s; the calibration protocol needs {needed_s:.0} s")]
+    TooShort { have_s: f64, needed_s: f64 },
+    #[error(
+        "no rest at the start of the record (the protocol's first {rest_s:.0} s, force under 1 g)"
+    )]
+    NoRest { rest_s: f64 },
+    #[error("the force never rises above 1 g: nothing was calibrated")]
+    NoLoad,
+    #[error("taxel ({}, {}): the {what} fit failed", .taxel.row(), .taxel.col())]
+    FitFailed { taxel: TaxelId, what: &'static str },
+    #[error("taxel ({}, {}): its model cannot run on the chip: {source}", .taxel.row(), .taxel.col())]
+    Model {
+        taxel: TaxelId,
+        #[source]
+        source: tactile_core::viscoelastic::ModelError,
+    },
+    #[error("more taxels than the array has")]
+    TooManyTaxels,
+}
+
 /// Fits one taxel from its calibration record: force (g) and strain (%) sampled every `dt_s`
 /// from the start of `protocol` (a `Protocol::Calibration`).
 pub fn fit_taxel(
@@ -105,24 +134,22 @@ pub fn fit_taxel(
     dt_s: f64,
     force_g: &[f64],
     strain_pct: &[f64],
-) -> Result<(TaxelModel, TaxelFitReport), String> {
+) -> Result<(TaxelModel, TaxelFitReport), CalibrationError> {
     let Protocol::Calibration { per_offset_s, .. } = protocol else {
-        return Err("a taxel is calibrated from a record of the calibration protocol".into());
+        return Err(CalibrationError::NotTheCalibrationProtocol);
     };
     let per_offset_s = f64::from(per_offset_s);
     if force_g.len() != strain_pct.len() || !dt_s.is_finite() || dt_s <= 0.0 {
-        return Err("force and strain must have the same, evenly sampled length".into());
+        return Err(CalibrationError::Unsampled);
     }
     if force_g.iter().chain(strain_pct).any(|v| !v.is_finite()) {
-        return Err("the record has a non-finite force or strain".into());
+        return Err(CalibrationError::NonFinite);
     }
     let rest_s = f64::from(CALIBRATION_REST_S);
     let needed_s = rest_s + per_offset_s * CALIBRATION_OFFSETS_G.len() as f64;
     let have_s = dt_s * force_g.len() as f64;
     if have_s + 0.5 < needed_s {
-        return Err(format!(
-            "the record lasts {have_s:.1} s; the calibration protocol needs {needed_s:.0} s"
-        ));
+        return Err(CalibrationError::TooShort { have_s, needed_s });
     }
     let raw = Frames::new(dt_s, force_g, strain_pct);
     // The offset: the strain at the leading rest, its first half second left out.
@@ -131,9 +158,7 @@ pub fn fit_taxel(
         .map(|i| raw.strain[i])
         .collect();
     if rest.len() < 20 {
-        return Err(format!(
-            "no rest at the start of the record (the protocol's first {rest_s:.0} s, force under 1 g)"
-        ));
+        return Err(CalibrationError::NoRest { rest_s });
     }
     let offset = tactile_ident::stats::mean(&rest);
     let frames = Frames {
@@ -164,21 +189,15 @@ pub fn fit_taxel(
         .collect();
     let range_g = tactile_ident::stats::quantile(&frames.force, 0.995);
     if range_g.is_nan() || range_g <= 1.0 {
-        return Err("the force never rises above 1 g: nothing was calibrated".into());
+        return Err(CalibrationError::NoLoad);
     }
     let knots = knots_for(range_g);
-    let failed = |what: &str| {
-        format!(
-            "taxel ({}, {}): the {what} fit failed",
-            taxel.row(),
-            taxel.col()
-        )
-    };
+    let failed = |what: &'static str| CalibrationError::FitFailed { taxel, what };
 
     // The whole record, then each fold from the whole record's parameters.
     let everything = vec![true; frames.force.len()];
     let whole = fit_element(&frames, &everything, &knots, None).ok_or_else(|| failed("element"))?;
-    let model_from = |fit: &ElementFit, in_fit: &[bool]| -> Result<TaxelModel, String> {
+    let model_from = |fit: &ElementFit, in_fit: &[bool]| -> Result<TaxelModel, CalibrationError> {
         memo_models(
             taxel, &frames, in_fit, &placed, fit, &levels, range_g, offset,
         )
@@ -257,9 +276,12 @@ pub fn fit_taxel(
 
 /// Every on-chip estimator of `model` over the record (its frames, from its raw strain: the
 /// conditioner removes the offset as on the chip).
-fn run_estimators(model: &TaxelModel, raw: &Frames) -> Result<Vec<[f32; 4]>, String> {
-    let mut chip = TaxelEstimators::new(model, raw.dt_s)
-        .map_err(|e| format!("taxel {:?}: {e:?}", model.taxel))?;
+fn run_estimators(model: &TaxelModel, raw: &Frames) -> Result<Vec<[f32; 4]>, CalibrationError> {
+    let mut chip =
+        TaxelEstimators::new(model, raw.dt_s).map_err(|source| CalibrationError::Model {
+            taxel: model.taxel,
+            source,
+        })?;
     Ok(raw.strain.iter().map(|e| chip.update(*e as f32)).collect())
 }
 
@@ -565,13 +587,21 @@ fn secant_factor(static_pct: f64, intercept_pct: f64) -> f64 {
 }
 
 /// Writes `table` to `path` as the firmware reads it; returns its length in bytes.
-pub fn write_table(path: &std::path::Path, table: &CalibrationTable) -> Result<usize, String> {
+pub fn write_table(
+    path: &std::path::Path,
+    table: &CalibrationTable,
+) -> Result<usize, crate::Error> {
     let mut bytes = vec![0u8; table.encoded_len()];
-    let n = table.encode(&mut bytes).map_err(|e| e.to_string())?;
+    let n = table
+        .encode(&mut bytes)
+        .map_err(|source| crate::Error::Table {
+            path: path.to_path_buf(),
+            source,
+        })?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(crate::Error::io(dir))?;
     }
-    std::fs::write(path, &bytes[..n]).map_err(|e| format!("{}: {e}", path.display()))?;
+    std::fs::write(path, &bytes[..n]).map_err(crate::Error::io(path))?;
     Ok(n)
 }
 
@@ -591,11 +621,11 @@ pub fn calibrate_simulated(
     taxels: &[TaxelId],
     seed: u64,
     effects: Effects,
-) -> Result<(CalibrationTable, Vec<TaxelFitReport>), String> {
+) -> Result<(CalibrationTable, Vec<TaxelFitReport>), crate::Error> {
     let mut table = CalibrationTable::default();
     let mut reports = Vec::new();
     for &taxel in taxels {
-        let ticks = simulate_calibration(taxel, seed, effects).map_err(|e| e.to_string())?;
+        let ticks = simulate_calibration(taxel, seed, effects)?;
         let (force, strain): (Vec<f64>, Vec<f64>) = ticks
             .iter()
             .map(|t| (f64::from(t.sensed_g), f64::from(t.strain_pct)))
@@ -604,7 +634,7 @@ pub fn calibrate_simulated(
         table
             .taxels
             .push(model)
-            .map_err(|_| "more taxels than the array has".to_string())?;
+            .map_err(|_| CalibrationError::TooManyTaxels)?;
         reports.push(report);
     }
     Ok((table, reports))

@@ -176,9 +176,9 @@ pub fn experiment(
     out: &Path,
     record_hz: f64,
     plot: bool,
-) -> Result<ExperimentOutput, Box<dyn std::error::Error>> {
+) -> Result<ExperimentOutput, crate::Error> {
     let protocol = scenario::protocol(name, options)?;
-    std::fs::create_dir_all(out)?;
+    std::fs::create_dir_all(out).map_err(crate::Error::io(out))?;
     let seed = config.seed;
     let effects = config.effects;
     let bar = progress_bar(name, f64::from(protocol.duration_s()));
@@ -204,14 +204,14 @@ pub fn experiment(
         ("effects".to_string(), format!("{effects:?}")),
     ];
     let record = out.join(format!("{name}.csv"));
-    write_record(&record, &meta, &run.ticks, every)?;
+    write_record(&record, &meta, &run.ticks, every).map_err(crate::Error::io(&record))?;
     let frames = out.join(format!("{name}_frames.csv"));
-    write_frames(&frames, &meta, &run.frames)?;
+    write_frames(&frames, &meta, &run.frames).map_err(crate::Error::io(&frames))?;
     let mut files = vec![record, frames];
     if plot {
         let png = out.join(format!("{name}.png"));
         crate::plot::plot_run(&png, name, &run.ticks)
-            .map_err(|e| format!("plot {}: {e}", png.display()))?;
+            .map_err(|e| crate::Error::Failed(format!("plot {}: {e}", png.display())))?;
         files.push(png);
     }
     let summary = summarize(&run, wall_s);
@@ -307,8 +307,8 @@ pub fn listing() -> String {
 }
 
 /// The main job without a board: the memo's experiment set, plots, and a report.
-pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>> {
-    std::fs::create_dir_all(out)?;
+pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
+    std::fs::create_dir_all(out).map_err(crate::Error::io(out))?;
     let mut report = String::from(
         "# Tactile applicator and finger: the memo's experiments on the simulator\n\n",
     );
@@ -386,7 +386,8 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
             50.0,
             10.0,
             hz,
-        )?;
+        )
+        .map_err(crate::scenario::ScenarioError::from)?;
         let _ = writeln!(report, "| {hz} | {:+.2} |", 20.0 * g.log10());
     }
     report.push_str("\n# The memo's tables on the simulator (`tactile tables`)\n\n");
@@ -399,7 +400,7 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, Box<dyn std::error::Error>
     report.push('\n');
     report.push_str(&details);
     let path = out.join("report.md");
-    std::fs::write(&path, report)?;
+    std::fs::write(&path, report).map_err(crate::Error::io(&path))?;
     Ok(path)
 }
 
@@ -432,8 +433,7 @@ pub fn calibrate(
     use crate::calibrate::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS};
     use crate::Error::{Failed, Usage};
     let (table, reports, source) = if records.is_empty() {
-        let (t, r) =
-            calibrate_simulated(&CALIBRATION_TAXELS, seed, finger.effects()).map_err(Failed)?;
+        let (t, r) = calibrate_simulated(&CALIBRATION_TAXELS, seed, finger.effects())?;
         (
             t,
             r,
@@ -479,7 +479,7 @@ pub fn calibrate(
         }
         (table, reports, format!("{} record(s)", records.len()))
     };
-    let n = crate::calibrate::write_table(out, &table).map_err(Failed)?;
+    let n = crate::calibrate::write_table(out, &table)?;
     let json = out.with_extension("json");
     let summary = serde_json::json!({ "taxels": reports, "table_bytes": n });
     crate::error::write_json(&json, &summary)?;

@@ -30,6 +30,16 @@ pub enum Error {
         #[source]
         source: serde_json::Error,
     },
+    /// A calibration table that cannot be written or read.
+    #[error("{}: {source}", .path.display())]
+    Table {
+        path: PathBuf,
+        #[source]
+        source: tactile_core::calibration::TableError,
+    },
+    /// A calibration record that cannot be fitted.
+    #[error(transparent)]
+    Calibration(#[from] crate::calibrate::CalibrationError),
     /// A run that could not finish, with the reason.
     #[error("{0}")]
     Failed(String),

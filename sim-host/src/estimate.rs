@@ -9,6 +9,8 @@ use tactile_core::calibration::CalibrationTable;
 use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::tactile::TaxelId;
 
+use crate::Error;
+
 /// The estimators by the names a user types.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Estimator {
@@ -52,27 +54,33 @@ pub fn run(
     taxel: TaxelId,
     only: Option<Estimator>,
     out: Option<&Path>,
-) -> Result<String, String> {
-    let record = crate::record::read_record(file).map_err(|e| e.to_string())?;
+) -> Result<String, Error> {
+    let record = crate::record::read_record(file)?;
     let dt = record.sample_period_s().ok_or_else(|| {
-        format!(
+        Error::Failed(format!(
             "{}: too few samples to know the sample period",
             file.display()
-        )
+        ))
     })?;
-    let bytes = std::fs::read(table).map_err(|e| format!("{}: {e}", table.display()))?;
-    let decoded = CalibrationTable::decode(&bytes)
-        .map_err(|e| format!("{}: refused: {e:?}", table.display()))?;
+    let bytes = std::fs::read(table).map_err(Error::io(table))?;
+    let decoded = CalibrationTable::decode(&bytes).map_err(|source| Error::Table {
+        path: table.to_path_buf(),
+        source,
+    })?;
     let model = decoded.get(taxel).cloned().ok_or_else(|| {
-        format!(
+        Error::Usage(format!(
             "{}: no entry for taxel ({}, {})",
             table.display(),
             taxel.row(),
             taxel.col()
-        )
+        ))
     })?;
-    let mut est = TaxelEstimators::new(&model, dt)
-        .map_err(|e| format!("{}: the taxel's model cannot run: {e:?}", table.display()))?;
+    let mut est = TaxelEstimators::new(&model, dt).map_err(|e| {
+        Error::Failed(format!(
+            "{}: the taxel's model cannot run: {e}",
+            table.display()
+        ))
+    })?;
     let chosen: Vec<Estimator> = only.map_or(ALL.to_vec(), |e| vec![e]);
     let index = |e: Estimator| {
         EstimatorKind::ALL
@@ -87,9 +95,12 @@ pub fn run(
             .unwrap_or("record");
         file.with_file_name(format!("{stem}_estimate.csv"))
     });
-    let f = std::fs::File::create(&out_path).map_err(|e| format!("{}: {e}", out_path.display()))?;
+    let f = std::fs::File::create(&out_path).map_err(Error::io(&out_path))?;
     let mut w = std::io::BufWriter::new(f);
-    let io = |e: std::io::Error| format!("{}: {e}", out_path.display());
+    let io = |e: std::io::Error| Error::Io {
+        path: out_path.clone(),
+        source: e,
+    };
     writeln!(
         w,
         "# estimates of {} with {}",

@@ -14,6 +14,7 @@ use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::ScanConfig;
 
+use crate::calibrate::CalibrationError;
 use crate::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS};
 use crate::finger::Effects;
 use crate::fingers::FingerKind;
@@ -55,9 +56,12 @@ fn estimates(
     ticks: &[TickRecord],
     model: &TaxelModel,
     frame_s: f64,
-) -> Result<Vec<[f64; COLUMNS]>, String> {
-    let mut chip = TaxelEstimators::new(model, frame_s)
-        .map_err(|e| format!("taxel {:?}: {e:?}", model.taxel))?;
+) -> Result<Vec<[f64; COLUMNS]>, CalibrationError> {
+    let mut chip =
+        TaxelEstimators::new(model, frame_s).map_err(|source| CalibrationError::Model {
+            taxel: model.taxel,
+            source,
+        })?;
     let mut structural = StructuralInverse::new(model.element, frame_s);
     Ok(frames(ticks)
         .map(|t| {
@@ -87,7 +91,7 @@ fn rms(est: &[[f64; COLUMNS]], ticks: &[TickRecord]) -> [f64; COLUMNS] {
 
 /// Calibrates the four taxels of the simulated finger `finger_seed` (`FINGER_SEED` in the
 /// report) of kind `finger`, then scores every estimator on each.
-pub fn compare(finger_seed: u64, finger: FingerKind) -> Result<EstimatorTable, String> {
+pub fn compare(finger_seed: u64, finger: FingerKind) -> Result<EstimatorTable, crate::Error> {
     let (table, fits) = calibrate_simulated(&CALIBRATION_TAXELS, finger_seed, finger.effects())?;
     compare_with(&table, fits, finger_seed, finger.effects())
 }
@@ -99,7 +103,7 @@ pub fn compare_with(
     fits: Vec<TaxelFitReport>,
     finger_seed: u64,
     effects: Effects,
-) -> Result<EstimatorTable, String> {
+) -> Result<EstimatorTable, crate::Error> {
     let frame_s = f64::from(ScanConfig::DESIGN.frame_period_s());
     let n = table.taxels.len().max(1) as f64;
     let mut out = EstimatorTable {
@@ -119,9 +123,8 @@ pub fn compare_with(
         // Element 4,2's models; the strain offset is the rest calibration's (none).
         let nominal = TaxelModel::nominal(model.taxel);
         for (k, name) in PROTOCOLS.iter().enumerate() {
-            let p = protocol(name, &options).map_err(|e| e.to_string())?;
-            let ticks = crate::scenario::run_on_taxel(name, p, model.taxel, finger_seed, effects)
-                .map_err(|e| e.to_string())?;
+            let p = protocol(name, &options)?;
+            let ticks = crate::scenario::run_on_taxel(name, p, model.taxel, finger_seed, effects)?;
             let cal = rms(&estimates(&ticks, model, frame_s)?, &ticks);
             let nom = rms(&estimates(&ticks, &nominal, frame_s)?, &ticks);
             for c in 0..COLUMNS {
@@ -138,8 +141,7 @@ pub fn compare_with(
             on_s: 50.0,
             off_s: 25.0,
         };
-        let ticks = crate::scenario::run_on_taxel("step", step, model.taxel, finger_seed, effects)
-            .map_err(|e| e.to_string())?;
+        let ticks = crate::scenario::run_on_taxel("step", step, model.taxel, finger_seed, effects)?;
         let est = estimates(&ticks, model, frame_s)?;
         // The step is applied at 2 s: its first 5 s, in frames.
         let window = (2.0 / frame_s) as usize..(7.0 / frame_s) as usize;

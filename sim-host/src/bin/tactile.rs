@@ -281,8 +281,7 @@ fn run(command: Command) -> Result<(), Error> {
                 fixed_gains,
                 duration_s: duration,
             };
-            let o = cli::experiment(scenario.name(), &options, config, &out, record_hz, !no_plot)
-                .map_err(|e| Error::Failed(e.to_string()))?;
+            let o = cli::experiment(scenario.name(), &options, config, &out, record_hz, !no_plot)?;
             out!("{}", o.summary);
             for f in o.files {
                 outln!("  wrote {}", f.display());
@@ -336,7 +335,7 @@ fn run(command: Command) -> Result<(), Error> {
                 })?;
                 let mut t = tactile_core::calibration::CalibrationTable::default();
                 let _ = t.taxels.push(model);
-                sim_host::calibrate::write_table(&path, &t).map_err(Error::Failed)?;
+                sim_host::calibrate::write_table(&path, &t)?;
                 outln!(
                     "  calibration table for taxel ({}, {}): {} (the firmware's format; {})",
                     taxel.row(),
@@ -362,8 +361,7 @@ fn run(command: Command) -> Result<(), Error> {
             estimator,
             out,
         } => {
-            let text = sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref())
-                .map_err(Error::Failed)?;
+            let text = sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref())?;
             out!("{text}");
         }
         Command::Tables { out, seed } => {
@@ -377,7 +375,7 @@ fn run(command: Command) -> Result<(), Error> {
             qemu,
         } => {
             let firmware = qemu.map(|dir| read_firmware_figures(&dir)).transpose()?;
-            let t = sim_host::estimators::compare(seed, finger).map_err(Error::Failed)?;
+            let t = sim_host::estimators::compare(seed, finger)?;
             let mut text = sim_host::estimators::render(&t);
             if let Some(f) = &firmware {
                 text.push('\n');
@@ -393,7 +391,7 @@ fn run(command: Command) -> Result<(), Error> {
             finger,
         } => outln!("{}", cli::calibrate(&records, &out, seed, finger)?),
         Command::Demo { out, seed } => {
-            let path = cli::demo(&out, seed).map_err(|e| Error::Failed(e.to_string()))?;
+            let path = cli::demo(&out, seed)?;
             outln!("report: {}", path.display());
         }
     }
