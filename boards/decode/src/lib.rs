@@ -401,9 +401,7 @@ impl Run {
                     estimate_g: next.frame.estimate_g,
                     true_force_g: next.true_force_g.unwrap_or(f32::NAN),
                     in_contact: next.in_contact.unwrap_or(false),
-                    faults: FaultFlags::from_bits_retain(
-                        now.frame.faults.bits() | next.frame.faults.bits(),
-                    ),
+                    faults: now.frame.faults | next.frame.faults,
                     // The code tick `k` wrote, as the simulator's record `k` holds it.
                     // 0 when the log does not carry it (a board's log).
                     dac_code: now.dac_code.unwrap_or_default(),

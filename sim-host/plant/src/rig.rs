@@ -78,7 +78,7 @@ impl Rig {
                 return Err(RigError::Taxel(index));
             }
         }
-        let hardware = SimHardware::new(&config);
+        let mut hardware = SimHardware::new(&config);
         let fw = &config.firmware;
         let calibration = *hardware.calibration();
         let probe_calibration = calibration
@@ -87,7 +87,6 @@ impl Rig {
             .ok_or(RigError::Taxel(fw.probe.index()))?;
         let control = ControlLoop::new(fw, config.command_slew_g_per_s, probe_calibration)
             .map_err(RigError::Config)?;
-        let mut hardware = hardware;
         let scanner = if config.scan_array {
             let mut scanner = Scanner::new(fw, calibration).map_err(RigError::Config)?;
             scanner.start(&mut hardware);
