@@ -10,13 +10,15 @@
 //! [`SCHEDULE_POINTS`] schedule entries of load (g) and a₁ a₂ b₀ b₁ b₂; G₁ and G₂ as curves
 //! ([`CURVE_KNOTS`] stresses, then the strain at each); N₁, α, N₂; the notch frequency (Hz,
 //! 0 for none); the calibrated range (g, 0 unknown); each estimator's held-out RMS error on the
-//! calibration record (g, in [`EstimatorKind::ALL`]'s order; negative: not measured).
+//! calibration record (g, in [`EstimatorKind::ALL`]'s order; negative: not measured); the
+//! hysteresis as [`PLAYS`] play radii (g), then their weights (%/g; 0: no play).
 //! Version 2 added the notch; version 3 the curves (version 2's three-coefficient laws could
 //! not follow a spring that stiffens by another law), the range, the held-out errors, the
-//! chosen estimator and the flags.
+//! chosen estimator and the flags; version 4 the hysteresis (`tactile diagnose`'s plays).
 
 use heapless::Vec;
 
+use crate::hysteresis::{Plays, PLAYS};
 use crate::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use crate::tactile::{TaxelId, TAXELS};
 use crate::viscoelastic::{MaxwellKelvin, NonlinearMk, SecondOrder};
@@ -73,13 +75,14 @@ fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
 }
 
 pub const MAGIC: [u8; 4] = *b"TCAL";
-pub const VERSION: u16 = 3;
+pub const VERSION: u16 = 4;
 const HEADER_BYTES: usize = 8;
 /// Bytes of a record before its floats.
 const LEAD_BYTES: usize = 8;
 const CRC_BYTES: usize = 4;
 /// Floats in a record after its four leading bytes.
-const RECORD_FLOATS: usize = 2 + 5 + SCHEDULE_POINTS * 6 + 2 * CURVE_FLOATS + 3 + 1 + 1 + 4;
+const RECORD_FLOATS: usize =
+    2 + 5 + SCHEDULE_POINTS * 6 + 2 * CURVE_FLOATS + 3 + 1 + 1 + 4 + 2 * PLAYS;
 /// A curve's floats: its knots' stresses, then its strains there.
 const CURVE_FLOATS: usize = 2 * CURVE_KNOTS;
 pub const RECORD_BYTES: usize = LEAD_BYTES + 4 * RECORD_FLOATS;
@@ -132,6 +135,8 @@ pub struct TaxelModel {
     /// The estimator the firmware runs on this taxel (the one that held out best).
     pub estimator: EstimatorKind,
     pub flags: CalibrationFlags,
+    /// A loop in the strain, taken off before the taxel's estimator (none: empty).
+    pub hysteresis: Plays,
 }
 
 impl TaxelModel {
@@ -162,6 +167,7 @@ impl TaxelModel {
             held_out_g: None,
             estimator: EstimatorKind::Observer,
             flags: CalibrationFlags::empty(),
+            hysteresis: Plays::default(),
         }
     }
 
@@ -193,6 +199,10 @@ impl TaxelModel {
         let held_out = self.held_out_g.unwrap_or([-1.0; 4]);
         let _ = values.extend_from_slice(&[e.n1, e.alpha, e.n2, self.notch_hz, self.range_g]);
         let _ = values.extend_from_slice(&held_out);
+        let h = &self.hysteresis;
+        for x in h.radius_g.iter().chain(&h.weight_pct_per_g) {
+            let _ = values.push(f64::from(*x));
+        }
         for (slot, x) in v.iter_mut().zip(values) {
             *slot = x as f32;
         }
@@ -235,6 +245,12 @@ impl TaxelModel {
         let (g1, g2) = (curve(e)?, curve(e + CURVE_FLOATS)?);
         let p = e + 2 * CURVE_FLOATS;
         let held_out: [f64; 4] = core::array::from_fn(|k| d(p + 5 + k));
+        let h = p + 9;
+        let hysteresis = Plays {
+            radius_g: core::array::from_fn(|k| at(h + k)),
+            weight_pct_per_g: core::array::from_fn(|k| at(h + PLAYS + k)),
+        };
+        hysteresis.check().ok()?;
         Some(TaxelModel {
             taxel,
             strain_offset_pct: d(0),
@@ -253,6 +269,7 @@ impl TaxelModel {
             held_out_g: held_out.iter().all(|v| *v >= 0.0).then_some(held_out),
             estimator,
             flags,
+            hysteresis,
         })
     }
 }
@@ -294,7 +311,7 @@ pub enum TableError {
     #[error("calibration table lists taxel ({row}, {col}) twice")]
     DuplicateTaxel { row: u8, col: u8 },
     /// A record with a position off the array, a non-finite value or a bad schedule length.
-    #[error("calibration table record {index}: position off the array, a non-finite value, a spring that is not a rising curve, or a bad schedule length, estimator or flag")]
+    #[error("calibration table record {index}: position off the array, a non-finite value, a spring that is not a rising curve, a play of negative radius, or a bad schedule length, estimator or flag")]
     BadRecord { index: u16 },
     /// The output buffer is too small to hold the table.
     #[error("calibration table needs a {needed}-byte buffer")]
@@ -495,6 +512,7 @@ mod tests {
             m.flags = CalibrationFlags::from_bits_truncate(i as u8);
             m.held_out_g = (i > 0).then_some([3.0, 2.5, 0.4, 0.2 * k]);
             m.range_g = 90.0 * k;
+            m.hysteresis = Plays::new(&[(0.5, 0.01), (8.0 * k as f32, -0.002)]).unwrap();
             t.taxels.push(m).unwrap();
         }
         t
@@ -536,9 +554,9 @@ mod tests {
         let mut buf = [0u8; MAX_TABLE_BYTES];
         let n = t.encode(&mut buf).unwrap();
         assert_eq!(n, 8 + 3 * RECORD_BYTES + 4);
-        // 8 lead bytes and 80 floats: offset, elastic, eq. 17, 4 × 6 schedule, 2 × 20 curve,
-        // N₁ α N₂, notch, range, 4 held-out errors.
-        assert_eq!(RECORD_BYTES, 8 + 4 * 80);
+        // 8 lead bytes and 90 floats: offset, elastic, eq. 17, 4 × 6 schedule, 2 × 20 curve,
+        // N₁ α N₂, notch, range, 4 held-out errors, 5 play radii and 5 weights.
+        assert_eq!(RECORD_BYTES, 8 + 4 * 90);
         // Trailing bytes (the rest of a sector) are ignored.
         let back = CalibrationTable::decode(&buf[..n + 100]).unwrap();
         assert_eq!(back.taxels.len(), 3);
@@ -580,12 +598,17 @@ mod tests {
                 "byte {i}"
             );
         }
-        let mut v1 = good.clone();
-        v1[4] = 1;
-        assert_eq!(
-            CalibrationTable::decode(&v1),
-            Err(TableError::UnsupportedVersion { found: 1 })
-        );
+        for old in [1u8, 2, 3] {
+            let mut v = good.clone();
+            v[4] = old;
+            assert_eq!(
+                CalibrationTable::decode(&v),
+                Err(TableError::UnsupportedVersion { found: old.into() })
+            );
+        }
+        assert!(TableError::UnsupportedVersion { found: 3 }
+            .to_string()
+            .contains("version 3; this build reads version 4"));
         // Well-formed but wrong inside (checksum recomputed): a position off the array.
         let mut off = good.clone();
         off[8] = 9;
@@ -594,6 +617,14 @@ mod tests {
         assert_eq!(
             CalibrationTable::decode(&off),
             Err(TableError::BadRecord { index: 0 })
+        );
+        // A play of negative radius.
+        let mut bad_play = t.clone();
+        bad_play.taxels[2].hysteresis.radius_g[1] = -1.0;
+        let n3 = bad_play.encode(&mut buf).unwrap();
+        assert_eq!(
+            CalibrationTable::decode(&buf[..n3]),
+            Err(TableError::BadRecord { index: 2 })
         );
         let mut twice = t.clone();
         twice.taxels[1].taxel = twice.taxels[0].taxel;

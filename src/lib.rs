@@ -13,6 +13,7 @@
 //!   models, forward (strain from stress) and inverse (stress from strain).
 //! - [`calibration`]: the per-taxel calibration table (bytes the firmware checks at start-up).
 //! - [`estimator`]: force estimators per taxel at the scan rate (scheduled inverse, observer).
+//! - [`hysteresis`]: play operators, and a loop taken off a force estimate.
 //! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
 //! - [`supervisor`]: the force loop (command check, slew, A1, filter, DAC) and its fault table.
 //! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
@@ -38,6 +39,7 @@ pub mod control;
 pub mod estimator;
 pub mod filter;
 pub mod gauge;
+pub mod hysteresis;
 pub mod io;
 pub mod lti;
 pub mod profile;

@@ -47,6 +47,10 @@ impl Default for Settings {
     }
 }
 
+/// Radii of the hysteresis candidate's plays, as shares of the record's force range (a loop that
+/// spans the whole range, as a magnetic skin's does, needs the widest).
+pub const PLAY_SHARES: [f64; 5] = [0.01, 0.03, 0.1, 0.3, 0.6];
+
 /// The effects the diagnosis can name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -477,7 +481,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     } else {
         Vec::new()
     };
-    let plays: Vec<usize> = [0.01, 0.03, 0.1, 0.3, 0.6]
+    let plays: Vec<usize> = PLAY_SHARES
         .iter()
         .map(|share| {
             let r = share * force_range;
@@ -510,7 +514,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         if !taken(Effect::Hysteresis, &state) {
             tries.push(Try::adding(
                 Effect::Hysteresis,
-                "plays of 1, 3, 10, 30 % of the force range".into(),
+                "plays of 1, 3, 10, 30, 60 % of the force range".into(),
                 plays.clone(),
             ));
         }

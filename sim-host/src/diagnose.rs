@@ -6,9 +6,13 @@
 use serde::Serialize;
 use tactile_core::calibration::{secant_schedule, TaxelModel};
 use tactile_core::estimator::TaxelEstimators;
+use tactile_core::hysteresis::{Plays, PLAYS};
 use tactile_core::tactile::TaxelId;
+use tactile_core::spring::SpringCurve;
 use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
+// Every play the diagnosis fits reaches the chip.
+const _: () = assert!(tactile_ident::diagnose::PLAY_SHARES.len() <= PLAYS);
 use tactile_ident::solve::Sign;
 use tactile_ident::{Refusal, Series};
 
@@ -65,6 +69,57 @@ pub struct Report {
     pub table_model: Option<TaxelModel>,
 }
 
+/// How a model of many terms becomes the chip's eq. 14. Neither choice is best on every
+/// finger, so each record's is chosen on its held-out folds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChipForm {
+    pub springs: SpringForm,
+    pub branches: Reduction,
+}
+
+/// How the chip carries a diagnosed stiffening law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpringForm {
+    /// The law itself, tabulated (the chip's [`SpringCurve`]).
+    Curve,
+    /// The closest of the memo's guide laws G = a + b√σ + cσ that only stiffens (smoother:
+    /// it may hold out better where the load basis fits noise).
+    GuideLaw,
+}
+
+/// How the relaxation spectrum becomes eq. 14's one or two Kelvin branches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reduction {
+    /// Split at the compliance-weighted middle, each side merged at its weighted mean log τ.
+    Merge,
+    /// The branches whose creep function fits best ([`reduce_branches`]).
+    CreepFit,
+}
+
+impl ChipForm {
+    pub const ALL: [ChipForm; 4] = [
+        ChipForm {
+            springs: SpringForm::Curve,
+            branches: Reduction::Merge,
+        },
+        ChipForm {
+            springs: SpringForm::GuideLaw,
+            branches: Reduction::Merge,
+        },
+        ChipForm {
+            springs: SpringForm::Curve,
+            branches: Reduction::CreepFit,
+        },
+        ChipForm {
+            springs: SpringForm::GuideLaw,
+            branches: Reduction::CreepFit,
+        },
+    ];
+}
+
+/// Branches faster than this act as the spring on the chip's time scale, s.
+const FAST_BRANCH_S: f64 = 0.02;
+
 /// What an effect becomes on the chip.
 fn on_chip(effect: &str) -> &'static str {
     match effect {
@@ -72,21 +127,110 @@ fn on_chip(effect: &str) -> &'static str {
         "periodic_interference" => "a notch on the strain at the strongest line, before every estimator",
         "time_delay" => "none: undoing a delay needs the future strain (a causal estimate can only be late by it)",
         "baseline_drift" => "none: a wandering zero cannot be told from a load without moments of known zero force",
-        "hysteresis" => "none yet: the chip has no inverse play operators; the forward model keeps it",
+        "hysteresis" => "its plays, driven by the estimated force, taken off the strain before the estimator (one update late)",
         "slow_relaxation" => "merged into eq. 14's two branches (the chip's element has no third)",
         "sensitivity_drift" => "none: a gain that changes with time needs a reference force to track",
         _ => "none",
     }
 }
 
+/// `count` (one or two) Kelvin branches in place of many: split at the compliance-weighted
+/// middle, each side merged at its compliance-weighted mean log time constant; in increasing
+/// time constant.
+fn merge_branches(branches: &[(f64, f64)], count: usize) -> Vec<(f64, f64)> {
+    let merge = |bs: &[(f64, f64)]| -> Option<(f64, f64)> {
+        let j: f64 = bs.iter().map(|b| b.1).sum();
+        (j > 0.0).then(|| {
+            let tau = (bs.iter().map(|b| b.1 * b.0.ln()).sum::<f64>() / j).exp();
+            (tau, j)
+        })
+    };
+    if count < 2 || branches.len() < 2 {
+        return merge(branches).into_iter().collect();
+    }
+    let total: f64 = branches.iter().map(|b| b.1).sum();
+    let mut acc = 0.0;
+    let split = branches
+        .iter()
+        .position(|b| {
+            acc += b.1;
+            acc >= 0.5 * total
+        })
+        .map_or(1, |i| (i + 1).clamp(1, branches.len() - 1));
+    merge(&branches[..split])
+        .into_iter()
+        .chain(merge(&branches[split..]))
+        .collect()
+}
+
+/// A spring and `count` Kelvin branches in place of a spring and many: the time constants
+/// among the given branches' whose creep function J(t) = J₀ + Σ Jᵢ (1 − e^(−t/τᵢ)) fits the
+/// given one best (non-negative least squares on a log grid of times, every choice tried), in
+/// increasing time constant. Model reduction for the chip's eq. 14.
+fn reduce_branches(j0: f64, branches: &[(f64, f64)], count: usize) -> (f64, Vec<(f64, f64)>) {
+    if branches.len() <= count {
+        return (j0, branches.to_vec());
+    }
+    let taus: Vec<f64> = branches.iter().map(|b| b.0).collect();
+    let (lo, hi) = (
+        0.3 * taus.iter().copied().fold(f64::INFINITY, f64::min),
+        3.0 * taus.iter().copied().fold(0.0, f64::max),
+    );
+    const POINTS: usize = 80;
+    let times: Vec<f64> = (0..POINTS)
+        .map(|i| lo * (hi / lo).powf(i as f64 / (POINTS - 1) as f64))
+        .collect();
+    let creep = |t: f64, tau: f64| 1.0 - (-t / tau).exp();
+    let target: Vec<f64> = times
+        .iter()
+        .map(|&t| j0 + branches.iter().map(|(tau, j)| j * creep(t, *tau)).sum::<f64>())
+        .collect();
+    let choices: Vec<Vec<f64>> = if count == 1 {
+        taus.iter().map(|t| vec![*t]).collect()
+    } else {
+        taus.iter()
+            .enumerate()
+            .flat_map(|(i, a)| taus[i + 1..].iter().map(move |b| vec![*a, *b]))
+            .collect()
+    };
+    let mut best: Option<(f64, f64, Vec<(f64, f64)>)> = None;
+    for choice in choices {
+        let a = nalgebra::DMatrix::from_fn(POINTS, choice.len() + 1, |i, k| match k {
+            0 => 1.0,
+            _ => creep(times[i], choice[k - 1]),
+        });
+        let y = nalgebra::DVector::from_column_slice(&target);
+        let c = tactile_ident::solve::nnls(
+            &(a.transpose() * &a),
+            &(a.transpose() * &y),
+            &vec![Sign::NonNegative; choice.len() + 1],
+        );
+        let miss = (&a * &c - &y).norm_squared();
+        if miss.is_finite() && best.as_ref().is_none_or(|b| miss < b.0) {
+            let kept = choice
+                .iter()
+                .zip(c.iter().skip(1))
+                .filter(|(_, j)| **j > 0.0)
+                .map(|(t, j)| (*t, *j))
+                .collect();
+            best = Some((miss, c[0], kept));
+        }
+    }
+    match best {
+        Some((_, j, kept)) => (j, kept),
+        None => (j0, branches.iter().take(count).copied().collect()),
+    }
+}
+
 /// Eq. 14 (the chip's element) from a generalized Maxwell–Kelvin model: the elastic term, the
-/// permanent creep as N₁ (α = 0) with every branch merged into the Kelvin one, or without creep
-/// the branches split at their compliance-weighted middle into a slow (N₁ ∥ α) and a fast
-/// (N₂ ∥ G₂) one; the diagnosed stiffening as the springs' laws over the loads the record saw.
+/// permanent creep as N₁ (α = 0) with one Kelvin branch, or without creep two branches, a slow
+/// (N₁ ∥ α) and a fast (N₂ ∥ G₂), chosen by [`reduce_branches`]; the diagnosed stiffening as
+/// the springs' laws over the loads the record saw.
 pub fn element_of(
     terms: &[(Term, f64)],
     force_scale_g: f64,
     loads: (f64, f64),
+    form: ChipForm,
 ) -> Option<NonlinearMk> {
     let sum = |f: &dyn Fn(Term) -> bool| -> f64 {
         terms.iter().filter(|(t, _)| f(*t)).map(|(_, b)| *b).sum()
@@ -99,36 +243,33 @@ pub fn element_of(
         })
         .collect();
     branches.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Branches faster than 20 ms act as the spring on the chip's time scale.
-    let fast: f64 = branches.iter().filter(|b| b.0 < 0.02).map(|b| b.1).sum();
-    branches.retain(|b| b.0 >= 0.02);
-    let mut j0 = sum(&|t| t == Term::Elastic) + fast;
+    let fast: f64 = branches
+        .iter()
+        .filter(|b| b.0 < FAST_BRANCH_S)
+        .map(|b| b.1)
+        .sum();
+    branches.retain(|b| b.0 >= FAST_BRANCH_S);
+    // A play is the force plus a bounded remainder (the chip's stop form): the force's part
+    // belongs to the spring.
+    let plays = sum(&|t| matches!(t, Term::Play(_)));
+    let mut j0 = sum(&|t| t == Term::Elastic) + fast + plays;
     // A sensor with no instantaneous response (a fluid channel): its fastest branch stands in
     // for the spring on the chip (eq. 14 needs one).
     if j0 <= 0.0 && !branches.is_empty() {
         j0 = branches.remove(0).1;
     }
     let creep = sum(&|t| t == Term::Creep);
-    let merge = |bs: &[(f64, f64)]| -> Option<(f64, f64)> {
-        let j: f64 = bs.iter().map(|b| b.1).sum();
-        (j > 0.0).then(|| {
-            let tau = (bs.iter().map(|b| b.1 * b.0.ln()).sum::<f64>() / j).exp();
-            (tau, j)
-        })
+    // With permanent creep eq. 14 has one Kelvin branch left; without, two (the slower as
+    // N₁ ∥ α).
+    let count = if creep > 0.0 { 1 } else { 2 };
+    let (j0, kept) = match form.branches {
+        Reduction::CreepFit => reduce_branches(j0, &branches, count),
+        Reduction::Merge => (j0, merge_branches(&branches, count)),
     };
-    let (maxwell, kelvin) = if creep > 0.0 || branches.len() < 2 {
-        (None, merge(&branches))
-    } else {
-        let total: f64 = branches.iter().map(|b| b.1).sum();
-        let mut acc = 0.0;
-        let split = branches
-            .iter()
-            .position(|b| {
-                acc += b.1;
-                acc >= 0.5 * total
-            })
-            .map_or(1, |i| (i + 1).clamp(1, branches.len() - 1));
-        (merge(&branches[split..]), merge(&branches[..split]))
+    let (maxwell, kelvin) = match kept.as_slice() {
+        [] => (None, None),
+        [one] => (None, Some(*one)),
+        [fast, slow, ..] => (Some(*slow), Some(*fast)),
     };
     if j0.is_nan() || j0 <= 0.0 {
         return None;
@@ -147,19 +288,33 @@ pub fn element_of(
             return SpringLaw::constant(1.0 / base_j);
         }
         let (lo, hi) = (loads.0.max(1.0), loads.1.max(loads.0 + 1.0));
+        let compliance = |s: f64| -> f64 {
+            let j: f64 = base_j
+                + extra
+                    .iter()
+                    .map(|(p, c)| c * (s / force_scale_g).powf(*p))
+                    .sum::<f64>();
+            j.max(base_j * 0.05)
+        };
+        // The law as the chip's curve: the strain at each knot; above the loads the record saw
+        // the compliance is held at its last value (the basis, powers of the load, goes to
+        // the spring's own at no load, but extrapolated upwards runs anywhere).
+        let knots = SpringCurve::DEFAULT_STRESS_G;
+        let strain = knots.map(|s| {
+            let s = f64::from(s);
+            (s * compliance(s.min(hi))) as f32
+        });
+        if let (SpringForm::Curve, Ok(curve)) = (form.springs, SpringCurve::new(knots, strain)) {
+            return SpringLaw::Curve(curve);
+        }
         let pts: Vec<(f64, f64)> = (0..=20)
             .map(|i| {
                 let s = lo + (hi - lo) * i as f64 / 20.0;
-                let j: f64 = base_j
-                    + extra
-                        .iter()
-                        .map(|(p, c)| c * (s / force_scale_g).powf(*p))
-                        .sum::<f64>();
-                (s, 1.0 / j.max(base_j * 0.05))
+                (s, 1.0 / compliance(s))
             })
             .collect();
-        // The chip's springs only stiffen (a + b√σ + cσ with b, c ≥ 0): a softening law's
-        // inverse runs away, so it is fitted as the closest stiffening one.
+        // As the memo's guide laws, or where the strain does not rise with the load (no curve):
+        // a + b√σ + cσ with b, c ≥ 0, the closest law that only stiffens.
         let a = nalgebra::DMatrix::from_fn(pts.len(), 3, |i, j| pts[i].0.powf(j as f64 * 0.5));
         let y = nalgebra::DVector::from_iterator(pts.len(), pts.iter().map(|p| p.1));
         let c = tactile_ident::solve::nnls(
@@ -173,8 +328,8 @@ pub fn element_of(
             SpringLaw::constant(1.0 / base_j)
         }
     };
-    let g1 = law(j0, &|tau| tau.is_none_or(|t| t < 0.02));
-    let g2 = law(j_k, &|tau| tau.is_some_and(|t| t >= 0.02));
+    let g1 = law(j0, &|tau| tau.is_none_or(|t| t < FAST_BRANCH_S));
+    let g2 = law(j_k, &|tau| tau.is_some_and(|t| t >= FAST_BRANCH_S));
     // The chip's inverse needs a static gain, so α is never 0: permanent creep becomes a
     // branch of a 10⁴ s time constant, and no Maxwell branch a stiff one (10⁻⁴ %/g).
     let (n1, alpha) = match maxwell {
@@ -197,19 +352,33 @@ fn taxel_model_of(
     d: &Diagnosis,
     series: &Series,
     taxel: TaxelId,
+    form: ChipForm,
 ) -> Option<TaxelModel> {
     let fk = series.kept(&series.force_g);
     let loads = (
         tactile_ident::stats::quantile(&fk, 0.05),
         tactile_ident::stats::quantile(&fk, 0.95),
     );
-    // The creep term was scaled by the record's length.
+    // The creep term was scaled by the record's length. A creep that adds under a tenth of the
+    // slow branches' compliance over the whole record is left out: eq. 14 would spend its slow
+    // branch on it and merge the others into one.
     let t = series.duration_s();
+    let branches: f64 = terms
+        .iter()
+        .filter(|(t, _)| {
+            matches!(t, Term::Relaxation(tau) | Term::SlowRelaxation(tau) if *tau >= FAST_BRANCH_S)
+        })
+        .map(|(_, b)| b.max(0.0))
+        .sum();
     let scaled: Vec<(Term, f64)> = terms
         .iter()
-        .map(|(term, b)| (*term, if *term == Term::Creep { b / t } else { *b }))
+        .filter_map(|(term, b)| match term {
+            Term::Creep if *b < 0.1 * branches => None,
+            Term::Creep => Some((*term, b / t)),
+            _ => Some((*term, *b)),
+        })
         .collect();
-    let element = element_of(&scaled, d.model.force_scale_g, loads)?;
+    let element = element_of(&scaled, d.model.force_scale_g, loads, form)?;
     let stiffening = terms
         .iter()
         .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0);
@@ -232,6 +401,13 @@ fn taxel_model_of(
         .filter(|(t, _)| *t == Term::Offset)
         .map(|(_, b)| *b)
         .sum();
+    let plays: Vec<(f32, f32)> = terms
+        .iter()
+        .filter_map(|(t, b)| match t {
+            Term::Play(r) if *b != 0.0 => Some((*r as f32, *b as f32)),
+            _ => None,
+        })
+        .collect();
     Some(TaxelModel {
         taxel,
         strain_offset_pct: offset,
@@ -240,6 +416,7 @@ fn taxel_model_of(
         schedule,
         element,
         notch_hz,
+        hysteresis: Plays::new(&plays).ok()?,
         ..TaxelModel::nominal(taxel)
     })
 }
@@ -249,10 +426,11 @@ fn held_out_force(
     fold_terms: &[Vec<(Term, f64)>],
     d: &Diagnosis,
     series: &Series,
+    form: ChipForm,
 ) -> Option<(f64, f64)> {
     let (mut observer, mut scheduled, mut count) = (0.0, 0.0, 0usize);
     for (terms, &(a, b)) in fold_terms.iter().zip(&d.model.folds) {
-        let model = taxel_model_of(terms, d, series, TaxelId::default())?;
+        let model = taxel_model_of(terms, d, series, TaxelId::default(), form)?;
         let mut est = TaxelEstimators::new(&model, series.dt_s).ok()?;
         for i in 0..b {
             let out = est.update(series.strain_pct[i] as f32);
@@ -271,6 +449,32 @@ fn held_out_force(
     (o.is_finite() && s.is_finite()).then_some((o, s))
 }
 
+/// The form among `forms` whose observer holds out best on the chip, with its held-out errors
+/// (each form on a thread of its own).
+fn best_form(
+    fold_terms: &[Vec<(Term, f64)>],
+    d: &Diagnosis,
+    series: &Series,
+    forms: &[ChipForm],
+) -> (ChipForm, Option<(f64, f64)>) {
+    let scored: Vec<(ChipForm, Option<(f64, f64)>)> = std::thread::scope(|scope| {
+        let runs: Vec<_> = forms
+            .iter()
+            .map(|&form| scope.spawn(move || held_out_force(fold_terms, d, series, form)))
+            .collect();
+        forms
+            .iter()
+            .zip(runs)
+            .map(|(form, run)| (*form, run.join().ok().flatten()))
+            .collect()
+    });
+    let key = |x: &Option<(f64, f64)>| x.map_or(f64::INFINITY, |v| v.0);
+    scored
+        .into_iter()
+        .min_by(|a, b| key(&a.1).total_cmp(&key(&b.1)))
+        .unwrap_or((ChipForm::ALL[0], None))
+}
+
 /// Diagnoses a checked record and carries the result to the chip.
 pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     let mut d = tactile_ident::diagnose(series);
@@ -281,28 +485,30 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         .map(|e| (e.clone(), on_chip(e).to_string()))
         .collect();
     let inverted = d.model.orientation < 0.0;
-    let before = if inverted {
-        None
+    // No stiffening in the baseline: its springs are the same in either form.
+    let baseline_forms = [ChipForm::ALL[0], ChipForm::ALL[2]];
+    let (base_form, before) = if inverted {
+        (ChipForm::ALL[0], None)
     } else {
-        held_out_force(&d.model.baseline_fold_terms, &d, series)
+        best_form(&d.model.baseline_fold_terms, &d, series, &baseline_forms)
     };
-    let after = if inverted || d.effects.is_empty() {
-        before
+    let (form, after) = if inverted || d.effects.is_empty() {
+        (base_form, before)
     } else {
-        held_out_force(&d.model.fold_terms, &d, series)
+        best_form(&d.model.fold_terms, &d, series, &ChipForm::ALL)
     };
     let (before_o, before_s) = before.unwrap_or((f64::NAN, f64::NAN));
     let (after_o, after_s) = after.unwrap_or((before_o, before_s));
     let exported = !d.effects.is_empty() && after_o < before_o;
-    let chosen = if exported {
-        &d.model.terms
+    let (chosen, form) = if exported {
+        (&d.model.terms, form)
     } else {
-        &d.model.baseline_terms
+        (&d.model.baseline_terms, base_form)
     };
     let table_model = if inverted {
         None
     } else {
-        taxel_model_of(chosen, &d, series, taxel)
+        taxel_model_of(chosen, &d, series, taxel, form)
     };
     if inverted {
         summary.push_str("  on the chip: the strain falls as the force rises; the chip's estimators assume it rises, so no calibration is exported\n");

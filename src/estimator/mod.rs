@@ -16,6 +16,7 @@
 
 use crate::calibration::TaxelModel;
 use crate::filter::{Biquad, BiquadState};
+use crate::hysteresis::LoopCompensator;
 use crate::viscoelastic::{ModelError, ModelParameter};
 
 mod inverse;
@@ -142,6 +143,8 @@ impl StrainConditioner {
 pub struct TaxelEstimators {
     conditioner: StrainConditioner,
     estimators: [TaxelEstimator; 4],
+    /// The calibration's loop taken off each estimator's input (from its own last force).
+    loops: [LoopCompensator; 4],
 }
 
 impl TaxelEstimators {
@@ -155,6 +158,7 @@ impl TaxelEstimators {
                 e(EstimatorKind::ScheduledInverse)?,
                 e(EstimatorKind::Observer)?,
             ],
+            loops: [LoopCompensator::new(model.hysteresis); 4],
         })
     }
 
@@ -168,8 +172,12 @@ impl TaxelEstimators {
     pub fn update(&mut self, strain_pct: f32) -> [f32; 4] {
         let e = self.conditioner.update(strain_pct);
         let mut out = [0.0; 4];
-        for (o, est) in out.iter_mut().zip(self.estimators.iter_mut()) {
-            *o = est.force_g(e);
+        for ((o, est), comp) in out
+            .iter_mut()
+            .zip(self.estimators.iter_mut())
+            .zip(self.loops.iter_mut())
+        {
+            *o = comp.force_g(est, e);
         }
         out
     }

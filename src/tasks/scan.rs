@@ -7,6 +7,7 @@
 
 use crate::calibration::{CalibrationFlags, TableError, TableView, TaxelModel};
 use crate::estimator::{StrainConditioner, TaxelEstimator, TaxelEstimators};
+use crate::hysteresis::LoopCompensator;
 use crate::gauge::AdcScale;
 use crate::io::ScanIo;
 use crate::tactile::{
@@ -72,6 +73,8 @@ pub struct Scanner {
     estimators: [TaxelEstimator; TAXELS],
     /// Each taxel's strain conditioning from its calibration (offset, interference notch).
     conditioners: [StrainConditioner; TAXELS],
+    /// Each taxel's hysteresis taken off before its estimator.
+    loops: [LoopCompensator; TAXELS],
     /// `None` until [`Scanner::reset`] has run.
     probe_bench: Option<TaxelEstimators>,
     probe_estimates_g: [f32; 4],
@@ -108,6 +111,7 @@ impl Scanner {
             force_g: ArrayFrame::default(),
             estimators: [TaxelEstimator::Elastic { g_per_pct: 0.0 }; TAXELS],
             conditioners: [StrainConditioner::default(); TAXELS],
+            loops: [LoopCompensator::default(); TAXELS],
             probe_bench: None,
             probe_estimates_g: [0.0; 4],
             status: CalibrationStatus {
@@ -152,24 +156,29 @@ impl Scanner {
         // taxels over them: a start-up that decodes each record once and tabulates the
         // nominal springs once (a new run on the QEMU board resets within a few ticks).
         let nominal = TaxelModel::nominal(config.probe);
-        let build = |m: &TaxelModel| -> Result<(TaxelEstimator, StrainConditioner), ConfigError> {
+        type Built = (TaxelEstimator, StrainConditioner, LoopCompensator);
+        let build = |m: &TaxelModel| -> Result<Built, ConfigError> {
             // The estimator the taxel's calibration held out best with, unless the build fixes
             // one for the whole array.
             let kind = config.array_estimator.unwrap_or(m.estimator);
             let est = TaxelEstimator::new(kind, m, frame_s).map_err(ConfigError::Estimator)?;
-            Ok((est, StrainConditioner::new(m, frame_s)))
+            let comp = LoopCompensator::new(m.hysteresis);
+            Ok((est, StrainConditioner::new(m, frame_s), comp))
         };
-        let (nominal_est, nominal_cond) = build(&nominal)?;
+        let (nominal_est, nominal_cond, nominal_loop) = build(&nominal)?;
         self.estimators.fill(nominal_est);
         self.conditioners.fill(nominal_cond);
+        self.loops.fill(nominal_loop);
         self.range_g.fill(f32::INFINITY);
         let mut probe_model = nominal;
         for m in view.iter().flat_map(|v| v.models()) {
             let i = m.taxel.index();
-            if let (Some(est), Some(cond)) =
-                (self.estimators.get_mut(i), self.conditioners.get_mut(i))
-            {
-                (*est, *cond) = build(&m)?;
+            if let (Some(est), Some(cond), Some(comp)) = (
+                self.estimators.get_mut(i),
+                self.conditioners.get_mut(i),
+                self.loops.get_mut(i),
+            ) {
+                (*est, *cond, *comp) = build(&m)?;
             }
             if let Some(range) = self.range_g.get_mut(i).filter(|_| m.range_g > 0.0) {
                 *range = m.range_g as f32;
@@ -240,10 +249,11 @@ impl Scanner {
             .conditioners
             .get_mut(taxel.index())
             .map_or(strain, |c| c.update(strain));
-        let force = self
-            .estimators
-            .get_mut(taxel.index())
-            .map_or(0.0, |e| e.force_g(conditioned));
+        let i = taxel.index();
+        let force = match (self.estimators.get_mut(i), self.loops.get_mut(i)) {
+            (Some(e), Some(comp)) => comp.force_g(e, conditioned),
+            _ => 0.0,
+        };
         self.force_g.set(taxel, force);
         if self.range_g.get(taxel.index()).is_some_and(|r| force > *r) {
             self.extrapolated_taxels |= bit;

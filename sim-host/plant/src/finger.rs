@@ -343,7 +343,7 @@ impl Finger {
         t.last_update_s += dt_s;
         // Sensor-side effects of the element under the probe.
         for (p, r) in self.plays_g.iter_mut().zip(FINGER_PLAY_RADII_G) {
-            *p = p.clamp(probe_stress_g - r, probe_stress_g + r);
+            *p = tactile_core::hysteresis::play(*p, probe_stress_g, r);
         }
         if self.effects.slow_relaxation > 0.0 {
             let g3 = NonlinearMk::ELEMENT_4_2.g2.stiffness(STIFFENING_PIVOT_G)
