@@ -108,6 +108,9 @@ pub const POOR_FIT_G: f64 = 1.0;
 /// Mean strain the model misses by before a calibration is flagged
 /// [`CalibrationFlags::OFFSET`], percent (about 0.2 g through G₁ at 30 g).
 pub const LARGE_OFFSET_PCT: f64 = 0.05;
+/// Most taxels whose calibration carries hysteresis (the scanner keeps their plays' state in
+/// RAM for these only: the F407's static RAM budget).
+pub const MAX_LOOP_TAXELS: usize = 8;
 /// The largest table: every taxel of the array.
 pub const MAX_TABLE_BYTES: usize = HEADER_BYTES + TAXELS * RECORD_BYTES + CRC_BYTES;
 
@@ -310,6 +313,9 @@ pub enum TableError {
     BadCount { count: u16 },
     #[error("calibration table lists taxel ({row}, {col}) twice")]
     DuplicateTaxel { row: u8, col: u8 },
+    /// More taxels with hysteresis than the scanner keeps loops for.
+    #[error("calibration table has hysteresis on more than {MAX_LOOP_TAXELS} taxels")]
+    TooManyLoops,
     /// A record with a position off the array, a non-finite value or a bad schedule length.
     #[error("calibration table record {index}: position off the array, a non-finite value, a spring that is not a rising curve, a play of negative radius, or a bad schedule length, estimator or flag")]
     BadRecord { index: u16 },
@@ -442,7 +448,7 @@ impl<'a> TableView<'a> {
             records: contents.get(HEADER_BYTES..).unwrap_or(&[]),
             count,
         };
-        let mut seen = 0u64;
+        let (mut seen, mut loops) = (0u64, 0usize);
         for index in 0..usize::from(count) {
             let model = view.record(index).ok_or(TableError::BadRecord {
                 index: index as u16,
@@ -455,6 +461,10 @@ impl<'a> TableView<'a> {
                 });
             }
             seen |= bit;
+            loops += usize::from(!model.hysteresis.is_empty());
+        }
+        if loops > MAX_LOOP_TAXELS {
+            return Err(TableError::TooManyLoops);
         }
         Ok(view)
     }
@@ -625,6 +635,17 @@ mod tests {
         assert_eq!(
             CalibrationTable::decode(&buf[..n3]),
             Err(TableError::BadRecord { index: 2 })
+        );
+        let mut loops = CalibrationTable::default();
+        for i in 0..=MAX_LOOP_TAXELS {
+            let mut m = TaxelModel::nominal(TaxelId::from_index(i));
+            m.hysteresis = Plays::new(&[(1.0, 0.01)]).unwrap();
+            loops.taxels.push(m).unwrap();
+        }
+        let n4 = loops.encode(&mut buf).unwrap();
+        assert_eq!(
+            CalibrationTable::decode(&buf[..n4]),
+            Err(TableError::TooManyLoops)
         );
         let mut twice = t.clone();
         twice.taxels[1].taxel = twice.taxels[0].taxel;

@@ -281,10 +281,15 @@ impl ForceLoop {
             // In the air the gauge reads the tip's inertia, about a third of the approach force,
             // under the beam's ringing; on the finger it reads the approach force itself. The
             // median of the last 32 readings sees through the ringing (only while approaching).
-            let mut sorted = self.recent_g;
-            sorted.sort_unstable_by(f32::total_cmp);
-            let median_g = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-            if median_g >= 0.75 * s.approach_g {
+            // The median (the 17th smallest) reaches the threshold when at most 16 readings
+            // are below it: a count, not a sort (a sort's code is 3 KB of the F407's flash).
+            let threshold_g = 0.75 * s.approach_g;
+            let below = self
+                .recent_g
+                .iter()
+                .filter(|x| x.total_cmp(&threshold_g).is_lt())
+                .count();
+            if below <= self.recent_g.len() / 2 {
                 self.approaching = false;
                 self.off_finger_ticks = 0;
                 self.slew.update_from(sensed_g);

@@ -7,8 +7,8 @@ use serde::Serialize;
 use tactile_core::calibration::{secant_schedule, TaxelModel};
 use tactile_core::estimator::TaxelEstimators;
 use tactile_core::hysteresis::{Plays, PLAYS};
-use tactile_core::tactile::TaxelId;
 use tactile_core::spring::SpringCurve;
+use tactile_core::tactile::TaxelId;
 use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
 // Every play the diagnosis fits reaches the chip.
@@ -183,7 +183,12 @@ fn reduce_branches(j0: f64, branches: &[(f64, f64)], count: usize) -> (f64, Vec<
     let creep = |t: f64, tau: f64| 1.0 - (-t / tau).exp();
     let target: Vec<f64> = times
         .iter()
-        .map(|&t| j0 + branches.iter().map(|(tau, j)| j * creep(t, *tau)).sum::<f64>())
+        .map(|&t| {
+            j0 + branches
+                .iter()
+                .map(|(tau, j)| j * creep(t, *tau))
+                .sum::<f64>()
+        })
         .collect();
     let choices: Vec<Vec<f64>> = if count == 1 {
         taus.iter().map(|t| vec![*t]).collect()
@@ -193,7 +198,9 @@ fn reduce_branches(j0: f64, branches: &[(f64, f64)], count: usize) -> (f64, Vec<
             .flat_map(|(i, a)| taus[i + 1..].iter().map(move |b| vec![*a, *b]))
             .collect()
     };
-    let mut best: Option<(f64, f64, Vec<(f64, f64)>)> = None;
+    // (squared miss, spring, branches)
+    type Reduced = (f64, f64, Vec<(f64, f64)>);
+    let mut best: Option<Reduced> = None;
     for choice in choices {
         let a = nalgebra::DMatrix::from_fn(POINTS, choice.len() + 1, |i, k| match k {
             0 => 1.0,

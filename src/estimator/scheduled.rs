@@ -104,9 +104,16 @@ impl Schedule {
             *slot = ChainStep::from_second_order(*load, so, dt_s)?;
         }
         s.len = fits.len();
-        // Sorted by load (NaN was refused above, so the order is total).
+        // Sorted by load (NaN was refused above, so the order is total); by insertion: at most
+        // four entries, and no sort's code in the firmware's flash.
         if let Some(used) = s.points.get_mut(..fits.len()) {
-            used.sort_unstable_by(|a, b| a.load_g.total_cmp(&b.load_g));
+            for k in 1..used.len() {
+                let mut j = k;
+                while j > 0 && used.get(j - 1).map(|p| p.load_g) > used.get(j).map(|p| p.load_g) {
+                    used.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
         }
         Ok(s)
     }

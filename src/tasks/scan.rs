@@ -5,10 +5,10 @@
 //! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
-use crate::calibration::{CalibrationFlags, TableError, TableView, TaxelModel};
+use crate::calibration::{CalibrationFlags, TableError, TableView, TaxelModel, MAX_LOOP_TAXELS};
 use crate::estimator::{StrainConditioner, TaxelEstimator, TaxelEstimators};
-use crate::hysteresis::LoopCompensator;
 use crate::gauge::AdcScale;
+use crate::hysteresis::LoopCompensator;
 use crate::io::ScanIo;
 use crate::tactile::{
     ArrayFrame, ScanSequencer, StrainForm, TaxelCalibration, TaxelId, COLS, ROWS, TAXELS,
@@ -73,8 +73,10 @@ pub struct Scanner {
     estimators: [TaxelEstimator; TAXELS],
     /// Each taxel's strain conditioning from its calibration (offset, interference notch).
     conditioners: [StrainConditioner; TAXELS],
-    /// Each taxel's hysteresis taken off before its estimator.
-    loops: [LoopCompensator; TAXELS],
+    /// The hysteresis taken off before the estimator of the taxels whose calibration has one
+    /// (by taxel index; those taxels' bits set in `loop_taxels`).
+    loops: heapless::Vec<(u8, LoopCompensator), MAX_LOOP_TAXELS>,
+    loop_taxels: u64,
     /// `None` until [`Scanner::reset`] has run.
     probe_bench: Option<TaxelEstimators>,
     probe_estimates_g: [f32; 4],
@@ -111,7 +113,8 @@ impl Scanner {
             force_g: ArrayFrame::default(),
             estimators: [TaxelEstimator::Elastic { g_per_pct: 0.0 }; TAXELS],
             conditioners: [StrainConditioner::default(); TAXELS],
-            loops: [LoopCompensator::default(); TAXELS],
+            loops: heapless::Vec::new(),
+            loop_taxels: 0,
             probe_bench: None,
             probe_estimates_g: [0.0; 4],
             status: CalibrationStatus {
@@ -156,29 +159,35 @@ impl Scanner {
         // taxels over them: a start-up that decodes each record once and tabulates the
         // nominal springs once (a new run on the QEMU board resets within a few ticks).
         let nominal = TaxelModel::nominal(config.probe);
-        type Built = (TaxelEstimator, StrainConditioner, LoopCompensator);
-        let build = |m: &TaxelModel| -> Result<Built, ConfigError> {
+        let build = |m: &TaxelModel| -> Result<(TaxelEstimator, StrainConditioner), ConfigError> {
             // The estimator the taxel's calibration held out best with, unless the build fixes
             // one for the whole array.
             let kind = config.array_estimator.unwrap_or(m.estimator);
             let est = TaxelEstimator::new(kind, m, frame_s).map_err(ConfigError::Estimator)?;
-            let comp = LoopCompensator::new(m.hysteresis);
-            Ok((est, StrainConditioner::new(m, frame_s), comp))
+            Ok((est, StrainConditioner::new(m, frame_s)))
         };
-        let (nominal_est, nominal_cond, nominal_loop) = build(&nominal)?;
+        let (nominal_est, nominal_cond) = build(&nominal)?;
         self.estimators.fill(nominal_est);
         self.conditioners.fill(nominal_cond);
-        self.loops.fill(nominal_loop);
+        self.loops.clear();
+        self.loop_taxels = 0;
         self.range_g.fill(f32::INFINITY);
         let mut probe_model = nominal;
         for m in view.iter().flat_map(|v| v.models()) {
             let i = m.taxel.index();
-            if let (Some(est), Some(cond), Some(comp)) = (
-                self.estimators.get_mut(i),
-                self.conditioners.get_mut(i),
-                self.loops.get_mut(i),
-            ) {
-                (*est, *cond, *comp) = build(&m)?;
+            if let (Some(est), Some(cond)) =
+                (self.estimators.get_mut(i), self.conditioners.get_mut(i))
+            {
+                (*est, *cond) = build(&m)?;
+            }
+            // The table's check allows no more loops than there is room for.
+            if !m.hysteresis.is_empty()
+                && self
+                    .loops
+                    .push((i as u8, LoopCompensator::new(m.hysteresis)))
+                    .is_ok()
+            {
+                self.loop_taxels |= 1 << i;
             }
             if let Some(range) = self.range_g.get_mut(i).filter(|_| m.range_g > 0.0) {
                 *range = m.range_g as f32;
@@ -250,9 +259,13 @@ impl Scanner {
             .get_mut(taxel.index())
             .map_or(strain, |c| c.update(strain));
         let i = taxel.index();
-        let force = match (self.estimators.get_mut(i), self.loops.get_mut(i)) {
-            (Some(e), Some(comp)) => comp.force_g(e, conditioned),
-            _ => 0.0,
+        let comp = (self.loop_taxels & bit != 0)
+            .then(|| self.loops.iter_mut().find(|(t, _)| usize::from(*t) == i))
+            .flatten();
+        let force = match (self.estimators.get_mut(i), comp) {
+            (Some(e), Some((_, comp))) => comp.force_g(e, conditioned),
+            (Some(e), None) => e.force_g(conditioned),
+            (None, _) => 0.0,
         };
         self.force_g.set(taxel, force);
         if self.range_g.get(taxel.index()).is_some_and(|r| force > *r) {
@@ -466,36 +479,83 @@ mod tests {
             ..BOARD
         };
         let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
-        let rest = calibration(rest_v);
-        let mut scanner = Scanner::new(&config, rest).unwrap();
+        let mut scanner = Scanner::new(&config, calibration(rest_v)).unwrap();
         assert_eq!(scanner.calibration_status().flagged_taxels, 1);
         // Every taxel at the same strain: taxel 0 runs the elastic model (G = 3.23 g/%), so a
         // strain of 3 % reads 9.7 g (inside 20 g) and 9 % reads 29 g (beyond).
-        let frame_with = |scanner: &mut Scanner, strain_pct: f32| {
-            // The output volts of that strain (the read-out is monotone: bisection).
-            let (mut lo, mut hi) = (rest_v, 10.0f32);
-            for _ in 0..40 {
-                let mid = 0.5 * (lo + hi);
-                if rest[0].strain_pct(mid, StrainForm::Exact) < strain_pct {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            let mut panel = Panel {
-                volts: [lo; TAXELS],
-                selected: TaxelId::default(),
-                adc: config.taxel_adc,
-            };
-            scanner.start(&mut panel);
-            (0..TAXELS)
-                .find_map(|k| scanner.step(&mut panel, k as u32))
-                .map(|r| r.estimate)
-                .unwrap()
-        };
-        let inside = frame_with(&mut scanner, 3.0);
+        let inside = frame_at_strain(&mut scanner, &config, 3.0);
         assert_eq!(inside.extrapolated_taxels, 0, "{inside:?}");
-        let beyond = frame_with(&mut scanner, 9.0);
+        let beyond = frame_at_strain(&mut scanner, &config, 9.0);
         assert_eq!(beyond.extrapolated_taxels, 1, "{beyond:?}");
+    }
+
+    /// One frame with every taxel at `strain_pct` (the read-out is monotone: its volts found by
+    /// bisection).
+    fn frame_at_strain(
+        scanner: &mut Scanner,
+        config: &FirmwareConfig,
+        strain_pct: f32,
+    ) -> ArrayEstimate {
+        let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
+        let rest = calibration(rest_v);
+        let (mut lo, mut hi) = (rest_v, 10.0f32);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if rest[0].strain_pct(mid, StrainForm::Exact) < strain_pct {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut panel = Panel {
+            volts: [lo; TAXELS],
+            selected: TaxelId::default(),
+            adc: config.taxel_adc,
+        };
+        scanner.start(&mut panel);
+        (0..TAXELS)
+            .find_map(|k| scanner.step(&mut panel, k as u32))
+            .map(|r| r.estimate)
+            .unwrap()
+    }
+
+    /// A taxel whose calibration has hysteresis: the loop its last estimate leaves is taken off
+    /// its strain. By hand, elastic G with one play (r, w) and the strain held at ε: the first
+    /// frame reads G ε and leaves the play r behind, the loop −w r; every later frame reads
+    /// G (ε + w r).
+    #[test]
+    fn a_taxels_hysteresis_is_taken_off_its_strain() {
+        use crate::calibration::{CalibrationTable, MAX_TABLE_BYTES};
+        use crate::hysteresis::Plays;
+        let probe = BOARD.probe;
+        let model = TaxelModel {
+            estimator: crate::estimator::EstimatorKind::Elastic,
+            hysteresis: Plays::new(&[(2.0, 0.05)]).unwrap(),
+            ..TaxelModel::nominal(probe)
+        };
+        let g = model.elastic_g_per_pct as f32;
+        let mut table = CalibrationTable::default();
+        table.taxels.push(model).unwrap();
+        let mut bytes = vec![0u8; MAX_TABLE_BYTES];
+        let n = table.encode(&mut bytes).unwrap();
+        bytes.truncate(n);
+        let config = FirmwareConfig {
+            calibration: Box::leak(bytes.into_boxed_slice()),
+            ..BOARD
+        };
+        let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
+        let mut scanner = Scanner::new(&config, calibration(rest_v)).unwrap();
+        let first = frame_at_strain(&mut scanner, &config, 3.0).probe_force_g;
+        let strain = scanner.probe_strain_pct();
+        assert!(
+            (first - g * strain).abs() < 1e-3,
+            "{first} vs {}",
+            g * strain
+        );
+        for _ in 0..3 {
+            let later = frame_at_strain(&mut scanner, &config, 3.0).probe_force_g;
+            let expected = g * (strain + 0.05 * 2.0);
+            assert!((later - expected).abs() < 1e-3, "{later} vs {expected}");
+        }
     }
 }
