@@ -138,51 +138,6 @@ impl Base {
     }
 }
 
-/// Augmentations of a base model, one per candidate effect of the diagnosis.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Augment {
-    /// Springs that vary with load: the force passes a static nonlinearity σ/(1 + κ√σ + λσ)
-    /// before the linear dynamics (positive κ, λ stiffen; negative soften).
-    LoadDependentStiffness,
-    /// Rate-independent hysteresis: a weighted sum of play operators on the force.
-    Hysteresis,
-    /// A slow additive trend: quadratic in time.
-    BaselineDrift,
-    /// A sinusoid at a frequency the residual spectrum shows.
-    PeriodicInterference { hz: f64 },
-    /// A pure delay between force and strain.
-    TimeDelay,
-    /// An extra Kelvin element with a long time constant.
-    SlowRelaxation,
-}
-
-impl Augment {
-    pub fn name(&self) -> &'static str {
-        match self {
-            Augment::LoadDependentStiffness => "load_dependent_stiffness",
-            Augment::Hysteresis => "hysteresis",
-            Augment::BaselineDrift => "baseline_drift",
-            Augment::PeriodicInterference { .. } => "periodic_interference",
-            Augment::TimeDelay => "time_delay",
-            Augment::SlowRelaxation => "slow_relaxation",
-        }
-    }
-    fn parameter_names(&self) -> &'static [&'static str] {
-        match self {
-            Augment::LoadDependentStiffness => &["kappa", "lambda"],
-            Augment::Hysteresis => &["w_play2g", "w_play6g", "w_play15g"],
-            Augment::BaselineDrift => &["drift_lin_pct", "drift_quad_pct"],
-            Augment::PeriodicInterference { .. } => &["sin_pct", "cos_pct", "ln_freq_scale"],
-            Augment::TimeDelay => &["delay_s"],
-            Augment::SlowRelaxation => &["slow_compliance", "slow_tau_s"],
-        }
-    }
-}
-
-/// Play-operator radii of the fit's hysteresis augmentation (its basis, not the finger's), grams.
-const HYSTERESIS_BASIS_RADII_G: [f64; 3] = [2.0, 6.0, 15.0];
-
 /// How an internal parameter maps to a physical one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Transform {
@@ -228,26 +183,17 @@ fn sigmoid(x: f64) -> f64 {
     1.0 / (1.0 + (-x).exp())
 }
 
-/// A model: a base and its augmentations. Parameters are kept as a flat vector of internal
-/// values: the base's physical parameters bounded-logarithmic (so they stay positive and
-/// plausible), then an additive strain offset, then each augmentation's parameters.
+/// A model to fit. Parameters are kept as a flat vector of internal values: the base's
+/// physical parameters bounded-logarithmic (so they stay positive and plausible), then an
+/// additive strain offset. (The effects a record shows are the diagnosis's, `tactile-ident`.)
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ModelSpec {
     pub base: Base,
-    pub augments: Vec<Augment>,
 }
 
 impl ModelSpec {
     pub fn new(base: Base) -> Self {
-        Self {
-            base,
-            augments: Vec::new(),
-        }
-    }
-    pub fn with(&self, a: Augment) -> Self {
-        let mut s = self.clone();
-        s.augments.push(a);
-        s
+        Self { base }
     }
     pub fn parameter_names(&self) -> Vec<String> {
         let mut v: Vec<String> = self
@@ -257,9 +203,6 @@ impl ModelSpec {
             .map(|s| s.to_string())
             .collect();
         v.push("offset_pct".into());
-        for a in &self.augments {
-            v.extend(a.parameter_names().iter().map(|s| s.to_string()));
-        }
         v
     }
     pub fn len(&self) -> usize {
@@ -279,22 +222,6 @@ impl ModelSpec {
             .map(|&(lo, hi)| Transform::Log { lo, hi })
             .collect();
         t.push(Transform::Linear);
-        for a in &self.augments {
-            match a {
-                Augment::TimeDelay => t.push(Transform::Log { lo: 1e-5, hi: 2.0 }),
-                Augment::SlowRelaxation => {
-                    t.push(Transform::Log { lo: 1e-6, hi: 10.0 });
-                    t.push(Transform::Log {
-                        lo: 2.0,
-                        hi: 2000.0,
-                    });
-                }
-                other => t.extend(std::iter::repeat_n(
-                    Transform::Linear,
-                    other.parameter_names().len(),
-                )),
-            }
-        }
         t
     }
     /// Whether parameter `i` is positive (fitted on a bounded logarithmic scale).
@@ -389,9 +316,6 @@ impl ModelSpec {
             .into_iter()
             .map(|mut b| {
                 b.push(offset);
-                for a in &self.augments {
-                    b.extend(default_augment_start(a));
-                }
                 self.internal(&b)
             })
             .collect()
@@ -402,119 +326,11 @@ impl ModelSpec {
         let p = self.physical(theta);
         let nb = self.base_len();
         let offset = *p.get(nb)?;
-        let mut k = nb + 1;
-        let mut aug_params: Vec<(&Augment, &[f64])> = Vec::new();
-        for a in &self.augments {
-            let n = a.parameter_names().len();
-            aug_params.push((a, p.get(k..k + n)?));
-            k += n;
-        }
-        // Input path: delay, then the static nonlinearity.
-        let mut input: Vec<f64> = data.force.clone();
-        for (a, q) in &aug_params {
-            match a {
-                Augment::TimeDelay => input = delayed(&input, q[0] / data.dt_s),
-                Augment::LoadDependentStiffness => {
-                    let (kappa, lambda) = (q[0], q[1]);
-                    for u in input.iter_mut() {
-                        let s = u.max(0.0);
-                        let d = (1.0 + kappa * s.sqrt() + lambda * s).max(0.05);
-                        *u /= d;
-                    }
-                }
-                _ => {}
-            }
-        }
-        let mut out = self.base_response(&p[..nb], &input, data.dt_s)?;
-        let total_t = data.dt_s * data.force.len() as f64;
-        for (a, q) in &aug_params {
-            match a {
-                Augment::Hysteresis => {
-                    let mut plays = [0.0f64; 3];
-                    for (y, &s) in out.iter_mut().zip(&data.force) {
-                        for ((pl, r), w) in
-                            plays.iter_mut().zip(HYSTERESIS_BASIS_RADII_G).zip(q.iter())
-                        {
-                            *pl = pl.clamp(s - r, s + r);
-                            *y += w * (*pl - s) / r;
-                        }
-                    }
-                }
-                Augment::BaselineDrift => {
-                    for (i, y) in out.iter_mut().enumerate() {
-                        let x = i as f64 * data.dt_s / total_t;
-                        *y += q[0] * x + q[1] * x * x;
-                    }
-                }
-                Augment::PeriodicInterference { hz } => {
-                    let w = 2.0 * std::f64::consts::PI * hz * q[2].exp();
-                    for (i, y) in out.iter_mut().enumerate() {
-                        let t = i as f64 * data.dt_s;
-                        *y += q[0] * (w * t).sin() + q[1] * (w * t).cos();
-                    }
-                }
-                Augment::SlowRelaxation => {
-                    let (c, tau) = (q[0], q[1]);
-                    let phi = (-data.dt_s / tau).exp();
-                    let mut x = 0.0;
-                    for (y, &s) in out.iter_mut().zip(&data.force) {
-                        x = x * phi + (1.0 - phi) * s;
-                        *y += c * x;
-                    }
-                }
-                _ => {}
-            }
-        }
+        let mut out = self.base_response(&p[..nb], &data.force, data.dt_s)?;
         for y in out.iter_mut() {
             *y += offset;
         }
         out.iter().all(|v| v.is_finite()).then_some(out)
-    }
-
-    /// Physical values of each augmentation's parameters; the interference entry also carries
-    /// its frequency in Hz as a fourth value.
-    pub fn augment_values(&self, theta: &[f64]) -> Vec<(&'static str, Vec<f64>)> {
-        let p = self.physical(theta);
-        let mut k = self.base_len() + 1;
-        let mut out = Vec::new();
-        for a in &self.augments {
-            let n = a.parameter_names().len();
-            let mut v = p.get(k..k + n).map(<[f64]>::to_vec).unwrap_or_default();
-            if let (Augment::PeriodicInterference { hz }, Some(scale)) = (a, v.get(2)) {
-                let f = hz * scale.exp();
-                v.push(f);
-            }
-            out.push((a.name(), v));
-            k += n;
-        }
-        out
-    }
-
-    /// The parts of the prediction that do not depend on the force (drift, interference): what
-    /// the chip can subtract from the strain before inverting.
-    pub fn additive_parts(&self, theta: &[f64], data: &Series) -> Vec<f64> {
-        let n = data.force.len();
-        let mut out = vec![0.0; n];
-        let total_t = data.dt_s * n as f64;
-        for (name, q) in self.augment_values(theta) {
-            match name {
-                "baseline_drift" => {
-                    for (i, y) in out.iter_mut().enumerate() {
-                        let x = i as f64 * data.dt_s / total_t;
-                        *y += q[0] * x + q[1] * x * x;
-                    }
-                }
-                "periodic_interference" => {
-                    let w = 2.0 * std::f64::consts::PI * q[3];
-                    for (i, y) in out.iter_mut().enumerate() {
-                        let t = i as f64 * data.dt_s;
-                        *y += q[0] * (w * t).sin() + q[1] * (w * t).cos();
-                    }
-                }
-                _ => {}
-            }
-        }
-        out
     }
 
     /// The calibrated element of an `mk-nonlinear` fit.
@@ -607,35 +423,6 @@ fn grid_starts(data: &Series) -> Vec<Vec<f64>> {
     }
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     scored.into_iter().take(2).map(|(_, p)| p).collect()
-}
-
-fn default_augment_start(a: &Augment) -> Vec<f64> {
-    match a {
-        Augment::LoadDependentStiffness => vec![0.0, 0.0],
-        Augment::Hysteresis => vec![0.0; 3],
-        Augment::BaselineDrift => vec![0.0; 2],
-        Augment::PeriodicInterference { .. } => vec![0.0, 0.0, 0.0],
-        Augment::TimeDelay => vec![0.01],
-        Augment::SlowRelaxation => vec![0.005, 30.0],
-    }
-}
-
-/// `x` delayed by `samples` (fractional, linear interpolation; the start is held).
-pub fn delayed_pub(x: &[f64], samples: f64) -> Vec<f64> {
-    delayed(x, samples)
-}
-
-fn delayed(x: &[f64], samples: f64) -> Vec<f64> {
-    let s = samples.clamp(0.0, x.len() as f64);
-    let whole = s.floor() as usize;
-    let frac = s - whole as f64;
-    (0..x.len())
-        .map(|i| {
-            let a = x.get(i.saturating_sub(whole)).copied().unwrap_or(0.0);
-            let b = x.get(i.saturating_sub(whole + 1)).copied().unwrap_or(a);
-            a * (1.0 - frac) + b * frac
-        })
-        .collect()
 }
 
 /// A record's force and strain, with the fit/held-out split.
@@ -986,16 +773,7 @@ fn summarize_fit(
 pub fn describe(fit: &Fit) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "model {}{}",
-        fit.model.base.name(),
-        fit.model
-            .augments
-            .iter()
-            .map(|a| format!(" + {}", a.name()))
-            .collect::<String>()
-    );
+    let _ = writeln!(s, "model {}", fit.model.base.name());
     for (i, name) in fit.parameter_names.iter().enumerate() {
         let v = fit.physical[i];
         let se = fit.standard_error[i];
@@ -1092,13 +870,6 @@ mod tests {
             e.held_out_rms_g,
             m.held_out_rms_g
         );
-    }
-
-    #[test]
-    fn delay_is_fractional_and_holds_the_start() {
-        let x = [0.0, 1.0, 2.0, 3.0];
-        assert_eq!(delayed(&x, 1.5), vec![0.0, 0.0, 0.5, 1.5]);
-        assert_eq!(delayed(&x, 0.0), x.to_vec());
     }
 
     #[test]
