@@ -178,6 +178,12 @@ impl ActuatorConfig {
         self.dac.code(force_g / self.grams_per_volt)
     }
 
+    /// The force a DAC code commands, g (what the amplifier is driven with).
+    #[inline]
+    pub fn force_g(&self, code: crate::gauge::AdcCode) -> f32 {
+        self.dac.volts(code) * self.grams_per_volt
+    }
+
     /// The code that puts zero volts into the amplifier (the safe output).
     pub fn zero_code(&self) -> crate::gauge::AdcCode {
         self.dac.code(0.0)

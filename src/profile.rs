@@ -77,7 +77,26 @@ pub enum Protocol {
     /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
     /// each applied from rest (1 s at zero) and held `hold_s`.
     LowForce { hold_s: f32 },
+    /// Identification of the applicator (issue 13): the command ramps to `preload_g` and holds
+    /// it, the loop keeping the probe on the finger; after [`EXCITATION_SETTLE_S`] the drive
+    /// gets `periods` periods of a chirp of `amplitude_g` added after the loop's filter
+    /// ([`CommandSource::drive_excitation_g`]), sweeping linearly from [`EXCITATION_START_HZ`]
+    /// to [`EXCITATION_END_HZ`] in [`EXCITATION_PERIOD_S`]: periodic, so each period's
+    /// spectrum has every whole hertz of the band and no leakage.
+    Excitation {
+        preload_g: f32,
+        amplitude_g: f32,
+        periods: u16,
+    },
 }
+
+/// Ramp and hold before the excitation's chirps, s.
+pub const EXCITATION_SETTLE_S: f32 = 1.5;
+/// One chirp, s (the frequency resolution of the response: 1 Hz).
+pub const EXCITATION_PERIOD_S: f32 = 1.0;
+/// The chirp's start and end, Hz: whole cycles in a period (1 + 100), so it repeats seamlessly.
+pub const EXCITATION_START_HZ: f32 = 1.0;
+pub const EXCITATION_END_HZ: f32 = 201.0;
 
 /// Load levels the dynamic calibration excites, grams (the scheduled inverse's table).
 pub const CALIBRATION_OFFSETS_G: [f32; 4] = [12.0, 25.0, 45.0, 70.0];
@@ -99,7 +118,10 @@ impl Protocol {
     /// [`STEP_SLEW_G_PER_S`]; the sweep and the sinusoids pass unlimited.
     pub fn slew_limit_g_per_s(&self) -> f32 {
         match self {
-            Protocol::Sweep { .. } | Protocol::Sines { .. } => f32::INFINITY,
+            // The chirp reaches 200 Hz (its own ramp to the preload is gentle).
+            Protocol::Sweep { .. } | Protocol::Sines { .. } | Protocol::Excitation { .. } => {
+                f32::INFINITY
+            }
             // The sinusoids pass; the pseudo-random steps are slewed like any step.
             Protocol::BenchRecord { .. } => STEP_SLEW_G_PER_S,
             _ => STEP_SLEW_G_PER_S,
@@ -129,6 +151,12 @@ impl Protocol {
         offset_g: 25.0,
         amplitude_g: 4.0,
         duration_s: 100.0,
+    };
+    /// The applicator's identification about 50 g: a 5 g chirp on the drive, 24 periods.
+    pub const EXCITATION_MEMO: Protocol = Protocol::Excitation {
+        preload_g: 50.0,
+        amplitude_g: 5.0,
+        periods: 24,
     };
     pub const FORCE_STEPS_MEMO: Protocol = Protocol::ForceSteps {
         increment_g: 10.0,
@@ -164,6 +192,9 @@ impl Protocol {
                 duration_s
             }
             Protocol::LowForce { hold_s } => LOW_FORCE_G.len() as f32 * (1.0 + hold_s),
+            Protocol::Excitation { periods, .. } => {
+                EXCITATION_SETTLE_S + f32::from(periods) * EXCITATION_PERIOD_S
+            }
             Protocol::BenchRecord { .. } => 180.0,
             Protocol::Calibration { per_offset_s, .. } => {
                 CALIBRATION_REST_S
@@ -358,6 +389,10 @@ impl CommandSource {
                     _ => 0.0,
                 }
             }
+            // Onto the finger in half of the settling time, then still.
+            Protocol::Excitation { preload_g, .. } => {
+                preload_g * (t_s / (0.5 * EXCITATION_SETTLE_S)).min(1.0)
+            }
             Protocol::LowForce { hold_s } => {
                 let period = 1.0 + hold_s;
                 let k = libm::floorf(t_s / period);
@@ -372,6 +407,24 @@ impl CommandSource {
 }
 
 impl CommandSource {
+    /// What the protocol adds to the drive after the loop's filter at time `t_s`, g: the
+    /// excitation's chirp ([`Protocol::Excitation`]); 0 for every other protocol.
+    pub fn drive_excitation_g(&self, t_s: f32) -> f32 {
+        let Protocol::Excitation { amplitude_g, .. } = self.protocol else {
+            return 0.0;
+        };
+        let t = t_s - EXCITATION_SETTLE_S;
+        if t < 0.0 || t_s >= self.protocol.duration_s() {
+            return 0.0;
+        }
+        let tau = t - libm::floorf(t / EXCITATION_PERIOD_S) * EXCITATION_PERIOD_S;
+        let sweep = EXCITATION_END_HZ - EXCITATION_START_HZ;
+        let cycles = EXCITATION_START_HZ * tau + sweep * tau * tau / (2.0 * EXCITATION_PERIOD_S);
+        // Whole cycles taken off before the sine: its argument stays small in f32.
+        let phase = 2.0 * core::f32::consts::PI * (cycles - libm::floorf(cycles));
+        amplitude_g * libm::sinf(phase)
+    }
+
     fn sines(&self, offset_g: f32, amplitude_g: f32, t_s: f32) -> f32 {
         let mut f = offset_g;
         for (hz, phase) in SINES_HZ.iter().zip(self.phases_rad.iter()) {
@@ -411,6 +464,48 @@ mod tests {
         assert_eq!(s.command_g(5.6), 90.0);
         assert_eq!(s.command_g(10.4), 0.0);
         assert!((Protocol::FORCE_STEPS_MEMO.duration_s() - 10.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_excitation_holds_the_preload_and_chirps_the_drive() {
+        let p = Protocol::Excitation {
+            preload_g: 50.0,
+            amplitude_g: 3.0,
+            periods: 4,
+        };
+        assert!((p.duration_s() - 5.5).abs() < 1e-6);
+        assert_eq!(p.slew_limit_g_per_s(), f32::INFINITY);
+        let mut s = CommandSource::new(p);
+        assert_eq!(s.command_g(0.0), 0.0);
+        assert!((s.command_g(0.375) - 25.0).abs() < 1e-4);
+        assert_eq!(s.command_g(1.0), 50.0);
+        assert_eq!(s.command_g(3.3), 50.0);
+        assert_eq!(s.drive_excitation_g(1.0), 0.0);
+        // One period sampled at 1 kHz, twice: the same samples (periodic), within ±3 g, mean 0.
+        let period = |s: &CommandSource, start: f32| -> Vec<f32> {
+            (0..1000)
+                .map(|i| s.drive_excitation_g(start + i as f32 * 1e-3))
+                .collect()
+        };
+        let (a, b) = (period(&s, 2.5), period(&s, 3.5));
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() < 0.02, "{x} vs {y}");
+            assert!(x.abs() <= 3.0 + 1e-4);
+        }
+        let mean = a.iter().sum::<f32>() / 1000.0;
+        assert!(mean.abs() < 0.1, "{mean}");
+        // By hand: 0.1 s into a period the chirp is at 1 + 200·0.1 = 21 Hz and has turned
+        // 1·0.1 + 100·0.01 = 1.1 cycles: 3·sin(2π·0.1).
+        let x = s.drive_excitation_g(1.5 + 0.1);
+        let expected = 3.0 * (2.0 * core::f32::consts::PI * 0.1).sin();
+        assert!((x - expected).abs() < 1e-3, "{x} vs {expected}");
+        assert_eq!(s.drive_excitation_g(5.6), 0.0);
+        assert_eq!(s.command_g(5.6), 0.0);
+        // Every other protocol leaves the drive alone.
+        assert_eq!(
+            CommandSource::new(Protocol::CALIBRATION).drive_excitation_g(10.0),
+            0.0
+        );
     }
 
     #[test]

@@ -115,6 +115,9 @@ pub struct ForceLoop {
     approach_ticks: u16,
     in_contact_ticks: u16,
     contact_losses: u32,
+    /// Added to the filtered drive (the applicator's identification excites the plant at its
+    /// input, where the filter cannot take the excitation out).
+    drive_excitation_g: f32,
 }
 
 /// Ticks of contact after a re-approach before the loss counts as over.
@@ -128,6 +131,7 @@ impl ForceLoop {
             law: ForceLaw::new(config.law),
             filter,
             filter_state: LowpassNotchState::default(),
+            drive_excitation_g: 0.0,
             latched: FaultFlags::NONE,
             bad_gauge_ticks: 0,
             last_reading_g: None,
@@ -193,6 +197,12 @@ impl ForceLoop {
 
     /// One tick: `command_g` from the command source, `reading` the gauge path's result for the
     /// last period, `overrun` the board timer's verdict on the last deadline.
+    /// Grams added to the drive after the filter from the next tick on (0: none; a value that
+    /// is not finite counts as 0). The safe output stays at zero.
+    pub fn set_drive_excitation(&mut self, drive_g: f32) {
+        self.drive_excitation_g = if drive_g.is_finite() { drive_g } else { 0.0 };
+    }
+
     pub fn tick(
         &mut self,
         command_g: f32,
@@ -336,7 +346,10 @@ impl ForceLoop {
         }
         let filtered_g = self.filter.update(&mut self.filter_state, a.force_g);
         LoopOutput {
-            dac_code: self.config.actuator.code(filtered_g),
+            dac_code: self
+                .config
+                .actuator
+                .code(filtered_g + self.drive_excitation_g),
             shaped_g,
             adjusted_g: a.force_g,
             faults,

@@ -260,6 +260,27 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
                 let _ = writeln!(s, "  {load:>5} g -> {strain:6.2} %");
             }
         }
+        "excitation" => {
+            let actuator = tactile_core::control::ActuatorConfig::MEMO;
+            let protocol = tactile_core::profile::Protocol::EXCITATION_MEMO;
+            match crate::identify::frequency_response(t, protocol, &actuator) {
+                Ok(response) => {
+                    let modes: Vec<String> = crate::identify::modes(&response, 2)
+                        .iter()
+                        .map(|m| {
+                            let zeta = m
+                                .damping_ratio
+                                .map_or(String::new(), |z| format!(", ζ {z:.2}"));
+                            format!("{:.1} Hz ({:.1}× static{zeta})", m.hz, m.gain_over_static)
+                        })
+                        .collect();
+                    let _ = writeln!(s, "  resonances, drive to gauge: {}", modes.join(", "));
+                }
+                Err(e) => {
+                    let _ = writeln!(s, "  not identified: {e}");
+                }
+            }
+        }
         "permanent-deformation" => {
             for (load, r) in metrics::residual_deformation(t) {
                 let _ = writeln!(

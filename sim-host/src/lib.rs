@@ -14,6 +14,7 @@ pub mod estimators;
 pub mod fingers;
 pub mod fit;
 pub mod fuzz;
+pub mod identify;
 pub mod metrics;
 pub mod plot;
 pub mod report;

@@ -22,6 +22,7 @@ pub enum Scenario {
     LowForce,
     BenchRecord,
     Calibration,
+    Excitation,
 }
 
 impl Scenario {
@@ -45,6 +46,7 @@ impl Scenario {
             Scenario::LowForce => "low-force",
             Scenario::BenchRecord => "bench-record",
             Scenario::Calibration => "calibration",
+            Scenario::Excitation => "excitation",
         }
     }
 
@@ -98,6 +100,7 @@ impl Scenario {
                 seed: o.protocol_seed,
                 per_offset_s: 15.0,
             },
+            Scenario::Excitation => Protocol::EXCITATION_MEMO,
         }
     }
 }
@@ -173,6 +176,7 @@ pub fn run_protocol(
     };
     for k in 0..n {
         let command = source.command_g(rig.time_s() as f32);
+        rig.set_drive_excitation(source.drive_excitation_g(rig.time_s() as f32));
         let frames = &mut run.frames;
         let rec = rig.tick(command, |t, grid| frames.push((t, *grid)));
         run.ticks.push(rec);

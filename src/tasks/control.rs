@@ -138,6 +138,11 @@ impl ControlLoop {
         self.overrun_pending = true;
     }
 
+    /// Grams added to the drive after the filter (see [`ForceLoop::set_drive_excitation`]).
+    pub fn set_drive_excitation(&mut self, drive_g: f32) {
+        self.force_loop.set_drive_excitation(drive_g);
+    }
+
     pub fn overruns(&self) -> u32 {
         self.overruns
     }
@@ -197,6 +202,8 @@ impl Controller {
         // The command source's clock, computed as the simulator's rig computes it.
         let t_s = (f64::from(self.ticks) * CONTROL_PERIOD_S) as f32;
         let command_g = self.source.command_g(t_s);
+        self.control
+            .set_drive_excitation(self.source.drive_excitation_g(t_s));
         self.ticks = self.ticks.saturating_add(1);
         self.control.act(io, command_g, board_tick)
     }

@@ -31,6 +31,8 @@ const CHOSEN: (Protocol, &str) = if cfg!(feature = "protocol-force-steps") {
     (Protocol::PSEUDO_RANDOM_MEMO, "pseudo-random")
 } else if cfg!(feature = "protocol-sines") {
     (Protocol::SINES_MEMO, "sines")
+} else if cfg!(feature = "protocol-excitation") {
+    (Protocol::EXCITATION_MEMO, "excitation")
 } else {
     (Protocol::StepLoads, "step-loads")
 };
@@ -40,7 +42,8 @@ pub const PROTOCOL_NAME: &str = CHOSEN.1;
     feature = "protocol-force-steps",
     feature = "protocol-pseudo-random",
     feature = "protocol-sines",
-    feature = "protocol-step-loads"
+    feature = "protocol-step-loads",
+    feature = "protocol-excitation"
 )))]
 compile_error!("choose a protocol feature (protocol-force-steps is the default)");
 

@@ -110,6 +110,12 @@ impl Rig {
         self.tick as f64 * TICK_S
     }
 
+    /// Grams added to the drive after the loop's filter from the next tick on (the excitation
+    /// protocol's chirp; see `ForceLoop::set_drive_excitation`).
+    pub fn set_drive_excitation(&mut self, drive_g: f32) {
+        self.control.set_drive_excitation(drive_g);
+    }
+
     /// One control tick with command `command_g`; `on_frame` receives each completed 8×8 scan
     /// (a taxel at a converter rail reads NaN).
     pub fn tick(
