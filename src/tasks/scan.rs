@@ -342,6 +342,7 @@ impl Scanner {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibration::{CalibrationTable, MAX_TABLE_BYTES};
     use crate::gauge::AdcCode;
 
     /// The table the firmware builds carry (`boards/calibration/table.bin`).
@@ -460,7 +461,6 @@ mod tests {
 
     #[test]
     fn a_force_beyond_the_calibrated_range_is_flagged_extrapolated() {
-        use crate::calibration::{CalibrationTable, MAX_TABLE_BYTES};
         // Taxel 0 calibrated to 20 g and flagged poor; the rest nominal (never extrapolated).
         let taxel = TaxelId::from_index(0);
         let mut table = CalibrationTable::default();
@@ -470,7 +470,19 @@ mod tests {
             estimator: crate::estimator::EstimatorKind::Elastic,
             ..TaxelModel::nominal(taxel)
         };
-        table.taxels.push(model.clone()).unwrap();
+        table.taxels.push(model).unwrap();
+        let (config, mut scanner) = board_with(&table);
+        assert_eq!(scanner.calibration_status().flagged_taxels, 1);
+        // Every taxel at the same strain: taxel 0 runs the elastic model (G = 3.23 g/%), so a
+        // strain of 3 % reads 9.7 g (inside 20 g) and 9 % reads 29 g (beyond).
+        let inside = frame_at_strain(&mut scanner, &config, 3.0);
+        assert_eq!(inside.extrapolated_taxels, 0, "{inside:?}");
+        let beyond = frame_at_strain(&mut scanner, &config, 9.0);
+        assert_eq!(beyond.extrapolated_taxels, 1, "{beyond:?}");
+    }
+
+    /// The board's configuration carrying `table`, and its scanner at rest (4 V).
+    fn board_with(table: &CalibrationTable) -> (FirmwareConfig, Scanner) {
         let mut bytes = vec![0u8; MAX_TABLE_BYTES];
         let n = table.encode(&mut bytes).unwrap();
         bytes.truncate(n);
@@ -479,14 +491,8 @@ mod tests {
             ..BOARD
         };
         let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
-        let mut scanner = Scanner::new(&config, calibration(rest_v)).unwrap();
-        assert_eq!(scanner.calibration_status().flagged_taxels, 1);
-        // Every taxel at the same strain: taxel 0 runs the elastic model (G = 3.23 g/%), so a
-        // strain of 3 % reads 9.7 g (inside 20 g) and 9 % reads 29 g (beyond).
-        let inside = frame_at_strain(&mut scanner, &config, 3.0);
-        assert_eq!(inside.extrapolated_taxels, 0, "{inside:?}");
-        let beyond = frame_at_strain(&mut scanner, &config, 9.0);
-        assert_eq!(beyond.extrapolated_taxels, 1, "{beyond:?}");
+        let scanner = Scanner::new(&config, calibration(rest_v)).unwrap();
+        (config, scanner)
     }
 
     /// One frame with every taxel at `strain_pct` (the read-out is monotone: its volts found by
@@ -525,7 +531,6 @@ mod tests {
     /// G (ε + w r).
     #[test]
     fn a_taxels_hysteresis_is_taken_off_its_strain() {
-        use crate::calibration::{CalibrationTable, MAX_TABLE_BYTES};
         use crate::hysteresis::Plays;
         let probe = BOARD.probe;
         let model = TaxelModel {
@@ -536,15 +541,7 @@ mod tests {
         let g = model.elastic_g_per_pct as f32;
         let mut table = CalibrationTable::default();
         table.taxels.push(model).unwrap();
-        let mut bytes = vec![0u8; MAX_TABLE_BYTES];
-        let n = table.encode(&mut bytes).unwrap();
-        bytes.truncate(n);
-        let config = FirmwareConfig {
-            calibration: Box::leak(bytes.into_boxed_slice()),
-            ..BOARD
-        };
-        let rest_v = config.taxel_adc.volts(config.taxel_adc.code(4.0));
-        let mut scanner = Scanner::new(&config, calibration(rest_v)).unwrap();
+        let (config, mut scanner) = board_with(&table);
         let first = frame_at_strain(&mut scanner, &config, 3.0).probe_force_g;
         let strain = scanner.probe_strain_pct();
         assert!(
