@@ -261,8 +261,9 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
             }
         }
         "excitation" => {
-            let actuator = tactile_core::control::ActuatorConfig::MEMO;
-            let protocol = tactile_core::profile::Protocol::EXCITATION_MEMO;
+            // The scenario's protocol, on the simulator's firmware (the rig `experiment` ran).
+            let protocol = Scenario::Excitation.protocol(&ScenarioOptions::default());
+            let actuator = crate::rig::RigConfig::SIM_FIRMWARE.actuator;
             match crate::identify::frequency_response(t, protocol, &actuator) {
                 Ok(response) => {
                     let modes: Vec<String> = crate::identify::modes(&response, 2)

@@ -1,14 +1,14 @@
 //! Identification of the applicator from a record of the excitation protocol (issue 13, item
-//! 1): its frequency response from the amplifier's drive to the gauge, and a low-order model
-//! of it — the first step of a controller designed from the rig rather than from the memo.
+//! 1): its frequency response from the amplifier's drive to the gauge, and its resonances — the
+//! first step of a controller designed from the rig rather than from the memo.
 //!
-//! The record is the closed loop's (the force law keeps the probe on the finger about the
-//! preload while the command chirps), so the response is taken as the ratio of the gauge's and
+//! The record is the closed loop's (the force law holds the probe at the preload while a chirp
+//! is added to the drive after the loop's filter: a chirp on the command would be filtered out
+//! before it reached the beam mode), so the response is taken as the ratio of the gauge's and
 //! the drive's spectra, each averaged over whole periods of the chirp: noise that is not
 //! periodic averages out of both, and the ratio is the plant's whatever the loop around it.
-//! The chirp is added to the drive after the loop's filter (a reference chirp would be filtered
-//! out before it reached the beam mode). The resonances are picked from the measured response
-//! (peak and half-power bandwidth); a parametric model for the controller's design is next.
+//! The resonances are picked from the measured response (peak and half-power bandwidth); a
+//! parametric model for the controller's design is next.
 
 use num_complex::Complex64;
 use serde::Serialize;
@@ -40,8 +40,6 @@ pub struct ResponsePoint {
     /// Gauge grams per gram of drive.
     pub re: f64,
     pub im: f64,
-    /// Standard error of the ratio from the spread over periods (same units).
-    pub std_err: f64,
 }
 
 impl ResponsePoint {
@@ -81,36 +79,23 @@ pub fn frequency_response(
             .map(|i| Complex64::from_polar(1.0, -w * i as f64))
             .collect();
         let dft = |x: &[f64]| -> Complex64 { x.iter().zip(&twiddle).map(|(v, t)| t * v).sum() };
-        let (mut u, mut y) = (Vec::new(), Vec::new());
+        // Each period's spectrum, summed: the mean's ratio is the same as the sums'.
+        let (mut u, mut y) = (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0));
         for p in 0..periods {
             let range = start + p * per..start + (p + 1) * per;
-            u.push(dft(&drive[range.clone()]));
-            y.push(dft(&gauge[range]));
+            u += dft(&drive[range.clone()]);
+            y += dft(&gauge[range]);
         }
-        let n = periods as f64;
-        let (um, ym) = (
-            u.iter().sum::<Complex64>() / n,
-            y.iter().sum::<Complex64>() / n,
-        );
-        if um.norm() < 1e-9 * per as f64 {
+        if u.norm() < 1e-9 * (per * periods) as f64 {
             return Err(IdentifyError::NoDrive {
                 hz: bin as f64 / (per as f64 * TICK_S),
             });
         }
-        let g = ym / um;
-        // The spread of the periods' own ratios, as a standard error of their mean.
-        let var: f64 = u
-            .iter()
-            .zip(&y)
-            .map(|(uu, yy)| (yy - g * uu).norm_sqr())
-            .sum::<f64>()
-            / (n - 1.0).max(1.0)
-            / um.norm_sqr();
+        let g = y / u;
         out.push(ResponsePoint {
             hz: bin as f64 / (per as f64 * TICK_S),
             re: g.re,
             im: g.im,
-            std_err: (var / n).sqrt(),
         });
     }
     Ok(out)

@@ -73,10 +73,9 @@ pub struct Scanner {
     estimators: [TaxelEstimator; TAXELS],
     /// Each taxel's strain conditioning from its calibration (offset, interference notch).
     conditioners: [StrainConditioner; TAXELS],
-    /// The hysteresis taken off before the estimator of the taxels whose calibration has one
-    /// (by taxel index; those taxels' bits set in `loop_taxels`).
+    /// The hysteresis taken off before the estimator of the taxels whose calibration has one,
+    /// by taxel index.
     loops: heapless::Vec<(u8, LoopCompensator), MAX_LOOP_TAXELS>,
-    loop_taxels: u64,
     /// `None` until [`Scanner::reset`] has run.
     probe_bench: Option<TaxelEstimators>,
     probe_estimates_g: [f32; 4],
@@ -114,7 +113,6 @@ impl Scanner {
             estimators: [TaxelEstimator::Elastic { g_per_pct: 0.0 }; TAXELS],
             conditioners: [StrainConditioner::default(); TAXELS],
             loops: heapless::Vec::new(),
-            loop_taxels: 0,
             probe_bench: None,
             probe_estimates_g: [0.0; 4],
             status: CalibrationStatus {
@@ -170,7 +168,6 @@ impl Scanner {
         self.estimators.fill(nominal_est);
         self.conditioners.fill(nominal_cond);
         self.loops.clear();
-        self.loop_taxels = 0;
         self.range_g.fill(f32::INFINITY);
         let mut probe_model = nominal;
         for m in view.iter().flat_map(|v| v.models()) {
@@ -181,13 +178,10 @@ impl Scanner {
                 (*est, *cond) = build(&m)?;
             }
             // The table's check allows no more loops than there is room for.
-            if !m.hysteresis.is_empty()
-                && self
+            if !m.hysteresis.is_empty() {
+                let _ = self
                     .loops
-                    .push((i as u8, LoopCompensator::new(m.hysteresis)))
-                    .is_ok()
-            {
-                self.loop_taxels |= 1 << i;
+                    .push((i as u8, LoopCompensator::new(m.hysteresis)));
             }
             if let Some(range) = self.range_g.get_mut(i).filter(|_| m.range_g > 0.0) {
                 *range = m.range_g as f32;
@@ -259,9 +253,7 @@ impl Scanner {
             .get_mut(taxel.index())
             .map_or(strain, |c| c.update(strain));
         let i = taxel.index();
-        let comp = (self.loop_taxels & bit != 0)
-            .then(|| self.loops.iter_mut().find(|(t, _)| usize::from(*t) == i))
-            .flatten();
+        let comp = self.loops.iter_mut().find(|(t, _)| usize::from(*t) == i);
         let force = match (self.estimators.get_mut(i), comp) {
             (Some(e), Some((_, comp))) => comp.force_g(e, conditioned),
             (Some(e), None) => e.force_g(conditioned),
