@@ -71,8 +71,10 @@ pub enum Protocol {
     /// there is the taxel's offset), then the memo's sum of sinusoids about each of
     /// [`CALIBRATION_OFFSETS_G`] in turn, `per_offset_s` each, the sinusoids' amplitude
     /// [`CALIBRATION_AMPLITUDE`] of the offset (so the load never leaves the finger), slewed
-    /// from one offset to the next; then [`CALIBRATION_RECOVERY_S`] at rest (the recovery
-    /// tells the permanent deformation from the Kelvin branch's creep).
+    /// from one offset to the next; then [`CALIBRATION_HOLD_G`] held [`CALIBRATION_HOLD_S`]
+    /// and [`CALIBRATION_RECOVERY_S`] at rest (the hold's creep and the recovery tell the
+    /// permanent deformation from the Kelvin branch's: a minute of sinusoids alone left them
+    /// interchangeable, and records of minutes at 80 g wrong by grams).
     Calibration { seed: u64, per_offset_s: f32 },
     /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
     /// each applied from rest (1 s at zero) and held `hold_s`.
@@ -102,8 +104,13 @@ pub const EXCITATION_END_HZ: f32 = 201.0;
 pub const CALIBRATION_OFFSETS_G: [f32; 4] = [12.0, 25.0, 45.0, 70.0];
 /// Rest at the start of the calibration protocol, s: the strain there is the offset.
 pub const CALIBRATION_REST_S: f32 = 2.0;
-/// Rest at the end of the calibration protocol, s: the recovery after the loads.
-pub const CALIBRATION_RECOVERY_S: f32 = 15.0;
+/// Hold after the last level, g (the top of the memo's step loads).
+pub const CALIBRATION_HOLD_G: f32 = 80.0;
+/// How long the hold lasts, s: creep at a steady load, the permanent deformation's rate.
+pub const CALIBRATION_HOLD_S: f32 = 20.0;
+/// Rest at the end of the calibration protocol, s: the recovery after the loads (40 s: the
+/// Kelvin branch, about 30 s unloaded, mostly recovers; the permanent deformation does not).
+pub const CALIBRATION_RECOVERY_S: f32 = 40.0;
 /// Each sinusoid's amplitude as a fraction of its offset (the memo: 4 g at 25 g).
 pub const CALIBRATION_AMPLITUDE: f32 = 0.12;
 
@@ -199,6 +206,7 @@ impl Protocol {
             Protocol::Calibration { per_offset_s, .. } => {
                 CALIBRATION_REST_S
                     + CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s
+                    + CALIBRATION_HOLD_S
                     + CALIBRATION_RECOVERY_S
             }
         }
@@ -386,6 +394,11 @@ impl CommandSource {
                     Some(&offset) if t >= 0.0 => {
                         self.sines(offset, CALIBRATION_AMPLITUDE * offset, t_s)
                     }
+                    None if t - CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s
+                        < CALIBRATION_HOLD_S =>
+                    {
+                        CALIBRATION_HOLD_G
+                    }
                     _ => 0.0,
                 }
             }
@@ -511,7 +524,7 @@ mod tests {
     #[test]
     fn calibration_visits_each_offset_and_stays_on_the_finger() {
         let mut s = CommandSource::new(Protocol::CALIBRATION);
-        assert!((Protocol::CALIBRATION.duration_s() - 77.0).abs() < 1e-6);
+        assert!((Protocol::CALIBRATION.duration_s() - 122.0).abs() < 1e-6);
         // At rest first: the offset is measured there.
         assert_eq!(s.command_g(0.0), 0.0);
         assert_eq!(s.command_g(1.99), 0.0);
@@ -531,7 +544,13 @@ mod tests {
             assert!(lo > 0.0 && hi < 120.0, "{offset}: {lo}..{hi}");
             assert!(hi - lo > 0.5 * offset, "{offset}: {lo}..{hi}");
         }
-        assert_eq!(s.command_g(63.0), 0.0);
+        // The hold after the last level (62–82 s), then the recovery at rest to the end.
+        for t in [62.5, 70.0, 81.9] {
+            assert_eq!(s.command_g(t), CALIBRATION_HOLD_G, "{t}");
+        }
+        for t in [82.1, 100.0, 121.9] {
+            assert_eq!(s.command_g(t), 0.0, "{t}");
+        }
     }
 
     #[test]

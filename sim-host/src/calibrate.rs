@@ -8,7 +8,11 @@
 //! - eq. 14 whose springs are curves learned from the record ([`fit_element`]): each spring's
 //!   strain at ten loads over the calibrated range, monotone by construction (log segment
 //!   compliances), with a small penalty on how fast the segments' stiffness changes so loads
-//!   the record barely visits are bridged smoothly. No stiffening law is assumed.
+//!   the record barely visits are bridged smoothly. No stiffening law is assumed. The fit's
+//!   rows are the force the element reads from the strain (as the chip runs it) and the
+//!   strain it makes under the force (weighted by the record's stiffness at the top of its
+//!   range): run backwards alone, a model that creeps too much reads the rest as no force,
+//!   which costs nothing, and the slow branches came out wrong by grams on long loads.
 //! - the elastic spring fitted on the memo's level, and eq. 17 as the element's secant springs
 //!   there (Table I's way): the memo's estimators, recalibrated;
 //! - the scheduled inverse's table: the element's secant springs at each load level.
@@ -43,6 +47,9 @@ const NOMINAL_MARGIN: f64 = 0.9;
 /// Levenberg–Marquardt's budget: evaluations per parameter (each also costs a finite-difference
 /// Jacobian of 23 runs of the element over the record).
 const PATIENCE: usize = 8;
+/// The forward rows score every this many frames (the creep they pin is slow; fewer rows
+/// keep the fit's QR small).
+const FORWARD_STEP: usize = 4;
 /// Blocks each load level is cut into for the held-out scores.
 pub const FOLDS: usize = 4;
 
@@ -69,6 +76,9 @@ pub struct TaxelFitReport {
     pub estimator: String,
     pub flags: Vec<String>,
 }
+
+/// A fold: which frames its fit saw, and every estimator's output over the record.
+type FoldRun = (Vec<bool>, Vec<[f32; 4]>);
 
 /// Frame period the estimators run at on the chip, s.
 fn frame_s() -> f64 {
@@ -209,19 +219,35 @@ pub fn fit_taxel(
         ..TaxelModel::nominal(taxel)
     };
     let nominal_est = run_estimators(&nominal, &raw)?;
+    // Each fold's fit and its estimates over the record, on threads.
+    let folds: Vec<Result<FoldRun, CalibrationError>> = std::thread::scope(|scope| {
+        let runs: Vec<_> = (0..FOLDS)
+            .map(|fold| {
+                let (placed, frames, raw, whole) = (&placed, &frames, &raw, &whole);
+                let model_from = &model_from;
+                scope.spawn(move || {
+                    let in_fit: Vec<bool> = placed
+                        .iter()
+                        .map(|p| p.is_none_or(|(_, b)| b != fold))
+                        .collect();
+                    let fold_fit = fit_element(frames, &in_fit, &knots, Some(&whole.theta))
+                        .ok_or_else(|| failed("element"))?;
+                    let est = run_estimators(&model_from(&fold_fit, &in_fit)?, raw)?;
+                    Ok((in_fit, est))
+                })
+            })
+            .collect();
+        runs.into_iter()
+            .map(|r| r.join().unwrap_or_else(|_| Err(failed("element"))))
+            .collect()
+    });
     let mut sums = [[0.0f64; 4]; 2];
     let mut scored = 0usize;
-    for fold in 0..FOLDS {
-        let in_fit: Vec<bool> = placed
-            .iter()
-            .map(|p| p.is_none_or(|(_, b)| b != fold))
-            .collect();
-        let fold_fit = fit_element(&frames, &in_fit, &knots, Some(&whole.theta))
-            .ok_or_else(|| failed("element"))?;
-        let calibrated_est = run_estimators(&model_from(&fold_fit, &in_fit)?, &raw)?;
+    for fold in folds {
+        let (in_fit, calibrated_est) = fold?;
         for (sum, est) in sums.iter_mut().zip([&calibrated_est, &nominal_est]) {
             for (i, e) in est.iter().enumerate() {
-                if placed[i].is_some_and(|(_, b)| b == fold) {
+                if !in_fit[i] {
                     for (s, v) in sum.iter_mut().zip(e) {
                         *s += (f64::from(*v) - frames.force[i]).powi(2);
                     }
@@ -420,27 +446,40 @@ struct ElementProblem<'a> {
     fit_index: Vec<usize>,
     /// Weight of the smoothness rows.
     smooth: f64,
+    /// The forward rows' weight: the force a strain error stands for (g/%).
+    forward_g_per_pct: f64,
+    /// The samples the forward rows score (every [`FORWARD_STEP`]-th fitted one).
+    forward_index: Vec<usize>,
     theta: DVector<f64>,
     prediction: Option<Vec<f64>>,
 }
 
 impl ElementProblem<'_> {
-    /// The force the element reads from the record's strain (run backwards): the fit's
-    /// residual is in grams, and the noisy input is the strain, which is quiet (0.006 %),
-    /// not the gauge's force (0.14 g, as much as 0.04 % through G₁), which would bias a
-    /// forward fit.
+    /// The force the element reads from the record's strain (run backwards, as the chip
+    /// does), then the strain it makes under the record's force (run forwards).
     fn predict(&self, theta: &[f64]) -> Option<Vec<f64>> {
         let el = element_of(theta, &self.knots)?;
-        Some(inverse_force(&el, &self.frames.strain, self.frames.dt_s))
+        let mut p = inverse_force(&el, &self.frames.strain, self.frames.dt_s);
+        p.extend(simulate(&el, &self.frames.force, self.frames.dt_s));
+        Some(p)
     }
-    /// Data rows, then each spring's second difference of log compliance over its knots (a
-    /// law the record does not pin down is bridged as a power law would be).
+    /// Rows in grams: the inverse's force error; the forward strain error times
+    /// `forward_g_per_pct` (the inverse alone cannot see a model that creeps too much: at rest
+    /// it reads the negative spring strain as no force, and no error); then each spring's
+    /// second difference of log compliance over its knots (a law the record does not pin
+    /// down is bridged as a power law would be).
     fn rows(&self, theta: &[f64], pred: &[f64]) -> Vec<f64> {
         let mut r: Vec<f64> = self
             .fit_index
             .iter()
             .map(|&i| pred[i] - self.frames.force[i])
             .collect();
+        let n = self.frames.force.len();
+        r.extend(
+            self.forward_index
+                .iter()
+                .map(|&i| self.forward_g_per_pct * (pred[n + i] - self.frames.strain[i])),
+        );
         for spring in 0..2 {
             let logs = &theta[spring * SPRING_THETA..(spring + 1) * SPRING_THETA];
             r.extend(
@@ -472,7 +511,9 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for ElementProblem<'_> {
         let base = self.rows(self.theta.as_slice(), self.prediction.as_ref()?);
         let mut j = DMatrix::zeros(base.len(), self.theta.len());
         for c in 0..self.theta.len() {
-            let h = 1e-5;
+            // The springs are f32 curves: a step of 10⁻³ in a log compliance moves the strain
+            // far above their rounding (10⁻⁵ did not, and the fit stalled).
+            let h = 1e-3;
             let mut t = self.theta.clone();
             t[c] += h;
             let p = self.predict(t.as_slice())?;
@@ -497,12 +538,14 @@ fn fit_element(
         Some(t) => vec![t.to_vec()],
         None => nominal_starts(frames, knots),
     };
-    let mut best: Option<(f64, Vec<f64>)> = None;
-    for theta in starts {
+    let forward_index: Vec<usize> = fit_index.iter().copied().step_by(FORWARD_STEP).collect();
+    let solve = |theta: Vec<f64>| {
         let mut problem = ElementProblem {
             frames,
             knots: *knots,
             smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
+            forward_g_per_pct: top_secant_g_per_pct(frames),
+            forward_index: forward_index.clone(),
             theta: DVector::from_vec(theta.clone()),
             prediction: None,
             fit_index: fit_index.clone(),
@@ -511,14 +554,19 @@ fn fit_element(
         let (solved, report) = LevenbergMarquardt::new()
             .with_patience(PATIENCE)
             .minimize(problem);
-        if report.objective_function.is_finite()
-            && best
-                .as_ref()
-                .is_none_or(|b| report.objective_function < b.0)
-        {
-            best = Some((report.objective_function, solved.theta.as_slice().to_vec()));
-        }
-    }
+        (report.objective_function, solved.theta.as_slice().to_vec())
+    };
+    // The starts on threads (each a whole Levenberg–Marquardt run).
+    let best = std::thread::scope(|scope| {
+        let runs: Vec<_> = starts
+            .into_iter()
+            .map(|theta| scope.spawn(move || solve(theta)))
+            .collect();
+        runs.into_iter()
+            .filter_map(|r| r.join().ok())
+            .filter(|(objective, _)| objective.is_finite())
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    });
     let (_, theta) = best?;
     let element = element_of(&theta, knots)?;
     let pred = simulate(&element, &frames.force, frames.dt_s);
@@ -532,6 +580,18 @@ fn fit_element(
         rms_pct: tactile_ident::stats::rms(&miss),
         mean_miss_pct: tactile_ident::stats::mean(&miss),
     })
+}
+
+/// The record's stiffness at the top of its range (g/%): its 99.5th percentiles of force and
+/// of strain (monotone in each other), at least 1.
+fn top_secant_g_per_pct(frames: &Frames) -> f64 {
+    let q = |v: &[f64]| tactile_ident::stats::quantile(v, 0.995);
+    let k = q(&frames.force) / q(&frames.strain);
+    if k.is_finite() {
+        k.max(1.0)
+    } else {
+        1.0
+    }
 }
 
 /// Starts: element 4,2's laws tabulated at `knots`, scaled so their static strain matches the

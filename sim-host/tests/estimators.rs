@@ -1,12 +1,21 @@
 //! Force estimators and dynamic calibration on the simulator (issue 7).
 
-use sim_host::calibrate::FINGER_SEED;
-use sim_host::estimators::{compare, EstimatorTable, PROTOCOLS};
+use std::sync::LazyLock;
+
+use sim_host::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS, FINGER_SEED};
+use sim_host::estimators::{compare, compare_with, EstimatorTable, PROTOCOLS};
 use sim_host::fingers::FingerKind;
+use tactile_core::calibration::CalibrationTable;
+
+/// The simulated finger's calibration, made once for the tests that read it.
+static MEMO: LazyLock<(CalibrationTable, Vec<TaxelFitReport>)> = LazyLock::new(|| {
+    calibrate_simulated(&CALIBRATION_TAXELS, FINGER_SEED, FingerKind::Memo.effects()).unwrap()
+});
 
 #[test]
 fn calibrated_estimators_beat_the_memos_and_the_best_reaches_half_a_gram() {
-    let t = compare(FINGER_SEED, FingerKind::Memo).unwrap();
+    let (table, fits) = &*MEMO;
+    let t = compare_with(table, fits.clone(), FINGER_SEED, FingerKind::Memo.effects()).unwrap();
     eprintln!("{}", sim_host::estimators::render(&t));
     assert_eq!(t.taxels.len(), 4);
     assert_eq!(PROTOCOLS[0], "pseudo-random");
@@ -29,10 +38,10 @@ fn calibrated_estimators_beat_the_memos_and_the_best_reaches_half_a_gram() {
     let steps = &t.calibrated_g[1];
     assert!(steps[2] < steps[1], "{steps:?}");
     // The observer, calibrated, is the best on chip: issue 15's targets (0.3 g on
-    // pseudo-random and the sinusoids, 0.5 g on the step loads to 80 g: 0.47–0.51 g measured),
-    // and the 0.18 g the project's finger had before.
+    // pseudo-random and the sinusoids, 0.5 g on the step loads to 80 g; 0.05, 0.14 and 0.05 g
+    // measured), and the 0.18 g the project's finger had before.
     assert!(
-        calibrated[3] <= 0.18 && t.calibrated_g[1][3] <= 0.55 && t.calibrated_g[2][3] <= 0.3,
+        calibrated[3] <= 0.12 && t.calibrated_g[1][3] <= 0.3 && t.calibrated_g[2][3] <= 0.12,
         "{:?}",
         t.calibrated_g
     );
@@ -52,13 +61,11 @@ fn calibrated_estimators_beat_the_memos_and_the_best_reaches_half_a_gram() {
 /// calibrate --out boards/calibration/table.bin` when the calibration changes).
 #[test]
 fn the_committed_calibration_table_is_the_simulators() {
-    use sim_host::calibrate::{calibrate_simulated, CALIBRATION_TAXELS};
     let committed = std::fs::read(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../boards/calibration/table.bin"),
     )
     .unwrap();
-    let memo = FingerKind::Memo.effects();
-    let (table, _) = calibrate_simulated(&CALIBRATION_TAXELS, FINGER_SEED, memo).unwrap();
+    let (table, _) = &*MEMO;
     let mut fresh = vec![0u8; table.encoded_len()];
     table.encode(&mut fresh).unwrap();
     assert!(
@@ -80,15 +87,17 @@ fn observer(t: &EstimatorTable) -> ([f64; 3], [f64; 3]) {
 /// Issue 15: fingers of the memo's physics whose springs stiffen by other laws (linear,
 /// saturating, piecewise), with other α and Kelvin times, calibrated from the calibration
 /// protocol and scored on pseudo-random, step loads and sinusoids. Calibration must beat the
-/// nominal models on every protocol; the saturating finger meets the issue's targets; the
-/// other two do not yet (see the issue's note) and are held at today's figures.
+/// nominal models on every protocol; the linear and saturating fingers meet the issue's
+/// targets (0.3, 0.5, 0.3 g). The piecewise finger's stiffness doubles within a few grams
+/// between the table's knots, which ten knots cannot follow (its own springs tabulated at
+/// the knots err 0.59 g on pseudo-random): it is held at the curve's limit.
 #[test]
 fn calibration_holds_on_fingers_unlike_the_simulators() {
     // (finger, bound on pseudo-random, step loads, sinusoids), g.
     let cases = [
         (FingerKind::Saturating, [0.3, 0.5, 0.3]),
-        (FingerKind::LinearSaturating, [0.5, 3.0, 0.45]),
-        (FingerKind::Piecewise, [1.5, 8.0, 1.1]),
+        (FingerKind::LinearSaturating, [0.3, 0.5, 0.3]),
+        (FingerKind::Piecewise, [0.8, 0.6, 0.7]),
     ];
     for (finger, bound) in cases {
         let t = compare(FINGER_SEED, finger).unwrap();

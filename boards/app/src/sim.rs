@@ -69,16 +69,15 @@ const fn calibration_run(name: &'static str, taxel: TaxelId) -> FilRun {
 }
 
 /// The QEMU calibration session (`-append "session=calibration"`): the calibration protocol
-/// with the probe over each of the four calibration taxels of the simulated finger in turn,
-/// then over the first of them on a finger whose springs stiffen by other laws
-/// ([`LINEAR_SATURATING_ELEMENT`]), recorded over defmt for `tactile calibrate`.
-pub const CALIBRATION_SESSION: [FilRun; 5] = {
-    let [a, b, c, d] = CALIBRATION_TAXELS;
+/// with the probe over the first two calibration taxels of the simulated finger in turn, then
+/// over the first of them on a finger whose springs stiffen by other laws
+/// ([`LINEAR_SATURATING_ELEMENT`]), recorded over defmt for `tactile calibrate`. (Two of the
+/// four: each run simulates the protocol's 122 s, about 170 s of QEMU's time.)
+pub const CALIBRATION_SESSION: [FilRun; 3] = {
+    let [a, b, ..] = CALIBRATION_TAXELS;
     [
         calibration_run("calibrate-3-2", a),
         calibration_run("calibrate-1-5", b),
-        calibration_run("calibrate-5-1", c),
-        calibration_run("calibrate-6-6", d),
         FilRun {
             element: Some(LINEAR_SATURATING_ELEMENT),
             ..calibration_run("calibrate-3-2-linear-saturating", a)
@@ -349,8 +348,8 @@ mod tests {
             .iter()
             .map(|r| r.rig().firmware.probe)
             .collect();
-        assert_eq!(probes[..4], CALIBRATION_TAXELS);
-        assert_eq!(probes[4], CALIBRATION_TAXELS[0]);
+        assert_eq!(probes[..2], CALIBRATION_TAXELS[..2]);
+        assert_eq!(probes[2], CALIBRATION_TAXELS[0]);
         for r in &CALIBRATION_SESSION {
             let (row, col) = (r.rig().firmware.probe.row(), r.rig().firmware.probe.col());
             let other = r.element.map_or("", |_| "-linear-saturating");

@@ -23,8 +23,9 @@ use tactile_firmware::{FilRun, FIL_SESSION};
 
 const QEMU: &str = "qemu-system-arm";
 const QEMU_TIMEOUT: Duration = Duration::from_secs(150);
-/// The calibration session simulates 385 s (five runs of 77 s; about 200 s of wall time here).
-const CALIBRATION_TIMEOUT: Duration = Duration::from_secs(600);
+/// The calibration session simulates 366 s (three runs of 122 s; five runs of 77 s took 544 s
+/// of wall time on CI).
+const CALIBRATION_TIMEOUT: Duration = Duration::from_secs(900);
 
 fn qemu_present() -> bool {
     Command::new(QEMU)
@@ -469,13 +470,13 @@ fn a_panic_and_a_hardfault_zero_the_actuator_before_reporting() {
 }
 
 /// Dynamic calibration end to end (issue 7): the firmware runs the calibration protocol with the
-/// probe over each of four taxels of the simulated finger (different parameters each), streams
-/// it over defmt; the host decodes the records, fits each taxel (`tactile calibrate`'s code)
-/// and writes the table; that table must match the one the firmware build carries (the host
-/// simulator's calibration of the same taxels) and bring the observer under 0.5 g on every
-/// taxel, where the nominal models err by several grams. A fifth run calibrates a taxel of a
-/// finger whose springs stiffen by other laws (issue 15): its calibration must be the host's
-/// and beat the nominal models there too.
+/// probe over two taxels of the simulated finger (different parameters each), streams it over
+/// defmt; the host decodes the records, fits each taxel (`tactile calibrate`'s code) and
+/// writes the table; that table must match the host simulator's calibration of the same taxels
+/// (what the firmware build carries) and bring the observer under 0.2 g on every taxel, where
+/// the nominal models err by several grams. A third run calibrates a taxel of a finger whose
+/// springs stiffen by other laws (issue 15): its calibration must be the host's and meet the
+/// issue's 0.3 g there too.
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn calibration_on_the_firmware_end_to_end() {
@@ -510,7 +511,7 @@ fn calibration_on_the_firmware_end_to_end() {
         let taxel = spec.rig().firmware.probe;
         let records = run.tick_records();
         assert!(
-            records.len() >= 76_000,
+            records.len() >= 121_000,
             "{}: {} records",
             run.name,
             records.len()
@@ -539,7 +540,7 @@ fn calibration_on_the_firmware_end_to_end() {
         };
         into.taxels.push(model).expect("a taxel");
     }
-    assert_eq!(table.taxels.len(), 4);
+    assert_eq!(table.taxels.len(), 2);
     let mut bytes = vec![0u8; table.encoded_len()];
     let n = table.encode(&mut bytes).expect("encoded");
     std::fs::write(dir.join("calibration-table.bin"), &bytes[..n]).expect("table written");
@@ -547,7 +548,7 @@ fn calibration_on_the_firmware_end_to_end() {
     // The firmware's calibration is the host simulator's (the build's table) to within what
     // one tick of shift and the record's rounding change.
     let memo = sim_host::fingers::FingerKind::Memo.effects();
-    let (host, _) = calibrate_simulated(&CALIBRATION_TAXELS, FINGER_SEED, memo).expect("host");
+    let (host, _) = calibrate_simulated(&CALIBRATION_TAXELS[..2], FINGER_SEED, memo).expect("host");
     let unlike = sim_host::fingers::FingerKind::LinearSaturating;
     let (host_other, _) =
         calibrate_simulated(&CALIBRATION_TAXELS[..1], FINGER_SEED, unlike.effects()).expect("host");
@@ -562,8 +563,8 @@ fn calibration_on_the_firmware_end_to_end() {
             fw.taxel
         );
     }
-    // On the other finger a minute's record pins G₁ but not how the slow branches share the
-    // creep (G₂, α and N₁ land in different basins from records a tick apart): G₁ alone is
+    // On the other finger the record pins G₁ more tightly than how the slow branches share
+    // the creep (G₂, α and N₁ may land apart from records a tick apart): G₁ alone is
     // compared, the rest is judged by the estimates below.
     for (fw, h) in other.taxels.iter().zip(&host_other.taxels) {
         let (e, g) = (&fw.element, &h.element);
@@ -578,7 +579,7 @@ fn calibration_on_the_firmware_end_to_end() {
         .expect("estimators");
     eprintln!("{}", sim_host::estimators::render(&scores));
     for row in &scores.pseudo_random_per_taxel_g {
-        assert!(row[3] <= 0.5, "{row:?}");
+        assert!(row[3] <= 0.2, "{row:?}");
     }
     assert!(
         scores.calibrated_g[0][3] < 0.2 * scores.nominal_g[0][3],
@@ -587,13 +588,13 @@ fn calibration_on_the_firmware_end_to_end() {
         scores.nominal_g[0]
     );
     // On the finger unlike the memo's: the observer calibrated on the firmware's record
-    // under 0.6 g on pseudo-random (the nominal models: about 3.5 g).
+    // within issue 15's 0.3 g on pseudo-random (the nominal models: about 3.5 g).
     let scores =
         sim_host::estimators::compare_with(&other, Vec::new(), FINGER_SEED, unlike.effects())
             .expect("estimators");
     eprintln!("{}", sim_host::estimators::render(&scores));
     assert!(
-        scores.calibrated_g[0][3] < 0.6 && scores.calibrated_g[0][3] < 0.2 * scores.nominal_g[0][3],
+        scores.calibrated_g[0][3] < 0.3 && scores.calibrated_g[0][3] < 0.2 * scores.nominal_g[0][3],
         "{:?} vs {:?}",
         scores.calibrated_g[0],
         scores.nominal_g[0]
