@@ -539,12 +539,13 @@ fn fit_element(
         None => nominal_starts(frames, knots),
     };
     let forward_index: Vec<usize> = fit_index.iter().copied().step_by(FORWARD_STEP).collect();
+    let forward_g_per_pct = top_secant_g_per_pct(frames);
     let solve = |theta: Vec<f64>| {
         let mut problem = ElementProblem {
             frames,
             knots: *knots,
             smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
-            forward_g_per_pct: top_secant_g_per_pct(frames),
+            forward_g_per_pct,
             forward_index: forward_index.clone(),
             theta: DVector::from_vec(theta.clone()),
             prediction: None,
