@@ -14,7 +14,7 @@ run() {
     total=$((total + 1))
     if [ "$verdict" = "$expected" ]; then right=$((right + 1)); echo "OK $expected  [$*]"; else echo "XX $expected <- $verdict  [$*]"; fi
 }
-for seed in 21 22 23 24; do
+for seed in ${SEEDS:-21 22 23 24}; do
     for rate in 50 200 1000; do run none $seed $rate 180; done
     run load_dependent_stiffness $seed 200 180 stiffening=0.3
     run load_dependent_stiffness $seed 100 240 stiffening=0.8

@@ -48,8 +48,10 @@ impl Default for Settings {
 }
 
 /// Radii of the hysteresis candidate's plays, as shares of the record's force range (a loop that
-/// spans the whole range, as a magnetic skin's does, needs the widest).
-pub const PLAY_SHARES: [f64; 5] = [0.01, 0.03, 0.1, 0.3, 0.6];
+/// spans the whole range, as a magnetic skin's does, needs the widest). All below one half: a
+/// play wider than half the range never turns once the force has crossed the range, so it is a
+/// step at the first loading that only the first fold sees (held out, it extrapolates wildly).
+pub const PLAY_SHARES: [f64; 5] = [0.01, 0.03, 0.1, 0.25, 0.45];
 
 /// The effects the diagnosis can name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -135,6 +137,8 @@ pub struct Candidate {
     /// Share of the current model's held-out error above the noise floor it removes.
     pub excess_removed: f64,
     pub accepted: bool,
+    /// Held-out error of each fold, strain %.
+    pub fold_rms_pct: Vec<f64>,
 }
 
 /// Errors of a model: strain % (what is measured) and grams through the record's secant.
@@ -411,10 +415,16 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     .any(|(c, b)| work.terms[*c] == Term::Relaxation(*tau) && *b > 0.0)
             })
             .collect();
+        // The slow end stays whole: an effect the first fit did not have (a gain that sags, a
+        // drift) bends it there, and a slow mode it left out cannot come back later.
+        let slowest_used = used.iter().rposition(|u| *u).unwrap_or(0);
         let support: Vec<f64> = taus
             .iter()
             .enumerate()
-            .filter(|(i, _)| (i.saturating_sub(1)..=(i + 1).min(taus.len() - 1)).any(|j| used[j]))
+            .filter(|(i, _)| {
+                *i > slowest_used
+                    || (i.saturating_sub(1)..=(i + 1).min(taus.len() - 1)).any(|j| used[j])
+            })
             .map(|(_, t)| *t)
             .collect();
         (slowest, if support.is_empty() { taus } else { support })
@@ -489,11 +499,12 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             work.add(Term::Play(r), &v, Sign::Free)
         })
         .collect();
-    let drift_max = ((t_s / 15.0) as usize).clamp(1, 8);
+    let drift_max = ((t_s / 15.0) as usize).clamp(1, 16);
     let drift: Vec<usize> = (1..=drift_max)
         .map(|k| {
-            let v = terms::cosine(s.len(), k);
-            work.add(Term::Drift(k), &v, Sign::Free)
+            let term = Term::Drift(k);
+            work.terms.push(term);
+            work.pool.add_cosine(format!("{term:?}"), k, Sign::Free)
         })
         .collect();
 
@@ -514,12 +525,15 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         if !taken(Effect::Hysteresis, &state) {
             tries.push(Try::adding(
                 Effect::Hysteresis,
-                "plays of 1, 3, 10, 30, 60 % of the force range".into(),
+                format!(
+                    "plays of {} % of the force range",
+                    PLAY_SHARES.map(|p| format!("{:.0}", 100.0 * p)).join(", ")
+                ),
                 plays.clone(),
             ));
         }
         if !taken(Effect::BaselineDrift, &state) {
-            for k in [1usize, 2, 4, 8] {
+            for k in [1usize, 2, 4, 8, 16] {
                 if k <= drift_max {
                     tries.push(Try::adding(
                         Effect::BaselineDrift,
@@ -674,14 +688,30 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             }
         }
         if !taken(Effect::SensitivityDrift, &state) {
-            let mut cols = Vec::new();
-            for k in 1..=2 {
-                let v: Vec<f64> = terms::legendre(s.len(), k)
-                    .iter()
-                    .zip(&force_part)
-                    .map(|(c, p)| c * p)
-                    .collect();
-                cols.push(work.add(Term::Gain(k), &v, Sign::Free));
+            let gain_columns = |work: &mut Work, part: &[f64]| -> Vec<usize> {
+                (1..=2)
+                    .map(|k| {
+                        let v: Vec<f64> = terms::legendre(s.len(), k)
+                            .iter()
+                            .zip(part)
+                            .map(|(c, p)| c * p)
+                            .collect();
+                        work.add(Term::Gain(k), &v, Sign::Free)
+                    })
+                    .collect()
+            };
+            // A gain × (the force-driven strain) is bilinear; the strain that multiplies the
+            // gain is the one the model fitted with the gain: the baseline alone, fitted to a
+            // record whose sensitivity changes, is bent by it. Two refinements.
+            let mut cols = gain_columns(&mut work, &force_part);
+            for _ in 0..2 {
+                let all: Vec<usize> = state.cols.iter().chain(&cols).copied().collect();
+                let sc = work.pool.score(&all);
+                let part = work.force_part(&sc.columns, &sc.beta);
+                for c in cols {
+                    work.pool.drop_column(c);
+                }
+                cols = gain_columns(&mut work, &part);
             }
             temporary.extend(&cols);
             tries.push(Try::adding(
@@ -711,6 +741,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         let mut winner: Option<(usize, f64)> = None;
         let cur_colored = work.whiteness(&state.cols, &state.scored.beta).1;
         let mut round_candidates = Vec::new();
+        let mut passed = Vec::new();
         for (i, (t, sc)) in best.iter().enumerate() {
             let (effect, variant) = (&t.effect, &t.variant);
             let d = fold_gains(&state.scored.fold_mse, &sc.fold_mse);
@@ -726,6 +757,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 && gain >= settings.min_excess_share * excess
                 && gain >= settings.min_floor_share * floor
                 && colored < cur_colored;
+            passed.push(pass);
             if pass && winner.is_none_or(|w| gain > w.1) {
                 winner = Some((i, gain));
             }
@@ -741,7 +773,49 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 folds_better: d.iter().filter(|v| **v > 0.0).count(),
                 excess_removed: if excess > 0.0 { gain / excess } else { 0.0 },
                 accepted: false,
+                fold_rms_pct: sc.fold_mse.iter().map(|v| v.sqrt()).collect(),
             });
+        }
+        // Effects that explain the same slow residual, head to head: the simplest one that the
+        // winner does not beat consistently over the folds (the one-standard-error rule of
+        // cross-validation, with a paired test for the standard error).
+        if let Some((w, _)) = winner {
+            let confusable = |e: Effect| {
+                matches!(
+                    e,
+                    Effect::SlowRelaxation
+                        | Effect::BaselineDrift
+                        | Effect::LoadDependentStiffness
+                        | Effect::SensitivityDrift
+                )
+            };
+            // Size: the added columns the fit uses (NNLS leaves most of a relaxation grid at
+            // zero; a free basis uses all of it).
+            let size = |i: usize| {
+                let (t, sc) = &best[i];
+                sc.columns
+                    .iter()
+                    .zip(&sc.beta)
+                    .filter(|(c, b)| t.add.contains(c) && **b != 0.0)
+                    .count()
+            };
+            if confusable(best[w].0.effect) {
+                let simpler = (0..best.len())
+                    .filter(|&i| {
+                        i != w
+                            && passed[i]
+                            && confusable(best[i].0.effect)
+                            && size(i) < size(w)
+                            && stats::paired_p_value(&fold_gains(
+                                &best[i].1.fold_mse,
+                                &best[w].1.fold_mse,
+                            )) >= settings.alpha
+                    })
+                    .min_by_key(|&i| size(i));
+                if let Some(i) = simpler {
+                    winner = Some((i, state.scored.cv_mse - best[i].1.cv_mse));
+                }
+            }
         }
         let next = winner.map(|(i, _)| {
             round_candidates[i].accepted = true;

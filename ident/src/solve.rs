@@ -22,6 +22,8 @@ pub enum Sign {
 /// is its own columns delayed.
 enum Column {
     Stored(Vec<f32>),
+    /// `terms::cosine(n, k)`, computed where it is read: a smooth basis needs no memory.
+    Cosine(usize),
     Delayed {
         source: usize,
         whole: usize,
@@ -100,6 +102,14 @@ impl Pool {
         self.cols.len() - 1
     }
 
+    /// Adds the half-cosine `k` over the record (`terms::cosine`), stored as its formula.
+    pub fn add_cosine(&mut self, name: impl Into<String>, k: usize, sign: Sign) -> usize {
+        self.cols.push(Column::Cosine(k));
+        self.signs.push(sign);
+        self.names.push(name.into());
+        self.cols.len() - 1
+    }
+
     /// Adds column `source` delayed by `samples` (held at its first value); returns its index.
     pub fn add_delayed(&mut self, source: usize, samples: f64, sign: Sign) -> usize {
         let whole = samples.max(0.0).floor() as usize;
@@ -115,7 +125,8 @@ impl Pool {
     }
 
     /// A column as (stored values, whole samples of delay, fraction of a sample): a delayed
-    /// column is its source read at an offset. `None` for a column of nothing stored.
+    /// column is its source read at an offset. `None` for a formula column or one of nothing
+    /// stored.
     fn raw(&self, j: usize) -> Option<(&[f32], usize, f32)> {
         match self.cols.get(j)? {
             Column::Stored(v) if v.len() == self.n => Some((v.as_slice(), 0, 0.0)),
@@ -153,6 +164,12 @@ impl Pool {
                         .collect(),
                 )
             }
+            Some(Column::Cosine(k)) => std::borrow::Cow::Owned(
+                crate::terms::cosine(self.n, *k)
+                    .into_iter()
+                    .map(|v| v as f32)
+                    .collect(),
+            ),
             None => std::borrow::Cow::Owned(vec![0.0; self.n]),
         }
     }
@@ -212,6 +229,26 @@ impl Pool {
                         .sum::<f64>()
                 })
                 .collect(),
+            // A half-cosine against a stored column: rotated along each fold, not built.
+            (Some(src), None) | (None, Some(src)) if self.cosine_k(key.0, key.1).is_some() => {
+                let k = self.cosine_k(key.0, key.1).unwrap_or(0);
+                let step = std::f64::consts::PI * k as f64 / self.n.max(1) as f64;
+                let (sin_step, cos_step) = step.sin_cos();
+                self.folds
+                    .ranges
+                    .iter()
+                    .map(|&(s, e)| {
+                        let (mut sn, mut cs) = (step * (s as f64 + 0.5)).sin_cos();
+                        let mut acc = 0.0f64;
+                        for i in s..e {
+                            acc += f64::from(at(src.0, src.1, src.2, i) * w[i]) * cs;
+                            (sn, cs) =
+                                (sn * cos_step + cs * sin_step, cs * cos_step - sn * sin_step);
+                        }
+                        acc
+                    })
+                    .collect()
+            }
             _ => {
                 let (ca, cb) = (self.values(key.0), self.values(key.1));
                 self.folds
@@ -223,6 +260,15 @@ impl Pool {
         };
         self.cross.insert(key, v.clone());
         v
+    }
+
+    /// The `k` of the one half-cosine among columns `a` and `b`.
+    fn cosine_k(&self, a: usize, b: usize) -> Option<usize> {
+        match (self.cols.get(a), self.cols.get(b)) {
+            (Some(Column::Cosine(_)), Some(Column::Cosine(_))) => None,
+            (Some(Column::Cosine(k)), _) | (_, Some(Column::Cosine(k))) => Some(*k),
+            _ => None,
+        }
     }
 
     fn y_of(&mut self, a: usize) -> Vec<f64> {

@@ -17,9 +17,9 @@ pub fn quantile(x: &[f64], q: f64) -> f64 {
         return 0.0;
     }
     let mut v = x.to_vec();
-    v.sort_by(f64::total_cmp);
-    let i = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
-    v[i.min(v.len() - 1)]
+    let i = (((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize).min(v.len() - 1);
+    // Selection, not a sort: linear time on a 20 min record at 1 kHz.
+    *v.select_nth_unstable_by(i, f64::total_cmp).1
 }
 
 pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
