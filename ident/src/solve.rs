@@ -240,8 +240,8 @@ impl Pool {
                     .map(|&(s, e)| {
                         let (mut sn, mut cs) = (step * (s as f64 + 0.5)).sin_cos();
                         let mut acc = 0.0f64;
-                        for i in s..e {
-                            acc += f64::from(at(src.0, src.1, src.2, i) * w[i]) * cs;
+                        for (i, wi) in w.iter().enumerate().take(e).skip(s) {
+                            acc += f64::from(at(src.0, src.1, src.2, i) * wi) * cs;
                             (sn, cs) =
                                 (sn * cos_step + cs * sin_step, cs * cos_step - sn * sin_step);
                         }
