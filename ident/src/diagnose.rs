@@ -48,10 +48,8 @@ impl Default for Settings {
 }
 
 /// Radii of the hysteresis candidate's plays, as shares of the record's force range (a loop that
-/// spans the whole range, as a magnetic skin's does, needs the widest). All below one half: a
-/// play wider than half the range never turns once the force has crossed the range, so it is a
-/// step at the first loading that only the first fold sees (held out, it extrapolates wildly).
-pub const PLAY_SHARES: [f64; 5] = [0.01, 0.03, 0.1, 0.25, 0.45];
+/// spans the whole range, as a magnetic skin's does, needs the widest).
+pub const PLAY_SHARES: [f64; 5] = [0.01, 0.03, 0.1, 0.3, 0.6];
 
 /// The effects the diagnosis can name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -97,8 +95,12 @@ pub enum Term {
         power: f64,
         tau_s: Option<f64>,
     },
-    /// A play operator of this radius, g.
-    Play(f64),
+    /// A play operator of this radius, g, started in the middle of its loop (a sensor never
+    /// loaded) or settled (where a pass over the record leaves it: a sensor cycled before).
+    Play {
+        radius_g: f64,
+        settled: bool,
+    },
     /// cos(πkt/T).
     Drift(usize),
     /// sin (false) or cos (true) at this frequency.
@@ -116,7 +118,7 @@ impl Term {
                 | Term::Creep
                 | Term::SlowRelaxation(_)
                 | Term::Stiffening { .. }
-                | Term::Play(_)
+                | Term::Play { .. }
         )
     }
 }
@@ -491,14 +493,25 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     } else {
         Vec::new()
     };
-    let plays: Vec<usize> = PLAY_SHARES
-        .iter()
-        .map(|share| {
-            let r = share * force_range;
-            let v = terms::play(&s.force_g, r);
-            work.add(Term::Play(r), &v, Sign::Free)
-        })
-        .collect();
+    // Both starting states: which one the record began in is unknown, and the wrong one is a
+    // step at the first loading that only the first fold sees (held out, it extrapolates).
+    let plays: [Vec<usize>; 2] = [false, true].map(|settled| {
+        PLAY_SHARES
+            .iter()
+            .filter_map(|share| {
+                let r = share * force_range;
+                let v = terms::play(&s.force_g, r, settled);
+                // A play that never turns is a constant: the offset's, at any weight.
+                let swing = v.iter().fold(f64::NEG_INFINITY, |a, b| a.max(*b))
+                    - v.iter().fold(f64::INFINITY, |a, b| a.min(*b));
+                let term = Term::Play {
+                    radius_g: r,
+                    settled,
+                };
+                (swing > 0.01 * r).then(|| work.add(term, &v, Sign::Free))
+            })
+            .collect()
+    });
     let drift_max = ((t_s / 15.0) as usize).clamp(1, 16);
     let drift: Vec<usize> = (1..=drift_max)
         .map(|k| {
@@ -523,14 +536,16 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             ));
         }
         if !taken(Effect::Hysteresis, &state) {
-            tries.push(Try::adding(
-                Effect::Hysteresis,
-                format!(
-                    "plays of {} % of the force range",
-                    PLAY_SHARES.map(|p| format!("{:.0}", 100.0 * p)).join(", ")
-                ),
-                plays.clone(),
-            ));
+            for (cols, start) in plays.iter().zip(["in the middle", "settled"]) {
+                tries.push(Try::adding(
+                    Effect::Hysteresis,
+                    format!(
+                        "plays of {} % of the force range, started {start}",
+                        PLAY_SHARES.map(|p| format!("{:.0}", 100.0 * p)).join(", ")
+                    ),
+                    cols.clone(),
+                ));
+            }
         }
         if !taken(Effect::BaselineDrift, &state) {
             for k in [1usize, 2, 4, 8, 16] {
@@ -885,7 +900,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     }
 
     // The candidates' columns are no longer needed: free them before the report's copies.
-    for c in slow.iter().chain(&plays).chain(&drift) {
+    for c in slow.iter().chain(plays.iter().flatten()).chain(&drift) {
         if !state.cols.contains(c) {
             work.pool.drop_column(*c);
         }
@@ -1256,7 +1271,7 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                 let gap: f64 = terms
                     .iter()
                     .filter_map(|(t, b)| match t {
-                        Term::Play(r) => Some(2.0 * r * b),
+                        Term::Play { radius_g, .. } => Some(2.0 * radius_g * b),
                         _ => None,
                     })
                     .sum();

@@ -47,9 +47,16 @@ pub fn integral(x: &[f64], dt_s: f64, scale_s: f64) -> Vec<f64> {
 }
 
 /// Prandtl–Ishlinskii play operator of radius `r`: the output follows the input only once the
-/// input has moved `r` away from it.
-pub fn play(x: &[f64], r: f64) -> Vec<f64> {
+/// input has moved `r` away from it. It starts at the input (the middle of its loop: a sensor
+/// never loaded) or, if `settled`, where one pass over the record leaves it (a sensor cycled the
+/// same way before the record began).
+pub fn play(x: &[f64], r: f64, settled: bool) -> Vec<f64> {
     let mut y = x.first().copied().unwrap_or(0.0);
+    if settled {
+        for &v in x {
+            y = y.clamp(v - r, v + r);
+        }
+    }
     x.iter()
         .map(|&v| {
             y = y.clamp(v - r, v + r);
@@ -280,8 +287,10 @@ mod tests {
 
     #[test]
     fn play_operator_hand_sequence() {
-        let y = play(&[0.0, 1.0, 3.0, 2.5, 1.0, 0.0], 1.0);
-        assert_eq!(y, vec![0.0, 0.0, 2.0, 2.0, 2.0, 1.0]);
+        let x = [0.0, 1.0, 3.0, 2.5, 1.0, 0.0];
+        assert_eq!(play(&x, 1.0, false), vec![0.0, 0.0, 2.0, 2.0, 2.0, 1.0]);
+        // Settled: one pass ends at 1, so the second starts there.
+        assert_eq!(play(&x, 1.0, true), vec![1.0, 1.0, 2.0, 2.0, 2.0, 1.0]);
     }
 
     #[test]

@@ -258,7 +258,7 @@ pub fn element_of(
     branches.retain(|b| b.0 >= FAST_BRANCH_S);
     // A play is the force plus a bounded remainder (the chip's stop form): the force's part
     // belongs to the spring.
-    let plays = sum(&|t| matches!(t, Term::Play(_)));
+    let plays = sum(&|t| matches!(t, Term::Play { .. }));
     let mut j0 = sum(&|t| t == Term::Elastic) + fast + plays;
     // A sensor with no instantaneous response (a fluid channel): its fastest branch stands in
     // for the spring on the chip (eq. 14 needs one).
@@ -411,7 +411,9 @@ fn taxel_model_of(
     let plays: Vec<(f32, f32)> = terms
         .iter()
         .filter_map(|(t, b)| match t {
-            Term::Play(r) if *b != 0.0 => Some((*r as f32, *b as f32)),
+            // NOTE: the chip's plays start in the middle; settled plays
+            // differ from them until the first full loading (the export gate scores that).
+            Term::Play { radius_g, .. } if *b != 0.0 => Some((*radius_g as f32, *b as f32)),
             _ => None,
         })
         .collect();
