@@ -792,8 +792,8 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             });
         }
         // Effects that explain the same slow residual, head to head: the simplest one that the
-        // winner does not beat consistently over the folds (the one-standard-error rule of
-        // cross-validation, with a paired test for the standard error).
+        // winner does not beat as an effect must beat the model without it (in the spirit of
+        // the one-standard-error rule of cross-validation).
         if let Some((w, _)) = winner {
             let confusable = |e: Effect| {
                 matches!(
@@ -806,6 +806,13 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             };
             // Size: the added columns the fit uses (NNLS leaves most of a relaxation grid at
             // zero; a free basis uses all of it).
+            // By the bar an effect clears against the model without it: consistently over
+            // the folds, and a share of what the simpler one leaves above the floor.
+            let beats = |a: &Scored, b: &Scored| {
+                stats::paired_p_value(&fold_gains(&b.fold_mse, &a.fold_mse)) < settings.alpha
+                    && b.cv_mse - a.cv_mse
+                        >= settings.min_excess_share * (b.cv_mse - floor).max(0.0)
+            };
             let size = |i: usize| {
                 let (t, sc) = &best[i];
                 sc.columns
@@ -821,10 +828,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                             && passed[i]
                             && confusable(best[i].0.effect)
                             && size(i) < size(w)
-                            && stats::paired_p_value(&fold_gains(
-                                &best[i].1.fold_mse,
-                                &best[w].1.fold_mse,
-                            )) >= settings.alpha
+                            && !beats(&best[w].1, &best[i].1)
                     })
                     .min_by_key(|&i| size(i));
                 if let Some(i) = simpler {
