@@ -51,6 +51,10 @@ impl Default for Settings {
 /// spans the whole range, as a magnetic skin's does, needs the widest).
 pub const PLAY_SHARES: [f64; 5] = [0.01, 0.03, 0.1, 0.3, 0.6];
 
+/// Loading cycles (the force from about its lower quartile to its upper one and back) a record
+/// needs before its plays are also tried settled.
+pub const MIN_CYCLES_SETTLED: usize = 3;
+
 /// The effects the diagnosis can name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -495,7 +499,27 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     };
     // Both starting states: which one the record began in is unknown, and the wrong one is a
     // step at the first loading that only the first fold sees (held out, it extrapolates).
+    // Settled only on a record that cycles: on one or two loadings, plays started anywhere are
+    // shapes in time free to stand in for a slow mode.
+    let cycles = {
+        let f = &work.force_kept;
+        let (q1, q3) = (stats::quantile(f, 0.25), stats::quantile(f, 0.75));
+        // Just inside the quartiles: a record at rest a quarter of the time reaches its lower one.
+        let (lo, hi) = (q1 + 0.1 * (q3 - q1), q3 - 0.1 * (q3 - q1));
+        let mut high = false;
+        f.iter()
+            .filter(|v| {
+                let turn = if high { **v < lo } else { **v > hi };
+                high ^= turn;
+                turn
+            })
+            .count()
+            / 2
+    };
     let plays: [Vec<usize>; 2] = [false, true].map(|settled| {
+        if settled && cycles < MIN_CYCLES_SETTLED {
+            return Vec::new();
+        }
         PLAY_SHARES
             .iter()
             .filter_map(|share| {
@@ -536,7 +560,11 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             ));
         }
         if !taken(Effect::Hysteresis, &state) {
-            for (cols, start) in plays.iter().zip(["in the middle", "settled"]) {
+            for (cols, start) in plays
+                .iter()
+                .zip(["in the middle", "settled"])
+                .filter(|(c, _)| !c.is_empty())
+            {
                 tries.push(Try::adding(
                     Effect::Hysteresis,
                     format!(

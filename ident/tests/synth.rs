@@ -49,6 +49,8 @@ fn clean_fingers_get_none_at_any_rate_and_length() {
         (4, 20.0, 300.0),
         (5, 1000.0, 120.0),
         (6, 1000.0, 60.0),
+        // Eight seconds, one loading: plays started settled once stood in for a slow mode here.
+        (13, 100.0, 8.0),
     ] {
         check(&diag(seed, rate, length, &[]), "none");
     }
