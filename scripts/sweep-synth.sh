@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Confusion sweep of the diagnosis on the second record generator (tactile_ident::synth): four
-# seeds × clean records at three rates and each effect at two strengths and rates. Prints one
-# line per record (OK or XX, expected <- verdict) and the count of right verdicts.
+# seeds (or SEEDS="…": try seeds the design was not tuned on) × clean records at three rates and
+# each effect at two strengths and rates. Prints one line per record (OK or XX, expected <-
+# verdict) and the count of right verdicts.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p tactile-ident --example try
