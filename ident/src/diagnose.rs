@@ -832,8 +832,6 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                         | Effect::SensitivityDrift
                 )
             };
-            // Size: the added columns the fit uses (NNLS leaves most of a relaxation grid at
-            // zero; a free basis uses all of it).
             // By the bar an effect clears against the model without it: consistently over
             // the folds, and a share of what the simpler one leaves above the floor.
             let beats = |a: &Scored, b: &Scored| {
@@ -841,6 +839,8 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     && b.cv_mse - a.cv_mse
                         >= settings.min_excess_share * (b.cv_mse - floor).max(0.0)
             };
+            // Size: the added columns the fit uses (NNLS leaves most of a relaxation grid at
+            // zero; a free basis uses all of it).
             let size = |i: usize| {
                 let (t, sc) = &best[i];
                 sc.columns
