@@ -501,21 +501,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     // step at the first loading that only the first fold sees (held out, it extrapolates).
     // Settled only on a record that cycles: on one or two loadings, plays started anywhere are
     // shapes in time free to stand in for a slow mode.
-    let cycles = {
-        let f = &work.force_kept;
-        let (q1, q3) = (stats::quantile(f, 0.25), stats::quantile(f, 0.75));
-        // Just inside the quartiles: a record at rest a quarter of the time reaches its lower one.
-        let (lo, hi) = (q1 + 0.1 * (q3 - q1), q3 - 0.1 * (q3 - q1));
-        let mut high = false;
-        f.iter()
-            .filter(|v| {
-                let turn = if high { **v < lo } else { **v > hi };
-                high ^= turn;
-                turn
-            })
-            .count()
-            / 2
-    };
+    let cycles = loading_cycles(&work.force_kept);
     let plays: [Vec<usize>; 2] = [false, true].map(|settled| {
         if settled && cycles < MIN_CYCLES_SETTLED {
             return Vec::new();
@@ -1186,6 +1172,22 @@ fn finish(
 
 /// Σh² of the force-to-strain impulse response of the elastic term and the Kelvin branches
 /// (the discrete forms of [`terms::lowpass`]: h₀ = b₀, h₁ = a·b₀ + b₁, hₖ = a^(k−1)·h₁).
+/// Loading cycles in `force`: swings from about its lower quartile to its upper one and back
+/// (just inside the quartiles: a record at rest a quarter of the time reaches its lower one).
+fn loading_cycles(force: &[f64]) -> usize {
+    let (q1, q3) = (stats::quantile(force, 0.25), stats::quantile(force, 0.75));
+    let (lo, hi) = (q1 + 0.1 * (q3 - q1), q3 - 0.1 * (q3 - q1));
+    let mut high = false;
+    let mut turns = 0;
+    for &v in force {
+        if (high && v < lo) || (!high && v > hi) {
+            high = !high;
+            turns += 1;
+        }
+    }
+    turns / 2
+}
+
 fn impulse_energy(terms: &[(Term, f64)], dt: f64) -> f64 {
     let k_max = 20_000usize;
     let mut h = vec![0.0f64; k_max];

@@ -205,6 +205,7 @@ impl Pool {
             return v.clone();
         }
         let w = &self.weight;
+        let cosine = self.cosine_k(key.0, key.1);
         let v: Vec<f64> = match (self.raw(key.0), self.raw(key.1)) {
             (Some((ca, 0, fa)), Some((cb, 0, fb))) if fa == 0.0 && fb == 0.0 => self
                 .folds
@@ -230,22 +231,16 @@ impl Pool {
                 })
                 .collect(),
             // A half-cosine against a stored column: rotated along each fold, not built.
-            (Some(src), None) | (None, Some(src)) if self.cosine_k(key.0, key.1).is_some() => {
-                let k = self.cosine_k(key.0, key.1).unwrap_or(0);
-                let step = std::f64::consts::PI * k as f64 / self.n.max(1) as f64;
-                let (sin_step, cos_step) = step.sin_cos();
+            (Some(src), None) | (None, Some(src)) if cosine.is_some() => {
+                let k = cosine.unwrap_or(0);
                 self.folds
                     .ranges
                     .iter()
                     .map(|&(s, e)| {
-                        let (mut sn, mut cs) = (step * (s as f64 + 0.5)).sin_cos();
-                        let mut acc = 0.0f64;
-                        for (i, wi) in w.iter().enumerate().take(e).skip(s) {
-                            acc += f64::from(at(src.0, src.1, src.2, i) * wi) * cs;
-                            (sn, cs) =
-                                (sn * cos_step + cs * sin_step, cs * cos_step - sn * sin_step);
-                        }
-                        acc
+                        (s..e)
+                            .zip(crate::terms::cosine_from(self.n, k, s))
+                            .map(|(i, c)| f64::from(at(src.0, src.1, src.2, i) * w[i]) * c)
+                            .sum::<f64>()
                     })
                     .collect()
             }

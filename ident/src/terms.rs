@@ -51,15 +51,16 @@ pub fn integral(x: &[f64], dt_s: f64, scale_s: f64) -> Vec<f64> {
 /// never loaded) or, if `settled`, where one pass over the record leaves it (a sensor cycled the
 /// same way before the record began).
 pub fn play(x: &[f64], r: f64, settled: bool) -> Vec<f64> {
-    let mut y = x.first().copied().unwrap_or(0.0);
-    if settled {
-        for &v in x {
-            y = y.clamp(v - r, v + r);
-        }
-    }
+    let step = |y: f64, v: f64| y.clamp(v - r, v + r);
+    let first = x.first().copied().unwrap_or(0.0);
+    let mut y = if settled {
+        x.iter().fold(first, |y, &v| step(y, v))
+    } else {
+        first
+    };
     x.iter()
         .map(|&v| {
-            y = y.clamp(v - r, v + r);
+            y = step(y, v);
             y
         })
         .collect()
@@ -68,17 +69,20 @@ pub fn play(x: &[f64], r: f64, settled: bool) -> Vec<f64> {
 /// cos(π·k·t/T) over the record (k = 1 is one half-period: a smooth step from one end to the
 /// other).
 pub fn cosine(n: usize, k: usize) -> Vec<f64> {
-    // By rotation, a multiply-add a sample: the diagnosis computes these where it reads them.
+    cosine_from(n, k, 0).take(n).collect()
+}
+
+/// [`cosine`]`(n, k)` from sample `start` on, by rotation: a multiply-add a sample, so the
+/// diagnosis computes it where it reads it instead of storing it.
+pub fn cosine_from(n: usize, k: usize, start: usize) -> impl Iterator<Item = f64> {
     let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
     let (sin_step, cos_step) = step.sin_cos();
-    let (mut s, mut c) = (0.5 * step).sin_cos();
-    (0..n)
-        .map(|_| {
-            let v = c;
-            (s, c) = (s * cos_step + c * sin_step, c * cos_step - s * sin_step);
-            v
-        })
-        .collect()
+    let (mut s, mut c) = (step * (start as f64 + 0.5)).sin_cos();
+    std::iter::repeat_with(move || {
+        let v = c;
+        (s, c) = (s * cos_step + c * sin_step, c * cos_step - s * sin_step);
+        v
+    })
 }
 
 /// Legendre polynomial of degree `k` (1 or 2) over the record, from −1 to 1: a gain that
