@@ -96,9 +96,10 @@ pub enum Protocol {
 pub const EXCITATION_SETTLE_S: f32 = 1.5;
 /// One chirp, s (the frequency resolution of the response: 1 Hz).
 pub const EXCITATION_PERIOD_S: f32 = 1.0;
-/// The chirp's start and end, Hz: whole cycles in a period (1 + 100), so it repeats seamlessly.
+/// The chirp's start and end, Hz: whole cycles in a period (1 + 150), so it repeats seamlessly;
+/// past the beam modes of lighter rigs (near 250 Hz) and under the loop's Nyquist rate.
 pub const EXCITATION_START_HZ: f32 = 1.0;
-pub const EXCITATION_END_HZ: f32 = 201.0;
+pub const EXCITATION_END_HZ: f32 = 301.0;
 
 /// Load levels the dynamic calibration excites, grams (the scheduled inverse's table).
 pub const CALIBRATION_OFFSETS_G: [f32; 4] = [12.0, 25.0, 45.0, 70.0];

@@ -265,18 +265,26 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
             let protocol = Scenario::Excitation.protocol(&ScenarioOptions::default());
             let actuator = crate::rig::RigConfig::SIM_FIRMWARE.actuator;
             match crate::identify::frequency_response(t, protocol, &actuator) {
-                Ok(response) => {
-                    let modes: Vec<String> = crate::identify::modes(&response, 2)
-                        .iter()
-                        .map(|m| {
-                            let zeta = m
-                                .damping_ratio
-                                .map_or(String::new(), |z| format!(", ζ {z:.2}"));
-                            format!("{:.1} Hz ({:.1}× static{zeta})", m.hz, m.gain_over_static)
-                        })
-                        .collect();
-                    let _ = writeln!(s, "  resonances, drive to gauge: {}", modes.join(", "));
-                }
+                Ok(response) => match crate::identify::fit_model(&response) {
+                    Some(m) => {
+                        let _ = writeln!(
+                            s,
+                            "  model, drive to gauge: gain {:.2}, modes {:.1} Hz (ζ {:.2}) and {:.1} Hz (ζ {:.2}), anti-resonance {:.1} Hz, pole {:.0} Hz, delay {:+.2} ms; fits the measured response to {:.0} % RMS",
+                            m.gain,
+                            m.modes[0].hz,
+                            m.modes[0].damping_ratio,
+                            m.modes[1].hz,
+                            m.modes[1].damping_ratio,
+                            m.anti_resonance.hz,
+                            m.pole_hz,
+                            1e3 * m.delay_s,
+                            100.0 * m.rms_log_error
+                        );
+                    }
+                    None => {
+                        let _ = writeln!(s, "  no model converged on the measured response");
+                    }
+                },
                 Err(e) => {
                     let _ = writeln!(s, "  not identified: {e}");
                 }

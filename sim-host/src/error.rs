@@ -37,6 +37,10 @@ pub enum Error {
         #[source]
         source: tactile_core::calibration::TableError,
     },
+    /// An applicator file that cannot be read (TOML's message names the line and column) or
+    /// describes no rig.
+    #[error("{}: {reason}", .path.display())]
+    Applicator { path: PathBuf, reason: String },
     /// A calibration record that cannot be fitted.
     #[error(transparent)]
     Calibration(#[from] crate::calibrate::CalibrationError),
@@ -65,6 +69,21 @@ impl Error {
         let path = path.into();
         move |source| Error::Json { path, source }
     }
+}
+
+/// Reads an applicator file (TOML, every field of [`crate::applicator::ApplicatorParams`]).
+pub fn read_applicator(
+    path: &std::path::Path,
+) -> Result<crate::applicator::ApplicatorParams, Error> {
+    let fail = |reason: String| Error::Applicator {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(Error::io(path))?;
+    let params: crate::applicator::ApplicatorParams =
+        toml::from_str(&text).map_err(|e| fail(e.to_string().trim_end().to_string()))?;
+    params.validate().map_err(|e| fail(e.to_string()))?;
+    Ok(params)
 }
 
 /// Writes `value` as pretty JSON to `path`.

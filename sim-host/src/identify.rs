@@ -31,6 +31,10 @@ pub enum IdentifyError {
     TooFewPeriods { have: usize },
     #[error("the drive does not move at {hz} Hz: nothing to identify there")]
     NoDrive { hz: f64 },
+    #[error("the probe left the finger at {t_s:.2} s: the response is then not the plant's (a smaller chirp or a larger preload keeps it on)")]
+    LostContact { t_s: f64 },
+    #[error("the supervisor stopped the drive at {t_s:.2} s ({faults})")]
+    Faulted { t_s: f64, faults: String },
 }
 
 /// One frequency of the measured response.
@@ -64,6 +68,21 @@ pub fn frequency_response(
     let periods = ticks.len().saturating_sub(start) / per;
     if periods < 2 {
         return Err(IdentifyError::TooFewPeriods { have: periods });
+    }
+    if let Some(t) = ticks[start.min(ticks.len())..]
+        .iter()
+        .find(|t| !t.faults.is_empty())
+    {
+        return Err(IdentifyError::Faulted {
+            t_s: t.t_s,
+            faults: format!("{:?}", t.faults),
+        });
+    }
+    if let Some(t) = ticks[start.min(ticks.len())..]
+        .iter()
+        .find(|t| !t.in_contact)
+    {
+        return Err(IdentifyError::LostContact { t_s: t.t_s });
     }
     let drive: Vec<f64> = ticks
         .iter()
@@ -152,8 +171,14 @@ pub fn modes(response: &[ResponsePoint], count: usize) -> Vec<Mode> {
         };
         mag[i] / floor
     };
+    // Not in the top twentieth of the band, where the chirp turns back to its start, nor
+    // under a tenth of the static response, where what stiction makes of the chirp shows
+    // as sharp bumps (a beam mode stands at a third of it or more).
+    let top = band_lo + 0.95 * (band_hi - band_lo);
+    let least = 0.1 * mag.first().copied().unwrap_or(f64::INFINITY);
     let mut maxima: Vec<(usize, f64)> = (1..mag.len().saturating_sub(1))
         .filter(|&i| mag[i] > mag[i - 1] && mag[i] >= mag[i + 1])
+        .filter(|&i| response[i].hz <= top && mag[i] >= least)
         .map(|i| (i, prominence(i)))
         .filter(|(_, p)| *p >= 1.5)
         .collect();
@@ -208,4 +233,183 @@ pub fn modes(response: &[ResponsePoint], count: usize) -> Vec<Mode> {
             }
         })
         .collect()
+}
+
+/// A resonance (or anti-resonance) of the fitted model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Resonance {
+    pub hz: f64,
+    pub damping_ratio: f64,
+}
+
+impl Resonance {
+    /// s²/ω² + 2ζs/ω + 1 at `s`.
+    fn at(&self, s: Complex64) -> Complex64 {
+        let w = 2.0 * std::f64::consts::PI * self.hz;
+        s * s / (w * w) + 2.0 * self.damping_ratio * s / w + 1.0
+    }
+}
+
+/// The applicator's response as a low-order model, drive grams to gauge grams: the motor's
+/// inertia on the finger and the beam as two modes, the tip on the finger alone as the
+/// anti-resonance between them, the current amplifier's pole, and a delay for the phase the
+/// rest leaves (on the simulated rigs it fits as a lead of 0.3–1 ms: what the plant's contact
+/// damping and the motor's stiction do to the phase is not in this form):
+///
+/// ```text
+///         K (s²/ωz² + 2ζz s/ωz + 1) e^(−sτ)
+/// G(s) = ───────────────────────────────────────────────────────────────
+///        (s²/ω₁² + 2ζ₁ s/ω₁ + 1)(s²/ω₂² + 2ζ₂ s/ω₂ + 1)(1 + s/ωa)
+/// ```
+///
+/// the form of the two-mass plant linearized about a load (`analysis::applicator_response`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ApplicatorModel {
+    /// Static gain, gauge g per drive g.
+    pub gain: f64,
+    pub anti_resonance: Resonance,
+    /// The inertia–finger mode and the beam's, in increasing frequency.
+    pub modes: [Resonance; 2],
+    pub pole_hz: f64,
+    /// τ, s (negative: a lead).
+    pub delay_s: f64,
+    /// RMS over the fitted points of |ln(model / measured)| (0.1: about 10 %).
+    pub rms_log_error: f64,
+}
+
+impl ApplicatorModel {
+    /// The model's response at `hz`.
+    pub fn response(&self, hz: f64) -> Complex64 {
+        let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * hz);
+        let pole = 1.0 + s / (2.0 * std::f64::consts::PI * self.pole_hz);
+        self.gain * self.anti_resonance.at(s) * (-s * self.delay_s).exp()
+            / (self.modes[0].at(s) * self.modes[1].at(s) * pole)
+    }
+
+    fn from_theta(t: &[f64]) -> Option<Self> {
+        let r = |a: f64, b: f64| Resonance {
+            hz: a.exp(),
+            damping_ratio: b.exp(),
+        };
+        let m = match t {
+            [k, fz, zz, f1, z1, f2, z2, fa, tau_ms] => ApplicatorModel {
+                gain: k.exp(),
+                anti_resonance: r(*fz, *zz),
+                modes: [r(*f1, *z1), r(*f2, *z2)],
+                pole_hz: fa.exp(),
+                delay_s: 1e-3 * tau_ms,
+                rms_log_error: 0.0,
+            },
+            _ => return None,
+        };
+        m.response(1.0).is_finite().then_some(m)
+    }
+}
+
+/// ln(model/measured) at each point, as (log-magnitude, phase) pairs.
+fn log_errors(model: &ApplicatorModel, response: &[ResponsePoint]) -> Vec<f64> {
+    response
+        .iter()
+        .flat_map(|p| {
+            let e = (model.response(p.hz) / p.value()).ln();
+            [e.re, e.im]
+        })
+        .collect()
+}
+
+struct ModelProblem<'a> {
+    response: &'a [ResponsePoint],
+    theta: nalgebra::DVector<f64>,
+}
+
+impl ModelProblem<'_> {
+    fn errors(&self, theta: &[f64]) -> Option<Vec<f64>> {
+        let m = ApplicatorModel::from_theta(theta)?;
+        let e = log_errors(&m, self.response);
+        e.iter().all(|v| v.is_finite()).then_some(e)
+    }
+}
+
+impl levenberg_marquardt::LeastSquaresProblem<f64, nalgebra::Dyn, nalgebra::Dyn>
+    for ModelProblem<'_>
+{
+    type ResidualStorage = nalgebra::storage::Owned<f64, nalgebra::Dyn>;
+    type JacobianStorage = nalgebra::storage::Owned<f64, nalgebra::Dyn, nalgebra::Dyn>;
+    type ParameterStorage = nalgebra::storage::Owned<f64, nalgebra::Dyn>;
+
+    fn set_params(&mut self, x: &nalgebra::DVector<f64>) {
+        self.theta.copy_from(x);
+    }
+    fn params(&self) -> nalgebra::DVector<f64> {
+        self.theta.clone()
+    }
+    fn residuals(&self) -> Option<nalgebra::DVector<f64>> {
+        self.errors(self.theta.as_slice())
+            .map(nalgebra::DVector::from_vec)
+    }
+    fn jacobian(&self) -> Option<nalgebra::DMatrix<f64>> {
+        let base = self.errors(self.theta.as_slice())?;
+        let mut j = nalgebra::DMatrix::zeros(base.len(), self.theta.len());
+        for c in 0..self.theta.len() {
+            let mut t = self.theta.clone();
+            t[c] += 1e-6;
+            let e = self.errors(t.as_slice())?;
+            for (r, (a, b)) in e.iter().zip(&base).enumerate() {
+                j[(r, c)] = (a - b) / 1e-6;
+            }
+        }
+        Some(j)
+    }
+}
+
+/// Fits [`ApplicatorModel`] to a measured response by least squares on the complex logarithm
+/// (magnitude and phase weigh alike at every frequency), from starts at the picked resonances
+/// and on a grid; `None` if no start converges.
+pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
+    let gain = response.first()?.value().norm();
+    let top = response.last()?.hz;
+    let picked = modes(response, 2);
+    let mut pairs: Vec<(f64, f64)> = Vec::new();
+    if let [a, b] = picked.as_slice() {
+        pairs.push((a.hz, b.hz));
+    }
+    for f1 in [0.1, 0.2, 0.35] {
+        for ratio in [2.5, 4.0] {
+            pairs.push((f1 * top, (ratio * f1 * top).min(0.9 * top)));
+        }
+    }
+    let mut best: Option<(f64, ApplicatorModel)> = None;
+    for (f1, f2) in pairs {
+        let start = [
+            gain.ln(),
+            (f1 * f2).sqrt().ln(),
+            0.05f64.ln(),
+            f1.ln(),
+            0.1f64.ln(),
+            f2.ln(),
+            0.02f64.ln(),
+            (0.6 * top).ln(),
+            0.0,
+        ];
+        let theta = nalgebra::DVector::from_row_slice(&start);
+        let problem = ModelProblem { response, theta };
+        let (solved, report) = levenberg_marquardt::LevenbergMarquardt::new()
+            .with_patience(50)
+            .minimize(problem);
+        let Some(mut m) = ApplicatorModel::from_theta(solved.theta.as_slice()) else {
+            continue;
+        };
+        let e = log_errors(&m, response);
+        let cost = e.iter().map(|v| v * v).sum::<f64>();
+        if !cost.is_finite() || best.as_ref().is_some_and(|b| b.0 <= cost) {
+            continue;
+        }
+        if m.modes[0].hz > m.modes[1].hz {
+            m.modes.swap(0, 1);
+        }
+        m.rms_log_error = (cost / e.len().max(1) as f64).sqrt();
+        let _ = report;
+        best = Some((cost, m));
+    }
+    best.map(|b| b.1)
 }

@@ -100,7 +100,14 @@ impl Scenario {
                 seed: o.protocol_seed,
                 per_offset_s: 15.0,
             },
-            Scenario::Excitation => Protocol::EXCITATION_MEMO,
+            Scenario::Excitation => match Protocol::EXCITATION_MEMO {
+                Protocol::Excitation { periods, .. } => Protocol::Excitation {
+                    preload_g: o.load_g,
+                    amplitude_g: o.excitation_amplitude_g,
+                    periods,
+                },
+                other => other,
+            },
         }
     }
 }
@@ -108,8 +115,11 @@ impl Scenario {
 /// Options a scenario takes from the command line.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScenarioOptions {
-    /// Load for `step` (and `repeated-steps`), grams.
+    /// Load for `step` (and `repeated-steps`), and the preload of `excitation`, grams.
     pub load_g: f32,
+    /// The chirp's amplitude in `excitation`, grams (several times the tip's stiction force:
+    /// a smaller chirp hardly moves the motor).
+    pub excitation_amplitude_g: f32,
     /// Seed of the pseudo-random and sines protocols.
     pub protocol_seed: u64,
     /// Replace the A1 schedule by fixed gains at their 100 g value (the law that failed).
@@ -122,6 +132,7 @@ impl Default for ScenarioOptions {
     fn default() -> Self {
         Self {
             load_g: 50.0,
+            excitation_amplitude_g: 5.0,
             protocol_seed: 1989,
             fixed_gains: false,
             duration_s: 100.0,

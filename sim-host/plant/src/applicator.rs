@@ -24,7 +24,10 @@ use tactile_core::viscoelastic::SpringLaw;
 /// Standard gravity: newtons per gram-force × 1000.
 pub const NEWTONS_PER_GRAM: f64 = 9.806_65e-3;
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A rig's applicator: what a user writes in an `--applicator` file (TOML, every field, in the
+/// units its name carries; `applicators/memo.toml` is [`ApplicatorParams::MEMO`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
 pub struct ApplicatorParams {
     pub amplifier_a_per_v: f64,
     pub amplifier_pole_hz: f64,
@@ -65,6 +68,38 @@ impl ApplicatorParams {
         contact_loss_factor: 0.36,
     };
 
+    /// Checks that the rig can exist: every value finite, masses, stiffnesses, gains and the
+    /// arm positive, losses and friction not negative.
+    pub fn validate(&self) -> Result<(), ApplicatorError> {
+        let positive = [
+            ("amplifier_a_per_v", self.amplifier_a_per_v),
+            ("amplifier_pole_hz", self.amplifier_pole_hz),
+            ("torque_constant_nm_per_a", self.torque_constant_nm_per_a),
+            ("motor_inertia_kg_m2", self.motor_inertia_kg_m2),
+            ("arm_m", self.arm_m),
+            ("beam_stiffness_n_per_m", self.beam_stiffness_n_per_m),
+            ("tip_mass_kg", self.tip_mass_kg),
+            ("indentation_mm_per_100pct", self.indentation_mm_per_100pct),
+        ];
+        let not_negative = [
+            ("static_friction_nm", self.static_friction_nm),
+            ("viscous_nm_s_per_rad", self.viscous_nm_s_per_rad),
+            ("beam_damping_ratio", self.beam_damping_ratio),
+            ("contact_loss_factor", self.contact_loss_factor),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ApplicatorError::NotPositive { name, value: v });
+            }
+        }
+        for (name, v) in not_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ApplicatorError::Negative { name, value: v });
+            }
+        }
+        Ok(())
+    }
+
     /// Grams at the probe per volt into the amplifier (memo: 19.2).
     pub fn grams_per_volt(&self) -> f64 {
         self.amplifier_a_per_v * self.torque_constant_nm_per_a / self.arm_m / NEWTONS_PER_GRAM
@@ -79,6 +114,15 @@ impl ApplicatorParams {
     fn motor_mass_kg(&self) -> f64 {
         self.motor_inertia_kg_m2 / (self.arm_m * self.arm_m)
     }
+}
+
+/// Why an applicator's parameters describe no rig.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum ApplicatorError {
+    #[error("{name} = {value}: must be a finite number above zero")]
+    NotPositive { name: &'static str, value: f64 },
+    #[error("{name} = {value}: must be a finite number, zero or more")]
+    Negative { name: &'static str, value: f64 },
 }
 
 /// The applicator's state (tip-referred motor coordinates).

@@ -52,9 +52,12 @@ enum Command {
         /// Seed of the simulated noise and finger variation.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Load for `step`, grams.
+        /// Load for `step`, and the preload of `excitation`, grams.
         #[arg(long, default_value_t = 50.0)]
         load: f32,
+        /// The chirp's amplitude in `excitation`, grams.
+        #[arg(long, default_value_t = 5.0)]
+        amplitude: f32,
         /// Replace the A1 gain schedule by its 100 g value (the law that failed).
         #[arg(long)]
         fixed_gains: bool,
@@ -76,6 +79,10 @@ enum Command {
         /// Inject a fault, NAME@SECONDS (see `tactile list`).
         #[arg(long, value_parser = cli::parse_fault)]
         fault: Option<sim_host::rig::FaultInjection>,
+        /// The rig's applicator, a TOML file (`applicators/memo.toml`, the default, shows
+        /// every field).
+        #[arg(long)]
+        applicator: Option<PathBuf>,
     },
     /// Fit one of the memo's models to a record (t_s,force_g,strain_pct).
     Fit {
@@ -246,11 +253,13 @@ fn run(command: Command) -> Result<(), Error> {
             load,
             fixed_gains,
             duration,
+            amplitude,
             protocol_seed,
             record_hz,
             effects,
             no_plot,
             fault,
+            applicator,
         } => {
             if !(record_hz > 0.0 && record_hz <= 1000.0) {
                 return Err(Error::Usage(format!(
@@ -272,11 +281,20 @@ fn run(command: Command) -> Result<(), Error> {
                 fault,
                 ..Default::default()
             };
+            if let Some(path) = &applicator {
+                config.applicator = sim_host::error::read_applicator(path)?;
+            }
             for effect in effects {
                 effect.apply(&mut config.effects);
             }
+            if !(amplitude.is_finite() && amplitude > 0.0 && amplitude <= 50.0) {
+                return Err(Error::Usage(format!(
+                    "--amplitude {amplitude}: must be in (0, 50] g"
+                )));
+            }
             let options = ScenarioOptions {
                 load_g: load,
+                excitation_amplitude_g: amplitude,
                 protocol_seed,
                 fixed_gains,
                 duration_s: duration,
