@@ -211,25 +211,21 @@ impl Pool {
                 .folds
                 .ranges
                 .iter()
-                .map(|&(s, e)| {
-                    let mut acc = 0.0f64;
-                    for i in s..e {
-                        acc += f64::from(ca[i] * cb[i] * w[i]);
-                    }
-                    acc
-                })
+                .map(|&(s, e)| dot3(&ca[s..e], &cb[s..e], &w[s..e]))
                 .collect(),
             // A delayed column is read from its source at an offset (no copy).
-            (Some((ca, wa, fa)), Some((cb, wb, fb))) => self
-                .folds
-                .ranges
-                .iter()
-                .map(|&(s, e)| {
-                    (s..e)
-                        .map(|i| f64::from(at(ca, wa, fa, i) * at(cb, wb, fb, i) * w[i]))
-                        .sum::<f64>()
-                })
-                .collect(),
+            (Some(a), Some(b)) => {
+                let (mut xa, mut xb) = (Vec::new(), Vec::new());
+                self.folds
+                    .ranges
+                    .iter()
+                    .map(|&(s, e)| {
+                        span(&mut xa, a, s, e);
+                        span(&mut xb, b, s, e);
+                        dot3(&xa, &xb, &w[s..e])
+                    })
+                    .collect()
+            }
             // A half-cosine against a stored column: rotated along each fold, not built.
             (Some(src), None) | (None, Some(src)) if cosine.is_some() => {
                 let k = cosine.unwrap_or(0);
@@ -341,6 +337,52 @@ impl Pool {
     }
 }
 
+/// Σ a·b·w, in eight running sums (one sum is a chain of dependent additions the compiler may
+/// not reorder: a quarter of the speed on a long record).
+fn dot3(a: &[f32], b: &[f32], w: &[f32]) -> f64 {
+    let mut acc = [0.0f64; 8];
+    let (ca, cb, cw) = (a.chunks_exact(8), b.chunks_exact(8), w.chunks_exact(8));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .zip(cw.remainder())
+        .map(|((x, y), z)| f64::from(x * y * z))
+        .sum();
+    for ((x, y), z) in ca.zip(cb).zip(cw) {
+        for k in 0..8 {
+            acc[k] += f64::from(x[k] * y[k] * z[k]);
+        }
+    }
+    acc.iter().sum::<f64>() + tail
+}
+
+/// Samples `s..e` of a raw column (`v` delayed by `whole + frac` samples, held at its first
+/// value) into `out`, as [`at`] reads them, in whole slices the compiler can vectorize.
+fn span(out: &mut Vec<f32>, (v, whole, frac): (&[f32], usize, f32), s: usize, e: usize) {
+    out.clear();
+    let first = v.first().copied().unwrap_or(0.0);
+    if whole == 0 && frac == 0.0 {
+        out.extend_from_slice(&v[s..e]);
+        return;
+    }
+    // Samples at or before `whole` hold the first value.
+    let split = (whole + 1).clamp(s, e);
+    out.resize(split - s, first);
+    if split == e {
+        return;
+    }
+    let (now, before) = (
+        &v[split - whole..e - whole],
+        &v[split - whole - 1..e - whole - 1],
+    );
+    out.extend(
+        now.iter()
+            .zip(before)
+            .map(|(x, y)| x * (1.0 - frac) + y * frac),
+    );
+}
+
 /// Sample `i` of `v` delayed by `whole + frac` samples, held at its first value.
 #[inline(always)]
 fn at(v: &[f32], whole: usize, frac: f32, i: usize) -> f32 {
@@ -441,6 +483,33 @@ pub fn nnls(g: &DMatrix<f64>, b: &DVector<f64>, signs: &[Sign]) -> DVector<f64> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_span_reads_what_the_sample_reader_reads_and_dot3_sums_it() {
+        let v: Vec<f32> = (0..103).map(|i| ((i * 37) % 11) as f32 - 4.5).collect();
+        let w: Vec<f32> = (0..103).map(|i| 1.0 + (i % 3) as f32).collect();
+        let mut out = Vec::new();
+        for (whole, frac) in [
+            (0, 0.0),
+            (0, 0.25),
+            (3, 0.0),
+            (3, 0.5),
+            (40, 0.75),
+            (120, 0.5),
+        ] {
+            for (s, e) in [(0, 103), (0, 2), (5, 61), (61, 103), (100, 103)] {
+                span(&mut out, (&v, whole, frac), s, e);
+                let want: Vec<f32> = (s..e).map(|i| at(&v, whole, frac, i)).collect();
+                assert_eq!(out, want, "whole {whole} frac {frac} {s}..{e}");
+                let naive: f64 = (s..e).map(|i| f64::from(want[i - s] * v[i] * w[i])).sum();
+                let fast = dot3(&out, &v[s..e], &w[s..e]);
+                assert!(
+                    (fast - naive).abs() <= 1e-9 * naive.abs().max(1.0),
+                    "{fast} {naive}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn nnls_hand_example() {
