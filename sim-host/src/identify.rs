@@ -7,8 +7,9 @@
 //! before it reached the beam mode), so the response is taken as the ratio of the gauge's and
 //! the drive's spectra, each averaged over whole periods of the chirp: noise that is not
 //! periodic averages out of both, and the ratio is the plant's whatever the loop around it.
-//! The resonances are picked from the measured response (peak and half-power bandwidth); a
-//! parametric model for the controller's design is next.
+//! The resonances are picked from the measured response (peak and half-power bandwidth), and
+//! a low-order model of the two-mass plant is fitted to it ([`fit_model`]); the controller
+//! designed from that model is next.
 
 use num_complex::Complex64;
 use serde::Serialize;
@@ -393,7 +394,7 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
         ];
         let theta = nalgebra::DVector::from_row_slice(&start);
         let problem = ModelProblem { response, theta };
-        let (solved, report) = levenberg_marquardt::LevenbergMarquardt::new()
+        let (solved, _) = levenberg_marquardt::LevenbergMarquardt::new()
             .with_patience(50)
             .minimize(problem);
         let Some(mut m) = ApplicatorModel::from_theta(solved.theta.as_slice()) else {
@@ -408,7 +409,6 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
             m.modes.swap(0, 1);
         }
         m.rms_log_error = (cost / e.len().max(1) as f64).sqrt();
-        let _ = report;
         best = Some((cost, m));
     }
     best.map(|b| b.1)
