@@ -30,7 +30,13 @@ pub fn write_ticks(
     for (k, v) in meta {
         writeln!(w, "# {k}={v}")?;
     }
-    let truth_header = if truth { ",true_force_g,contact" } else { "" };
+    // The drive is the simulator's (a board's frames do not carry it yet).
+    let truth_header = if truth {
+        ",true_force_g,contact,drive_g"
+    } else {
+        ""
+    };
+    let actuator = tactile_plant::rig::RigConfig::SIM_FIRMWARE.actuator;
     writeln!(
         w,
         "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g{truth_header},faults"
@@ -42,7 +48,13 @@ pub fn write_ticks(
             r.t_s, r.sensed_g, r.strain_pct, r.command_g, r.adjusted_g, r.estimate_g,
         )?;
         if truth {
-            write!(w, ",{:.3},{}", r.true_force_g, u8::from(r.in_contact))?;
+            let drive_g = actuator.force_g(tactile_core::gauge::AdcCode(r.dac_code));
+            write!(
+                w,
+                ",{:.3},{},{drive_g:.4}",
+                r.true_force_g,
+                u8::from(r.in_contact)
+            )?;
         }
         writeln!(w, ",{}", r.faults.bits())?;
     }

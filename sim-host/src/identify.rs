@@ -36,6 +36,10 @@ pub enum IdentifyError {
     LostContact { t_s: f64 },
     #[error("the supervisor stopped the drive at {t_s:.2} s ({faults})")]
     Faulted { t_s: f64, faults: String },
+    #[error("the record has no drive_g column: the drive is what the response is taken against (the simulator's records carry it; a board's frames do not yet)")]
+    NoDriveColumn,
+    #[error("the record is sampled at {hz:.1} Hz: identification needs whole samples in the chirp's 1 s period and the chirp's 301 Hz under half the rate (record at 1000 Hz)")]
+    SampleRate { hz: f64 },
 }
 
 /// One frequency of the measured response.
@@ -63,26 +67,14 @@ pub fn frequency_response(
     let Protocol::Excitation { .. } = protocol else {
         return Err(IdentifyError::NotTheExcitation);
     };
-    let per = (f64::from(EXCITATION_PERIOD_S) / TICK_S).round() as usize;
-    // The first period lets the loop settle into the periodic response.
-    let start = (f64::from(EXCITATION_SETTLE_S) / TICK_S).round() as usize + per;
-    let periods = ticks.len().saturating_sub(start) / per;
-    if periods < 2 {
-        return Err(IdentifyError::TooFewPeriods { have: periods });
-    }
-    if let Some(t) = ticks[start.min(ticks.len())..]
-        .iter()
-        .find(|t| !t.faults.is_empty())
-    {
+    let start = analysed_from(TICK_S);
+    if let Some(t) = ticks.iter().skip(start).find(|t| !t.faults.is_empty()) {
         return Err(IdentifyError::Faulted {
             t_s: t.t_s,
             faults: format!("{:?}", t.faults),
         });
     }
-    if let Some(t) = ticks[start.min(ticks.len())..]
-        .iter()
-        .find(|t| !t.in_contact)
-    {
+    if let Some(t) = ticks.iter().skip(start).find(|t| !t.in_contact) {
         return Err(IdentifyError::LostContact { t_s: t.t_s });
     }
     let drive: Vec<f64> = ticks
@@ -90,6 +82,64 @@ pub fn frequency_response(
         .map(|t| f64::from(actuator.force_g(AdcCode(t.dac_code))))
         .collect();
     let gauge: Vec<f64> = ticks.iter().map(|t| f64::from(t.sensed_g)).collect();
+    response_of(&drive, &gauge, TICK_S)
+}
+
+/// The first sample analysed at sample period `dt_s`: after the settling and one period that
+/// lets the loop settle into the periodic response.
+fn analysed_from(dt_s: f64) -> usize {
+    let per = (f64::from(EXCITATION_PERIOD_S) / dt_s).round() as usize;
+    (f64::from(EXCITATION_SETTLE_S) / dt_s).round() as usize + per
+}
+
+/// [`frequency_response`] from a record of the excitation (`tactile experiment excitation
+/// --record-hz 1000`): its `drive_g` column against its gauge force, the `faults` and `contact`
+/// columns checked where the record has them.
+pub fn frequency_response_of_record(
+    rec: &tactile_record::Record,
+) -> Result<Vec<ResponsePoint>, IdentifyError> {
+    let drive = rec.column("drive_g").ok_or(IdentifyError::NoDriveColumn)?;
+    let dt_s = match rec.t_s.as_slice() {
+        [a, .., b] => (b - a) / (rec.t_s.len() - 1) as f64,
+        _ => return Err(IdentifyError::TooFewPeriods { have: 0 }),
+    };
+    let per = f64::from(EXCITATION_PERIOD_S) / dt_s;
+    // Whole samples per period, and the chirp's top under the record's Nyquist rate.
+    if (per - per.round()).abs() > 1e-3 * per || 0.5 / dt_s <= f64::from(EXCITATION_END_HZ) {
+        return Err(IdentifyError::SampleRate { hz: 1.0 / dt_s });
+    }
+    let start = analysed_from(dt_s);
+    let after = |i: &usize| *i >= start;
+    if let Some(faults) = rec.column("faults") {
+        if let Some(i) = (0..faults.len()).filter(after).find(|&i| faults[i] != 0.0) {
+            let flags = tactile_core::telemetry::FaultFlags::from_bits_retain(faults[i] as u16);
+            return Err(IdentifyError::Faulted {
+                t_s: rec.t_s[i],
+                faults: format!("{flags:?}"),
+            });
+        }
+    }
+    if let Some(i) = rec
+        .column("contact")
+        .and_then(|c| (0..c.len()).filter(after).find(|&i| c[i] == 0.0))
+    {
+        return Err(IdentifyError::LostContact { t_s: rec.t_s[i] });
+    }
+    response_of(drive, &rec.force_g, dt_s)
+}
+
+/// The response from whole periods of drive and gauge sampled every `dt_s`.
+fn response_of(
+    drive: &[f64],
+    gauge: &[f64],
+    dt_s: f64,
+) -> Result<Vec<ResponsePoint>, IdentifyError> {
+    let per = (f64::from(EXCITATION_PERIOD_S) / dt_s).round() as usize;
+    let start = analysed_from(dt_s);
+    let periods = drive.len().min(gauge.len()).saturating_sub(start) / per;
+    if periods < 2 {
+        return Err(IdentifyError::TooFewPeriods { have: periods });
+    }
     let lo = EXCITATION_START_HZ.ceil() as usize;
     let hi = (EXCITATION_END_HZ as usize).min(per / 2 - 1);
     let mut out = Vec::new();
@@ -108,12 +158,12 @@ pub fn frequency_response(
         }
         if u.norm() < 1e-9 * (per * periods) as f64 {
             return Err(IdentifyError::NoDrive {
-                hz: bin as f64 / (per as f64 * TICK_S),
+                hz: bin as f64 / (per as f64 * dt_s),
             });
         }
         let g = y / u;
         out.push(ResponsePoint {
-            hz: bin as f64 / (per as f64 * TICK_S),
+            hz: bin as f64 / (per as f64 * dt_s),
             re: g.re,
             im: g.im,
         });
@@ -304,6 +354,25 @@ impl ApplicatorModel {
             _ => return None,
         };
         m.response(1.0).is_finite().then_some(m)
+    }
+}
+
+impl std::fmt::Display for ApplicatorModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [a, b] = self.modes;
+        write!(
+            f,
+            "gain {:.2}, modes {:.1} Hz (ζ {:.2}) and {:.1} Hz (ζ {:.2}), anti-resonance {:.1} Hz, pole {:.0} Hz, delay {:+.2} ms; fits the measured response to {:.0} % RMS",
+            self.gain,
+            a.hz,
+            a.damping_ratio,
+            b.hz,
+            b.damping_ratio,
+            self.anti_resonance.hz,
+            self.pole_hz,
+            1e3 * self.delay_s,
+            100.0 * self.rms_log_error
+        )
     }
 }
 

@@ -4,7 +4,9 @@
 
 use sim_host::analysis::{applicator_response, peaks};
 use sim_host::applicator::{ApplicatorParams, NEWTONS_PER_GRAM};
-use sim_host::identify::{fit_model, frequency_response, ResponsePoint};
+use sim_host::identify::{
+    fit_model, frequency_response, frequency_response_of_record, ResponsePoint,
+};
 use sim_host::rig::RigConfig;
 use sim_host::scenario::run_protocol;
 use tactile_core::profile::Protocol;
@@ -134,4 +136,43 @@ fn a_chirp_that_throws_the_probe_is_refused_with_the_reason() {
         text.contains("supervisor stopped the drive") || text.contains("left the finger"),
         "{text}"
     );
+}
+
+#[test]
+fn a_record_of_the_excitation_identifies_as_its_ticks_do() {
+    let config = RigConfig {
+        seed: 5,
+        scan_array: false,
+        ..Default::default()
+    };
+    let actuator = config.firmware.actuator;
+    let protocol = Protocol::EXCITATION_MEMO;
+    let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();
+    let from_ticks =
+        fit_model(&frequency_response(&run.ticks, protocol, &actuator).unwrap()).unwrap();
+    let dir = std::env::temp_dir().join(format!("identify-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let read = |every: usize| {
+        let path = dir.join(format!("excitation-{every}.csv"));
+        tactile_record::write_record(&path, &[], &run.ticks, every).unwrap();
+        tactile_record::read_record(&path).unwrap()
+    };
+    let response = frequency_response_of_record(&read(1)).unwrap();
+    let from_record = fit_model(&response).unwrap();
+    for (a, b) in from_ticks.modes.iter().zip(&from_record.modes) {
+        assert!(
+            (a.hz - b.hz).abs() < 0.005 * a.hz,
+            "{from_ticks:?} vs {from_record:?}"
+        );
+    }
+    // At 200 Hz the chirp's top is past the record's Nyquist rate; without the drive there is
+    // nothing to take the response against.
+    let e = frequency_response_of_record(&read(5))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("sampled at 200.0 Hz"), "{e}");
+    let mut rec = read(1);
+    rec.extra.retain(|(name, _)| name != "drive_g");
+    let e = frequency_response_of_record(&rec).unwrap_err().to_string();
+    assert!(e.contains("no drive_g column"), "{e}");
 }

@@ -128,6 +128,14 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Identify the applicator from a record of the excitation (`tactile experiment excitation
+    /// --record-hz 1000`, with its drive): the measured response and a low-order model.
+    Identify {
+        file: PathBuf,
+        /// Write the response and the model as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Reproduce the memo's Tables I–IV on the simulator, beside the memo's numbers.
     Tables {
         #[arg(long, default_value = "out/tables")]
@@ -303,6 +311,38 @@ fn run(command: Command) -> Result<(), Error> {
             out!("{}", o.summary);
             for f in o.files {
                 outln!("  wrote {}", f.display());
+            }
+        }
+        Command::Identify { file, json } => {
+            let rec = tactile_record::read_record(&file)?;
+            let response = sim_host::identify::frequency_response_of_record(&rec)
+                .map_err(|e| Error::Failed(format!("{}: {e}", file.display())))?;
+            let model = sim_host::identify::fit_model(&response).ok_or_else(|| {
+                Error::Failed(format!(
+                    "{}: no model converged on the measured response",
+                    file.display()
+                ))
+            })?;
+            outln!(
+                "{}: drive to gauge, {} frequencies",
+                file.display(),
+                response.len()
+            );
+            outln!("  model: {model}");
+            if let Some(path) = json {
+                #[derive(serde::Serialize)]
+                struct Out<'a> {
+                    model: &'a sim_host::identify::ApplicatorModel,
+                    response: &'a [sim_host::identify::ResponsePoint],
+                }
+                sim_host::error::write_json(
+                    &path,
+                    &Out {
+                        model: &model,
+                        response: &response,
+                    },
+                )?;
+                outln!("  wrote {}", path.display());
             }
         }
         Command::Fit { file, model, json } => {
