@@ -508,10 +508,10 @@ mod tests {
         }
         let mean = a.iter().sum::<f32>() / 1000.0;
         assert!(mean.abs() < 0.1, "{mean}");
-        // By hand: 0.1 s into a period the chirp is at 1 + 200·0.1 = 21 Hz and has turned
-        // 1·0.1 + 100·0.01 = 1.1 cycles: 3·sin(2π·0.1).
+        // By hand: 0.1 s into a period the chirp is at 1 + 300·0.1 = 31 Hz and has turned
+        // 1·0.1 + 150·0.01 = 1.6 cycles: 3·sin(2π·0.6).
         let x = s.drive_excitation_g(1.5 + 0.1);
-        let expected = 3.0 * (2.0 * core::f32::consts::PI * 0.1).sin();
+        let expected = 3.0 * (2.0 * core::f32::consts::PI * 0.6).sin();
         assert!((x - expected).abs() < 1e-3, "{x} vs {expected}");
         assert_eq!(s.drive_excitation_g(5.6), 0.0);
         assert_eq!(s.command_g(5.6), 0.0);
