@@ -146,23 +146,15 @@ impl Pool {
     fn values(&self, j: usize) -> std::borrow::Cow<'_, [f32]> {
         match self.cols.get(j) {
             Some(Column::Stored(v)) => std::borrow::Cow::Borrowed(v.as_slice()),
-            Some(Column::Delayed {
-                source,
-                whole,
-                frac,
-            }) => {
-                let src = self.values(*source);
-                let first = src.first().copied().unwrap_or(0.0);
-                let at = |i: usize| if i < src.len() { src[i] } else { first };
-                std::borrow::Cow::Owned(
-                    (0..self.n)
-                        .map(|i| {
-                            let a = if i >= *whole { at(i - whole) } else { first };
-                            let b = if i > *whole { at(i - whole - 1) } else { first };
-                            a * (1.0 - frac) + b * frac
-                        })
-                        .collect(),
-                )
+            // Read from its stored source as the Gram products read it (a dropped source
+            // reads as zeros).
+            Some(Column::Delayed { .. }) => {
+                let mut v = Vec::new();
+                match self.raw(j) {
+                    Some(raw) => span(&mut v, raw, 0, self.n),
+                    None => v.resize(self.n, 0.0),
+                }
+                std::borrow::Cow::Owned(v)
             }
             Some(Column::Cosine(k)) => std::borrow::Cow::Owned(
                 crate::terms::cosine(self.n, *k)

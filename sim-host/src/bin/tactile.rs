@@ -56,7 +56,7 @@ enum Command {
         #[arg(long, default_value_t = 50.0)]
         load: f32,
         /// The chirp's amplitude in `excitation`, grams.
-        #[arg(long, default_value_t = 5.0)]
+        #[arg(long, default_value_t = ScenarioOptions::default().excitation_amplitude_g)]
         amplitude: f32,
         /// Replace the A1 gain schedule by its 100 g value (the law that failed).
         #[arg(long)]
