@@ -270,8 +270,11 @@ struct Work<'a> {
     pool: Pool,
     terms: Vec<Term>,
     kept: Vec<bool>,
-    /// The force at the samples that count (what the residual is tested against).
+    /// The (smoothed) force at the samples that count (what the residual is tested against).
     force_kept: Vec<f64>,
+    /// The force as measured at those samples: its lines are the excitation's, not
+    /// interference (the smoothed force has no spectrum left above its passband to compare).
+    measured_force_kept: Vec<f64>,
     force_scale: f64,
 }
 
@@ -298,7 +301,12 @@ impl Work<'_> {
     }
 
     fn tests(&self, cols: &[usize], beta: &[f64]) -> ResidualTests {
-        residual_tests(&self.residual(cols, beta), &self.force_kept, self.s.dt_s)
+        residual_tests(
+            &self.residual(cols, beta),
+            &self.force_kept,
+            &self.measured_force_kept,
+            self.s.dt_s,
+        )
     }
 
     /// Ljung–Box ratio and colored power (the residual's variance that its own past predicts)
@@ -362,7 +370,19 @@ pub fn diagnose(series: &Series) -> Diagnosis {
 
 /// Diagnoses a checked record.
 pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
-    let s = series;
+    // The reference force is measured too: its noise, fed through a model, is error no model can
+    // remove, and a model that smooths it with later samples beats the right one (a delay).
+    // Every model sees the same zero-phase Wiener estimate of the force instead.
+    let window = ((1.0 / series.dt_s) as usize).max(20);
+    let force_noise = stats::noise_variance(&series.kept(&series.force_g), window);
+    let (force_g, force_noise_passed) = terms::wiener(&series.force_g, force_noise);
+    let smoothed = Series {
+        dt_s: series.dt_s,
+        force_g,
+        strain_pct: series.strain_pct.clone(),
+        excluded: series.excluded.clone(),
+    };
+    let s = &smoothed;
     let (dt, t_s) = (s.dt_s, s.duration_s());
     let kept: Vec<bool> = s.excluded.iter().map(|x| !x).collect();
     let (fk, ek) = (s.kept(&s.force_g), s.kept(&s.strain_pct));
@@ -395,6 +415,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             terms: Vec::new(),
             kept: kept.clone(),
             force_kept: Vec::new(),
+            measured_force_kept: Vec::new(),
             force_scale,
         };
         let cols = baseline_columns(&mut work, &taus);
@@ -442,6 +463,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         terms: Vec::new(),
         kept,
         force_kept: fk,
+        measured_force_kept: series.kept(&series.force_g),
         force_scale,
     };
     let base = baseline_columns(&mut work, &taus);
@@ -457,9 +479,8 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             .collect::<Vec<_>>(),
         dt,
     );
-    let window = ((1.0 / dt) as usize).max(20);
     let floor = stats::noise_variance(&s.kept(work.pool.y()), window)
-        + energy * stats::noise_variance(&work.force_kept, window);
+        + energy * force_noise * force_noise_passed;
     let mut state = State {
         delay_s: 0.0,
         cols: base.clone(),
@@ -617,7 +638,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         }
         if !taken(Effect::PeriodicInterference, &state) {
             let r = work.residual(&state.cols, &state.scored.beta);
-            let lines = terms::lines(&r, &work.force_kept, dt, 0.3, 20.0, 2);
+            let lines = terms::lines(&r, &work.measured_force_kept, dt, 0.3, 20.0, 2);
             if !lines.is_empty() {
                 let mut cols = Vec::new();
                 for l in &lines {

@@ -77,8 +77,15 @@ pub fn on_common_scale(residual: &[f64], dt_s: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Runs the tests on `residual` (model − strain) of a record with `force` sampled every `dt_s`.
-pub fn residual_tests(residual: &[f64], force: &[f64], dt_s: f64) -> ResidualTests {
+/// Runs the tests on `residual` (model − strain) of a record with `force` (the model's input)
+/// sampled every `dt_s`; `measured_force` is the force as recorded, whose lines are the
+/// excitation's and not the residual's own.
+pub fn residual_tests(
+    residual: &[f64],
+    force: &[f64],
+    measured_force: &[f64],
+    dt_s: f64,
+) -> ResidualTests {
     let common = on_common_scale(residual, dt_s);
     let n = common.len();
     let acf = stats::acf(&common, 50);
@@ -116,7 +123,7 @@ pub fn residual_tests(residual: &[f64], force: &[f64], dt_s: f64) -> ResidualTes
     let rate_r2 = binned_r2(residual, &rate, 10);
     drop(rate);
     let (df, p) = terms::periodogram(residual, dt_s);
-    let (_, pf) = terms::periodogram(force, dt_s);
+    let (_, pf) = terms::periodogram(measured_force, dt_s);
     let lines = terms::lines_in(&p, &pf, df, 0.3, 1.0, 1);
     drop(pf);
     let (line_hz, line_ratio) = lines.first().map_or((0.0, 0.0), |l| (l.hz, l.ratio));

@@ -51,6 +51,9 @@ fn clean_fingers_get_none_at_any_rate_and_length() {
         (6, 1000.0, 60.0),
         // Eight seconds, one loading: plays started settled once stood in for a slow mode here.
         (13, 100.0, 8.0),
+        // Read `unexplained` while the models saw the force's noise (held out 2.1–2.2× the
+        // floor, in mean square); every model now sees the same Wiener-smoothed force.
+        (51, 1000.0, 180.0),
     ] {
         check(&diag(seed, rate, length, &[]), "none");
     }
@@ -100,12 +103,18 @@ fn interference_off_the_mains_is_found_at_its_frequency() {
     }
 }
 
-/// Delays of two to five samples where they are longer than the fastest dynamics the force's
-/// noise lets a record show (about 15 ms here: shorter ones are absorbed by the baseline's
-/// fast branches and come out `none` or `unexplained`, never another name).
+/// Delays of two to five samples. Two samples at 200 Hz (10 ms) is at the edge of what the
+/// baseline's fast branches absorb: found on 4 of 14 seeds of the sweep (seed 21 here), `none`
+/// or `unexplained` on the others, never another name.
 #[test]
 fn delays_of_whole_samples_are_found() {
-    for (seed, rate, samples) in [(9, 200.0, 4), (13, 50.0, 2), (24, 20.0, 2), (23, 200.0, 5)] {
+    for (seed, rate, samples) in [
+        (9, 200.0, 4),
+        (13, 50.0, 2),
+        (24, 20.0, 2),
+        (23, 200.0, 5),
+        (21, 200.0, 2),
+    ] {
         let d = diag(seed, rate, 120.0, &[SynthEffect::Delay(samples)]);
         check(&d, "time_delay");
         let ms = size(&d, "delay_ms");
