@@ -29,7 +29,8 @@ pub mod telemetry;
 pub mod sim;
 #[cfg(any(test, feature = "sim"))]
 pub use sim::{
-    session_from_cmdline, DeliberateCrash, FilRun, Session, CALIBRATION_SESSION, FIL_SESSION,
+    only_run_from_cmdline, runs_from_cmdline, session_from_cmdline, DeliberateCrash, FilRun,
+    Session, CALIBRATION_SESSION, FIL_SESSION,
 };
 
 pub use safety::{CheckIns, ResetCause, SafeStop};

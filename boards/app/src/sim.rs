@@ -115,6 +115,12 @@ impl Session {
             Session::Calibration => &CALIBRATION_SESSION,
         }
     }
+
+    /// The session's runs, or only run `only` of them.
+    pub fn runs_of(self, only: Option<usize>) -> &'static [FilRun] {
+        let all = self.runs();
+        only.and_then(|n| all.get(n..=n)).unwrap_or(all)
+    }
 }
 
 /// Which session the QEMU firmware runs, from its semihosting command line.
@@ -124,6 +130,20 @@ pub fn session_from_cmdline(cmdline: &[u8]) -> Session {
     } else {
         Session::FirmwareInTheLoop
     }
+}
+
+/// The one run of the session that `run=N` (0-based) names, so that a test can run a long
+/// session's runs in QEMUs side by side; none (the whole session) without it, or when it is
+/// malformed or out of range.
+pub fn only_run_from_cmdline(cmdline: &[u8]) -> Option<usize> {
+    let n = cmdline_words(cmdline).find_map(|w| w.strip_prefix("run=")?.parse::<usize>().ok())?;
+    (n < session_from_cmdline(cmdline).runs().len()).then_some(n)
+}
+
+/// The runs the QEMU firmware runs for its command line: the session's, or the one `run=N`
+/// names.
+pub fn runs_from_cmdline(cmdline: &[u8]) -> &'static [FilRun] {
+    session_from_cmdline(cmdline).runs_of(only_run_from_cmdline(cmdline))
 }
 
 /// Length of the pseudo-random run, s (issue 5 asks for at least 10 s per protocol).
@@ -342,6 +362,20 @@ mod tests {
             Session::FirmwareInTheLoop
         );
         assert_eq!(Session::Calibration.runs(), &CALIBRATION_SESSION[..]);
+        assert_eq!(
+            runs_from_cmdline(b"fw session=calibration run=2\0"),
+            &CALIBRATION_SESSION[2..]
+        );
+        assert_eq!(runs_from_cmdline(b"fw run=1"), &FIL_SESSION[1..2]);
+        for whole in [
+            "fw session=calibration run=3",
+            "fw session=calibration run=x",
+        ] {
+            assert_eq!(
+                runs_from_cmdline(whole.as_bytes()),
+                &CALIBRATION_SESSION[..]
+            );
+        }
         // Each calibration run puts the probe over its own taxel of the calibration finger;
         // the last over the first again, on a finger with other spring laws.
         let probes: Vec<_> = CALIBRATION_SESSION

@@ -2,7 +2,7 @@
 //! run, the simulator truth that rides with each control frame, and the instruction counts.
 
 use core::mem::MaybeUninit;
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{TaxelCalibration, TAXELS};
@@ -14,22 +14,29 @@ use tactile_firmware::FilRun;
 
 /// Set at start-up when the command line asks for the calibration session.
 static CALIBRATION: AtomicBool = AtomicBool::new(false);
+/// Set at start-up to the one run the command line asks for (`run=N`); `usize::MAX`: all.
+static ONLY: AtomicUsize = AtomicUsize::new(usize::MAX);
 
-/// Chooses the session from the semihosting command line (call first in `init`).
+/// Chooses the session (and, with `run=N`, one run of it) from the semihosting command line
+/// (call first in `init`).
 pub fn choose(cmdline: &[u8]) {
     let calibration =
         tactile_firmware::session_from_cmdline(cmdline) == tactile_firmware::Session::Calibration;
     CALIBRATION.store(calibration, Ordering::Release);
+    let only = tactile_firmware::only_run_from_cmdline(cmdline).unwrap_or(usize::MAX);
+    ONLY.store(only, Ordering::Release);
 }
 
 /// The session's runs (shared with the QEMU test, which replays them on the host simulator):
-/// the firmware-in-the-loop session, or the calibration session.
+/// the firmware-in-the-loop session, or the calibration session, or one run of either.
 pub fn runs() -> &'static [FilRun] {
-    if CALIBRATION.load(Ordering::Acquire) {
-        tactile_firmware::Session::Calibration.runs()
+    let session = if CALIBRATION.load(Ordering::Acquire) {
+        tactile_firmware::Session::Calibration
     } else {
-        tactile_firmware::Session::FirmwareInTheLoop.runs()
-    }
+        tactile_firmware::Session::FirmwareInTheLoop
+    };
+    let only = ONLY.load(Ordering::Acquire);
+    session.runs_of((only != usize::MAX).then_some(only))
 }
 
 /// Set by `control` when it replaced the board: the scan task starts a fresh scanner.
