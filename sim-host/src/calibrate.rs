@@ -311,12 +311,18 @@ fn run_estimators(model: &TaxelModel, raw: &Frames) -> Result<Vec<[f32; 4]>, Cal
     Ok(raw.strain.iter().map(|e| chip.update(*e as f32)).collect())
 }
 
-/// Knot stresses over `range_g`: [`SpringCurve::DEFAULT_STRESS_G`]'s spacing (dense at light
-/// loads) stretched to end at the calibrated range.
+/// Knot stresses over `range_g`: spread over the range the protocol loads evenly, a little
+/// denser at light loads, where a stiffening spring bends most (the k-th of n at
+/// range·(k/n)^1.25).
 fn knots_for(range_g: f64) -> [f32; CURVE_KNOTS] {
-    let top = f64::from(SpringCurve::DEFAULT_STRESS_G[CURVE_KNOTS - 1]);
-    SpringCurve::DEFAULT_STRESS_G.map(|s| (f64::from(s) * range_g / top) as f32)
+    core::array::from_fn(|k| {
+        (range_g * ((k + 1) as f64 / CURVE_KNOTS as f64).powf(KNOT_SKEW)) as f32
+    })
 }
+
+/// Exponent of [`knots_for`]'s spacing: 1 is even; the curve's default stresses (dense at
+/// light loads) are near 2.5.
+const KNOT_SKEW: f64 = 1.25;
 
 /// The memo's linear models (elastic and eq. 17 on its level, made secant) and the schedule,
 /// around an element fit, fitted on the samples `in_fit`.
@@ -401,10 +407,14 @@ fn element_of(theta: &[f64], knots: &[f32; CURVE_KNOTS]) -> Option<NonlinearMk> 
     let curve = |logs: &[f64]| {
         let mut strain = [0.0f32; CURVE_KNOTS];
         let (mut e, mut s0) = (0.0f64, 0.0f64);
+        let mut below = 0.0f32;
         for ((slot, s), log) in strain.iter_mut().zip(knots).zip(logs) {
             e += (f64::from(*s) - s0) * log.clamp(-12.0, 6.0).exp();
             s0 = f64::from(*s);
-            *slot = e as f32;
+            // A segment too stiff to show in f32 still rises by one unit in the last place:
+            // every θ is a curve, so a trial step of the fit is scored, not a dead end.
+            *slot = (e as f32).max(below.next_up());
+            below = *slot;
         }
         SpringCurve::new(*knots, strain).ok()
     };
