@@ -374,7 +374,8 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     // remove, and a model that smooths it with later samples beats the right one (a delay).
     // Every model sees the same zero-phase Wiener estimate of the force instead.
     let window = ((1.0 / series.dt_s) as usize).max(20);
-    let force_noise = stats::noise_variance(&series.kept(&series.force_g), window);
+    let measured_force_kept = series.kept(&series.force_g);
+    let force_noise = stats::noise_variance(&measured_force_kept, window);
     let (force_g, force_noise_passed) = terms::wiener(&series.force_g, force_noise);
     let smoothed = Series {
         dt_s: series.dt_s,
@@ -463,7 +464,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         terms: Vec::new(),
         kept,
         force_kept: fk,
-        measured_force_kept: series.kept(&series.force_g),
+        measured_force_kept,
         force_scale,
     };
     let base = baseline_columns(&mut work, &taus);
