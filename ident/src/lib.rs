@@ -7,7 +7,9 @@
 //! (stiffening), play operators (hysteresis), a smooth drift in time, lines (interference), a
 //! fractional delay, a gain that changes with time. Every candidate is scored on the same
 //! contiguous folds ([`series::Folds`]); an effect is accepted when its held-out gain is
-//! consistent across the folds and it moves the residual toward white. Errors are in strain
+//! consistent across the folds and it moves the residual toward white (or removes half of what
+//! lies above the noise floor: the right model's residual is the force estimate's coloured
+//! error). Errors are in strain
 //! (what was measured) and in grams through one fixed secant stiffness per record.
 //!
 //! [`synth`] is a second record generator, different in form from the project's simulator,

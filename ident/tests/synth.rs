@@ -54,6 +54,9 @@ fn clean_fingers_get_none_at_any_rate_and_length() {
         // Read `unexplained` while the models saw the force's noise (held out 2.1–2.2× the
         // floor, in mean square); every model now sees the same Wiener-smoothed force.
         (51, 1000.0, 180.0),
+        // Named `baseline_drift` by the short-time filter until the force's noise (and the
+        // floor with it) was no longer estimated a fifth low.
+        (65, 200.0, 180.0),
     ] {
         check(&diag(seed, rate, length, &[]), "none");
     }
@@ -103,24 +106,27 @@ fn interference_off_the_mains_is_found_at_its_frequency() {
     }
 }
 
-/// Delays of two to five samples. Two samples at 200 Hz (10 ms) is at the edge of what the
-/// baseline's fast branches absorb: found on 4 of 14 seeds of the sweep (seed 21 here), `none`
-/// or `unexplained` on the others, never another name.
+/// Delays of two to five samples. Two samples at 200 Hz (10 ms) is what a baseline's 10 ms
+/// branch nearly absorbs: only the ramps' corners tell them apart, and the force estimate must
+/// keep them (a short-time Wiener filter). Found on 13 of 14 seeds of the sweep (seeds 21, 41,
+/// 45 here; 41 and 45 were missed with one filter for the whole record).
 #[test]
 fn delays_of_whole_samples_are_found() {
-    for (seed, rate, samples) in [
-        (9, 200.0, 4),
-        (13, 50.0, 2),
-        (24, 20.0, 2),
-        (23, 200.0, 5),
-        (21, 200.0, 2),
+    for (seed, rate, samples, length) in [
+        (9, 200.0, 4, 120.0),
+        (13, 50.0, 2, 120.0),
+        (24, 20.0, 2, 120.0),
+        (23, 200.0, 5, 120.0),
+        (21, 200.0, 2, 120.0),
+        (41, 200.0, 2, 180.0),
+        (45, 200.0, 2, 180.0),
     ] {
-        let d = diag(seed, rate, 120.0, &[SynthEffect::Delay(samples)]);
+        let d = diag(seed, rate, length, &[SynthEffect::Delay(samples)]);
         check(&d, "time_delay");
         let ms = size(&d, "delay_ms");
         let true_ms = samples as f64 * 1e3 / rate;
         assert!(
-            ms > 0.6 * true_ms && ms < 1.3 * true_ms,
+            ms > 0.8 * true_ms && ms < 1.2 * true_ms,
             "{ms} ms for {true_ms} ms"
         );
     }
@@ -177,6 +183,18 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
     }
     let d = diag(
         43,
+        100.0,
+        240.0,
+        &[SynthEffect::SlowRelaxation {
+            share: 0.4,
+            tau_s: 30.0,
+        }],
+    );
+    check(&d, "slow_relaxation");
+    // The drift basis fails one fold of six by 6× and ties the others: Student's t over the
+    // folds, widened by that fold, did not let the slow relaxation beat it head to head.
+    let d = diag(
+        53,
         100.0,
         240.0,
         &[SynthEffect::SlowRelaxation {
