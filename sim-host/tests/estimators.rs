@@ -93,14 +93,18 @@ fn observer(t: &EstimatorTable) -> ([f64; 3], [f64; 3]) {
 /// loads as the curve's default stresses are).
 #[test]
 fn calibration_holds_on_fingers_unlike_the_simulators() {
-    // (finger, bound on pseudo-random, step loads, sinusoids), g.
+    // (finger, seed, bound on pseudo-random, step loads, sinusoids), g. Seed 37 was first run
+    // after the calibration's design was fixed: its fit ran α (the permanent deformation's
+    // spring, which a 20 s hold barely shows) to 157 and 0 on two taxels, and the step loads
+    // were 2.4 g off until α was held near element 4,2's where the record says little.
     let cases = [
-        (FingerKind::Saturating, [0.3, 0.5, 0.3]),
-        (FingerKind::LinearSaturating, [0.3, 0.5, 0.3]),
-        (FingerKind::Piecewise, [0.3, 0.5, 0.3]),
+        (FingerKind::Saturating, FINGER_SEED, [0.3, 0.5, 0.3]),
+        (FingerKind::LinearSaturating, FINGER_SEED, [0.3, 0.5, 0.3]),
+        (FingerKind::Piecewise, FINGER_SEED, [0.3, 0.5, 0.3]),
+        (FingerKind::LinearSaturating, 37, [0.3, 0.5, 0.3]),
     ];
-    for (finger, bound) in cases {
-        let t = compare(FINGER_SEED, finger).unwrap();
+    for (finger, seed, bound) in cases {
+        let t = compare(seed, finger).unwrap();
         let (calibrated, nominal) = observer(&t);
         eprintln!("{finger:?}: observer calibrated {calibrated:?}, nominal {nominal:?}");
         for k in 0..3 {
