@@ -158,8 +158,9 @@ pub fn wiener(x: &[f64], noise_var: f64) -> (Vec<f64>, f64) {
     )
 }
 
-/// `x` smoothed without phase by a short-time Wiener filter: frames of `frame` samples (a power
-/// of two, half-overlapped, root-Hann windows that add back to one), each frequency of each frame
+/// `x` smoothed without phase by a short-time Wiener filter: frames of `frame` samples (rounded
+/// up to a power of two, at least 16; half-overlapped root-Hann windows whose squares add back
+/// to one), each frequency of each frame
 /// kept in the share of its power that stands above white noise of variance `noise_var`, the
 /// power averaged over neighbouring bins and frames. A quiet stretch of the record is smoothed
 /// hard, a fast ramp's corners are kept: one filter for the whole record would pass the noise

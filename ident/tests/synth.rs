@@ -181,28 +181,20 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
         check(&d, "sensitivity_drift");
         assert_eq!(d.effects.len(), 1, "{}", d.summary);
     }
-    let d = diag(
-        43,
-        100.0,
-        240.0,
-        &[SynthEffect::SlowRelaxation {
-            share: 0.4,
-            tau_s: 30.0,
-        }],
-    );
-    check(&d, "slow_relaxation");
-    // The drift basis fails one fold of six by 6× and ties the others: Student's t over the
-    // folds, widened by that fold, did not let the slow relaxation beat it head to head.
-    let d = diag(
-        53,
-        100.0,
-        240.0,
-        &[SynthEffect::SlowRelaxation {
-            share: 0.4,
-            tau_s: 30.0,
-        }],
-    );
-    check(&d, "slow_relaxation");
+    // On seed 53 the drift basis fails one fold of six by 6× and ties the others: Student's t
+    // over the folds, widened by that fold, did not let the slow relaxation beat it head to head.
+    for seed in [43, 53] {
+        let d = diag(
+            seed,
+            100.0,
+            240.0,
+            &[SynthEffect::SlowRelaxation {
+                share: 0.4,
+                tau_s: 30.0,
+            }],
+        );
+        check(&d, "slow_relaxation");
+    }
     // The drift basis holds out a hair better on every fold (p < 0.05), not by an effect's
     // margin: the simpler slow relaxation is named.
     let d = diag(
