@@ -21,6 +21,10 @@ pub struct Settings {
     pub min_excess_share: f64,
     /// Least held-out gain as a share of the noise floor (a gain inside the noise is no effect).
     pub min_floor_share: f64,
+    /// Share of the error above the floor an effect removes to be accepted without also
+    /// whitening the residual (the right model's residual is the force estimate's coloured
+    /// error).
+    pub coloured_excess_share: f64,
     /// Most effects accepted one after another.
     pub max_rounds: usize,
     /// Fastest relaxation time of the baseline's grid, s (raised to two samples). Branches this
@@ -39,6 +43,7 @@ impl Default for Settings {
             alpha: 0.05,
             min_excess_share: 0.2,
             min_floor_share: 0.1,
+            coloured_excess_share: 0.5,
             max_rounds: 3,
             tau_min_s: 0.005,
             base_tau_max_s: 20.0,
@@ -809,9 +814,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 && gain > 0.0
                 && gain >= settings.min_excess_share * excess
                 && gain >= settings.min_floor_share * floor
-                // The right model's residual is mostly the force estimate's error, which is
-                // coloured: an effect that removes half the excess need not whiten it further.
-                && (colored < cur_colored || gain >= 0.5 * excess);
+                && (colored < cur_colored || gain >= settings.coloured_excess_share * excess);
             passed.push(pass);
             if pass && winner.is_none_or(|w| gain > w.1) {
                 winner = Some((i, gain));
@@ -963,15 +966,15 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     )
 }
 
-/// Per-fold gains as log ratios of held-out mean square errors: folds differ in level (a
-/// stretch of steps holds out worse than a rest), and the test should weigh each fold's
-/// relative gain alike.
 /// The paired test over folds: Student's t, which has power on four folds, or the signed-rank
 /// test, which one fold's outsized gain does not defeat.
 fn paired(d: &[f64]) -> f64 {
     stats::paired_p_value(d).min(stats::signed_rank_p_value(d))
 }
 
+/// Per-fold gains as log ratios of held-out mean square errors: folds differ in level (a
+/// stretch of steps holds out worse than a rest), and the test should weigh each fold's
+/// relative gain alike.
 fn fold_gains(before: &[f64], after: &[f64]) -> Vec<f64> {
     before
         .iter()

@@ -399,6 +399,10 @@ struct ElementFit {
 /// Internal parameters of a spring: the log mean compliance (%/g) of each segment between its
 /// knots (the first from no load), so its strain rises whatever their values.
 const SPRING_THETA: usize = CURVE_KNOTS;
+/// Where ln α sits in θ (after both springs and ln N₁).
+const ALPHA_THETA: usize = 2 * SPRING_THETA + 1;
+/// Weight of ln α's pull toward element 4,2's, in units of the smoothness rows' weight.
+const ALPHA_PRIOR_WEIGHT: f64 = 5.0;
 
 /// The element of internal parameters `theta` (G₁'s and G₂'s [`SPRING_THETA`] log
 /// compliances, then ln N₁, ln α, ln N₂) with springs tabulated at `knots`; `None` if a curve
@@ -424,7 +428,7 @@ fn element_of(theta: &[f64], knots: &[f32; CURVE_KNOTS]) -> Option<NonlinearMk> 
         g1: SpringLaw::Curve(curve(theta.get(..SPRING_THETA)?)?),
         g2: SpringLaw::Curve(curve(theta.get(SPRING_THETA..n)?)?),
         n1: p(n, 2.0, 18.0)?,
-        alpha: p(n + 1, -9.0, 9.0)?,
+        alpha: p(ALPHA_THETA, -9.0, 9.0)?,
         n2: p(n + 2, 0.0, 14.0)?,
     })
 }
@@ -501,8 +505,8 @@ impl ElementProblem<'_> {
         // a 20 s hold and a 40 s recovery barely bend it, and the fit ran α anywhere from 0 to
         // its bound 8 100 (step loads 2.3 g off). Held near element 4,2's where the record
         // says little.
-        let alpha = theta[2 * SPRING_THETA + 1];
-        r.push(5.0 * self.smooth * (alpha - NonlinearMk::ELEMENT_4_2.alpha.ln()));
+        let ln_alpha = theta[ALPHA_THETA];
+        r.push(ALPHA_PRIOR_WEIGHT * self.smooth * (ln_alpha - NonlinearMk::ELEMENT_4_2.alpha.ln()));
         r
     }
 }
