@@ -69,6 +69,9 @@ pub struct TaxelFitReport {
     pub levels: Vec<f64>,
     /// The largest load the record covered (99.5th percentile), g.
     pub range_g: f64,
+    /// The share of the fit's knowledge of α (the permanent deformation's spring) that is its
+    /// prior's, element 4,2's value, rather than the record's: above a half, α is the prior's.
+    pub alpha_prior_share: f64,
     /// Held-out RMS force error (g) of each estimator, calibrated and nominal, in
     /// `EstimatorKind::ALL`'s order.
     pub held_out_g: [f64; 4],
@@ -292,6 +295,7 @@ pub fn fit_taxel(
         mean_miss_pct: whole.mean_miss_pct,
         levels,
         range_g,
+        alpha_prior_share: whole.alpha_prior_share,
         held_out_g: held_out,
         nominal_held_out_g: nominal_held_out,
         estimator: model.estimator.name().to_string(),
@@ -394,6 +398,8 @@ struct ElementFit {
     /// RMS and mean of (measured − predicted) strain over the fitted samples, percent.
     rms_pct: f64,
     mean_miss_pct: f64,
+    /// How much of the fit's knowledge of α is its prior's (0: all the record's).
+    alpha_prior_share: f64,
 }
 
 /// Internal parameters of a spring: the log mean compliance (%/g) of each segment between its
@@ -506,8 +512,30 @@ impl ElementProblem<'_> {
         // its bound 8 100 (step loads 2.3 g off). Held near element 4,2's where the record
         // says little.
         let ln_alpha = theta[ALPHA_THETA];
-        r.push(ALPHA_PRIOR_WEIGHT * self.smooth * (ln_alpha - NonlinearMk::ELEMENT_4_2.alpha.ln()));
+        r.push(self.alpha_prior_weight() * (ln_alpha - NonlinearMk::ELEMENT_4_2.alpha.ln()));
         r
+    }
+    fn alpha_prior_weight(&self) -> f64 {
+        ALPHA_PRIOR_WEIGHT * self.smooth
+    }
+    /// How much of what the fit knows about ln α is the prior's, 0–1: the prior's precision
+    /// over ln α's marginal precision in the Gauss–Newton approximation at θ (the prior only
+    /// adds to the diagonal there, so the marginal is the record's plus the prior's). 1 where
+    /// the Jacobian cannot be had or the normal matrix is singular (nothing else pins α).
+    fn alpha_prior_share(&self) -> f64 {
+        let Some(j) = self.jacobian() else {
+            return 1.0;
+        };
+        let h = j.transpose() * &j;
+        let Some(cov) = h.try_inverse() else {
+            return 1.0;
+        };
+        let share = self.alpha_prior_weight().powi(2) * cov[(ALPHA_THETA, ALPHA_THETA)];
+        if share.is_finite() {
+            share.clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
     }
 }
 
@@ -560,21 +588,24 @@ fn fit_element(
     };
     let forward_index: Vec<usize> = fit_index.iter().copied().step_by(FORWARD_STEP).collect();
     let forward_g_per_pct = top_secant_g_per_pct(frames);
-    let solve = |theta: Vec<f64>| {
+    let problem_at = |theta: &[f64]| {
         let mut problem = ElementProblem {
             frames,
             knots: *knots,
             smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
             forward_g_per_pct,
             forward_index: forward_index.clone(),
-            theta: DVector::from_vec(theta.clone()),
+            theta: DVector::from_column_slice(theta),
             prediction: None,
             fit_index: fit_index.clone(),
         };
-        problem.set_params(&DVector::from_vec(theta));
+        problem.set_params(&DVector::from_column_slice(theta));
+        problem
+    };
+    let solve = |theta: Vec<f64>| {
         let (solved, report) = LevenbergMarquardt::new()
             .with_patience(PATIENCE)
-            .minimize(problem);
+            .minimize(problem_at(&theta));
         (report.objective_function, solved.theta.as_slice().to_vec())
     };
     // The starts on threads (each a whole Levenberg–Marquardt run).
@@ -595,11 +626,13 @@ fn fit_element(
         .iter()
         .map(|&i| frames.strain[i] - pred[i])
         .collect();
+    let alpha_prior_share = problem_at(&theta).alpha_prior_share();
     Some(ElementFit {
         element,
         theta,
         rms_pct: tactile_ident::stats::rms(&miss),
         mean_miss_pct: tactile_ident::stats::mean(&miss),
+        alpha_prior_share,
     })
 }
 
@@ -719,4 +752,42 @@ pub fn calibrate_simulated(
         reports.push(report);
     }
     Ok((table, reports))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A record from element 4,2 itself at 1 s frames: rest, `hold_s` at 50 g, then the same
+    /// unloaded.
+    fn creep_record(hold_s: usize) -> Frames {
+        let m = NonlinearMk::ELEMENT_4_2;
+        let force: Vec<f64> = (0..2 * hold_s + 10)
+            .map(|i| {
+                if (10..10 + hold_s).contains(&i) {
+                    50.0
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let strain = simulate(&m, &force, 1.0);
+        Frames::new(1.0, &force, &strain)
+    }
+
+    #[test]
+    fn alpha_is_the_records_only_where_a_hold_outlasts_its_time_constant() {
+        // α sets the permanent deformation's time constant N₁/α ≈ 1 000 s on element 4,2.
+        // A 3 000 s hold and recovery bend it; a 20 s one does not.
+        let share = |hold_s: usize| {
+            let frames = creep_record(hold_s);
+            let all = vec![true; frames.force.len()];
+            let fit = fit_element(&frames, &all, &knots_for(50.0), None).unwrap();
+            fit.alpha_prior_share
+        };
+        let (long, short) = (share(3000), share(20));
+        eprintln!("prior's share of α: 3 000 s hold {long:.3}, 20 s hold {short:.3}");
+        assert!(long < 0.2, "3 000 s hold: prior's share {long}");
+        assert!(short > 0.5, "20 s hold: prior's share {short}");
+    }
 }

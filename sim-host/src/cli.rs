@@ -502,7 +502,7 @@ pub fn calibrate(
     let summary = serde_json::json!({ "taxels": reports, "table_bytes": n });
     crate::error::write_json(&json, &summary)?;
     let mut text = format!(
-        "calibrated {} taxel(s) from {source}\n\nheld out: RMS force error (g) on the blocks of the record each fold did not fit, elastic / second order / scheduled / observer\n\n| taxel | rest offset (%) | G1(30 g) | N1 | alpha | N2 | G2(30 g) | range (g) | element RMS (%) | held out, calibrated | held out, nominal | runs | flags |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "calibrated {} taxel(s) from {source}\n\nheld out: RMS force error (g) on the blocks of the record each fold did not fit, elastic / second order / scheduled / observer; alpha's prior's share: how much of what the fit knows of alpha is its prior's (element 4,2's 5) rather than the record's, above 50 % alpha is the prior's\n\n| taxel | rest offset (%) | G1(30 g) | N1 | alpha (prior's share) | N2 | G2(30 g) | range (g) | element RMS (%) | held out, calibrated | held out, nominal | runs | flags |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         table.taxels.len()
     );
     let four = |v: &[f64; 4]| v.map(|x| format!("{x:.2}")).join(" / ");
@@ -510,13 +510,14 @@ pub fn calibrate(
         let e = &m.element;
         let _ = writeln!(
             text,
-            "| ({}, {}) | {:.3} | {:.2} | {:.0} | {:.2} | {:.0} | {:.1} | {:.0} | {:.4} | {} | {} | {} | {} |",
+            "| ({}, {}) | {:.3} | {:.2} | {:.0} | {:.2} ({:.0} %) | {:.0} | {:.1} | {:.0} | {:.4} | {} | {} | {} | {} |",
             m.taxel.row(),
             m.taxel.col(),
             m.strain_offset_pct,
             e.g1.stiffness(30.0),
             e.n1,
             e.alpha,
+            100.0 * r.alpha_prior_share,
             e.n2,
             e.g2.stiffness(30.0),
             r.range_g,

@@ -450,19 +450,20 @@ pub fn write_run(
     }
     writeln!(
         w,
-        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g,probe_elastic_g,probe_second_order_g,probe_scheduled_g,probe_observer_g"
+        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g,probe_elastic_g,probe_second_order_g,probe_scheduled_g,probe_observer_g,extrapolated_taxels"
     )?;
     for (f, e) in &run.frames {
         if let Some(e) = e {
             writeln!(
                 w,
-                "{:.4},{:.3},{:.3},{:.3},{:.3},{}",
+                "{:.4},{:.3},{:.3},{:.3},{:.3},{},{:#018x}",
                 run.tick_time_s(f.tick) + TICK_S,
                 e.total_force_g,
                 e.centroid_row,
                 e.centroid_col,
                 e.probe_force_g,
-                e.probe_estimates_g.map(|v| format!("{v:.3}")).join(",")
+                e.probe_estimates_g.map(|v| format!("{v:.3}")).join(","),
+                e.extrapolated_taxels
             )?;
         }
     }
