@@ -19,7 +19,9 @@ pub struct Settings {
     pub alpha: f64,
     /// Least share of the held-out error above the noise floor an effect must remove.
     pub min_excess_share: f64,
-    /// Least held-out gain as a share of the noise floor (a gain inside the noise is no effect).
+    /// Least held-out gain as a share of the noise floor, in mean square (a gain inside the
+    /// noise is no effect: at the floor the residual is the force's noise through the model,
+    /// coloured, and a smooth basis takes a tenth of it).
     pub min_floor_share: f64,
     /// Share of the error above the floor an effect removes to be accepted without also
     /// whitening the residual (the right model's residual is the force estimate's coloured
@@ -42,7 +44,7 @@ impl Default for Settings {
         Settings {
             alpha: 0.05,
             min_excess_share: 0.2,
-            min_floor_share: 0.1,
+            min_floor_share: 0.2,
             coloured_excess_share: 0.5,
             max_rounds: 3,
             tau_min_s: 0.005,
