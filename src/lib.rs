@@ -16,6 +16,8 @@
 //! - [`hysteresis`]: play operators, and a loop taken off a force estimate.
 //! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
 //! - [`supervisor`]: the force loop (command check, slew, A1, filter, DAC) and its fault table.
+//! - [`tracking`]: the designed force controller (reference model, scheduled model-inverse
+//!   feed-forward, integral feedback), the alternative to A1.
 //! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
 //! - [`io`]: what a board puts behind the task bodies (converter codes in, DAC codes out).
 //! - [`tasks`]: the firmware's control and scan tasks, run by every board and the simulator.
@@ -48,6 +50,7 @@ pub mod supervisor;
 pub mod tactile;
 pub mod tasks;
 pub mod telemetry;
+pub mod tracking;
 pub mod viscoelastic;
 
 /// Control period, s (memo: Δt = 1 ms): the force loop's tick, the filter's and the law's

@@ -23,6 +23,7 @@ use crate::control::{ActuatorConfig, ForceLaw, ForceLawConfig, SlewLimiter};
 use crate::filter::{FilterError, LowpassNotch, LowpassNotchConfig, LowpassNotchState};
 use crate::gauge::{AdcCode, GaugeFault};
 use crate::telemetry::FaultFlags;
+use crate::tracking::{Tracking, TrackingConfig, TrackingError};
 
 /// Thresholds of the supervisor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,6 +78,17 @@ pub struct ForceLoopConfig {
     pub supervisor: SupervisorConfig,
     /// Slew limit of the command ahead of the law, g/s.
     pub slew_g_per_s: f32,
+    /// The designed controller in place of A1 and its filter; `None`: A1 (the memo's law).
+    pub tracking: Option<TrackingConfig>,
+}
+
+/// Why the force loop could not be built from its configuration.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum LoopError {
+    #[error(transparent)]
+    Filter(#[from] FilterError),
+    #[error(transparent)]
+    Tracking(#[from] TrackingError),
 }
 
 /// What one tick of the loop decided.
@@ -97,6 +109,7 @@ pub struct ForceLoop {
     config: ForceLoopConfig,
     slew: SlewLimiter,
     law: ForceLaw,
+    tracking: Option<Tracking>,
     filter: LowpassNotch,
     filter_state: LowpassNotchState,
     latched: FaultFlags,
@@ -124,11 +137,13 @@ pub struct ForceLoop {
 const SETTLED_CONTACT_TICKS: u16 = 200;
 
 impl ForceLoop {
-    pub fn new(config: ForceLoopConfig) -> Result<Self, FilterError> {
+    pub fn new(config: ForceLoopConfig) -> Result<Self, LoopError> {
         let filter = config.filter.discretize()?;
+        let tracking = config.tracking.map(Tracking::new).transpose()?;
         Ok(Self {
             slew: SlewLimiter::new(config.slew_g_per_s, config.law.dt_s),
             law: ForceLaw::new(config.law),
+            tracking,
             filter,
             filter_state: LowpassNotchState::default(),
             drive_excitation_g: 0.0,
@@ -178,6 +193,9 @@ impl ForceLoop {
     fn restart(&mut self) {
         self.slew = SlewLimiter::new(self.config.slew_g_per_s, self.config.law.dt_s);
         self.law.reset();
+        if let Some(t) = &mut self.tracking {
+            t.reset();
+        }
         self.filter_state = LowpassNotchState::default();
     }
 
@@ -303,6 +321,9 @@ impl ForceLoop {
                 self.approaching = false;
                 self.off_finger_ticks = 0;
                 self.slew.update_from(sensed_g);
+                if let Some(t) = &mut self.tracking {
+                    t.restart_from(sensed_g);
+                }
                 shaped_g = self.slew.update(command_g);
             }
         } else if mean_g < 0.5 * mean_command_g && mean_command_g > s.contact_command_g {
@@ -337,14 +358,23 @@ impl ForceLoop {
             }
         }
 
-        let a = self.law.update(shaped_g, sensed_g);
+        let a = match &mut self.tracking {
+            // The integral holds while the probe looks for the finger.
+            Some(t) => t.update(shaped_g, sensed_g, !self.approaching),
+            None => self.law.update(shaped_g, sensed_g),
+        };
         if a.saturated {
             faults.insert(FaultFlags::ACTUATOR_SATURATED);
         }
         if a.invalid_input {
             faults.insert(FaultFlags::INVALID_INPUT);
         }
-        let filtered_g = self.filter.update(&mut self.filter_state, a.force_g);
+        // The designed controller shapes its own drive; A1's goes through the filter.
+        let filtered_g = if self.tracking.is_some() {
+            a.force_g
+        } else {
+            self.filter.update(&mut self.filter_state, a.force_g)
+        };
         LoopOutput {
             dac_code: self
                 .config
@@ -369,6 +399,7 @@ mod tests {
             actuator: ActuatorConfig::MEMO,
             supervisor: SupervisorConfig::DESIGN,
             slew_g_per_s: 500.0,
+            tracking: None,
         })
         .unwrap()
     }

@@ -59,6 +59,7 @@ proptest! {
             actuator: ActuatorConfig::MEMO,
             supervisor: SupervisorConfig::DESIGN,
             slew_g_per_s: 500.0,
+            tracking: None,
         }).unwrap();
         for (command, reading, kind, overrun) in steps {
             let reading = match kind {

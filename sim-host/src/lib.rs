@@ -7,6 +7,7 @@
 pub mod analysis;
 pub mod calibrate;
 pub mod cli;
+pub mod design;
 pub mod diagnose;
 pub mod error;
 pub mod estimate;

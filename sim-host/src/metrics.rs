@@ -51,6 +51,30 @@ pub fn worst_step_settling_s(ticks: &[TickRecord]) -> Option<f64> {
     Some(worst)
 }
 
+/// For each step of a step protocol (a segment after another): its level and how far the
+/// true force went past it in the step's direction, g (0 if it never did).
+pub fn step_overshoots_g(ticks: &[TickRecord]) -> Vec<(f32, f32)> {
+    let segs = segments(ticks);
+    segs.windows(2)
+        .map(|w| {
+            let (before, s) = (w[0], w[1]);
+            let up = s.command_g >= before.command_g;
+            let past = ticks[s.start..s.end]
+                .iter()
+                .map(|r| {
+                    let d = r.true_force_g - s.command_g;
+                    if up {
+                        d
+                    } else {
+                        -d
+                    }
+                })
+                .fold(0.0f32, f32::max);
+            (s.command_g, past)
+        })
+        .collect()
+}
+
 /// Per commanded level: fraction of the hold out of contact, and the worst |force − command|
 /// after `settle_s`.
 pub fn hold_quality(ticks: &[TickRecord], settle_s: f64) -> Vec<(f32, f64, f32)> {

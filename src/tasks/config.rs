@@ -3,10 +3,11 @@
 
 use crate::control::{ActuatorConfig, ForceLawConfig};
 use crate::estimator::EstimatorKind;
-use crate::filter::{FilterError, LowpassNotchConfig};
+use crate::filter::LowpassNotchConfig;
 use crate::gauge::{AdcScale, GaugeConfig};
-use crate::supervisor::SupervisorConfig;
+use crate::supervisor::{LoopError, SupervisorConfig};
 use crate::tactile::{ScanConfig, TaxelId, PROBED_TAXEL};
+use crate::tracking::TrackingConfig;
 use crate::viscoelastic::{ModelError, SecondOrder};
 
 /// Everything the task bodies are built from.
@@ -14,6 +15,8 @@ use crate::viscoelastic::{ModelError, SecondOrder};
 pub struct FirmwareConfig {
     pub law: ForceLawConfig,
     pub filter: LowpassNotchConfig,
+    /// The designed force controller in place of A1 and the filter (`None`: A1).
+    pub tracking: Option<TrackingConfig>,
     pub gauge: GaugeConfig,
     pub actuator: ActuatorConfig,
     /// Converter of the taxel channels (offset/gain stage output, memo's ±10 V).
@@ -43,6 +46,7 @@ impl FirmwareConfig {
     pub const MEMO: FirmwareConfig = FirmwareConfig {
         law: ForceLawConfig::MEMO,
         filter: LowpassNotchConfig::MEMO,
+        tracking: None,
         gauge: GaugeConfig::MEMO,
         actuator: ActuatorConfig::MEMO,
         taxel_adc: AdcScale::BIPOLAR_10V_12BIT,
@@ -59,7 +63,7 @@ impl FirmwareConfig {
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum ConfigError {
     #[error(transparent)]
-    Filter(#[from] FilterError),
+    Loop(#[from] LoopError),
     #[error(transparent)]
     Estimator(#[from] ModelError),
 }

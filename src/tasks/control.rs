@@ -77,8 +77,8 @@ impl ControlLoop {
             actuator: config.actuator,
             supervisor: config.supervisor,
             slew_g_per_s,
-        })
-        .map_err(ConfigError::Filter)?;
+            tracking: config.tracking,
+        })?;
         let inverse = config
             .estimator
             .inverse(CONTROL_PERIOD_S)

@@ -1,0 +1,361 @@
+//! The force controller designed from the identified applicator (issue 13, item 2): the
+//! excitation protocol run at several preloads, a low-order model fitted at each
+//! ([`crate::identify::fit_model`]), and from those models the core's [`TrackingConfig`]:
+//!
+//! - the feed-forward's schedule: at each preload, the identified model's inverse as a series
+//!   in s up to s³ (the delay left out: no controller can undo it);
+//! - the feedback: integral action (and a proportional term) as large as the margins allow at
+//!   every identified load: gain margin ≥ [`GAIN_MARGIN`] and phase margin ≥ [`PHASE_MARGIN_DEG`]
+//!   with the loop's extra tick of delay, so that the plant's gain may be 20 % off and still
+//!   leave a margin of 2.
+//!
+//! The design method is loop shaping on the identified frequency responses; the reference
+//! model's bandwidth puts the closed loop's −0.5 dB point past 40 Hz.
+
+use num_complex::Complex64;
+use serde::Serialize;
+use tactile_core::tracking::{InverseSeries, TrackingConfig, TRACKING_POINTS};
+
+use crate::identify::{ApplicatorModel, IdentifyError};
+use crate::rig::{RigConfig, TICK_S};
+use crate::scenario::{run_protocol, ScenarioError};
+
+/// The preloads the applicator is identified at, g.
+pub const DESIGN_LOADS_G: [f32; TRACKING_POINTS] = [10.0, 20.0, 35.0, 50.0, 75.0, 100.0];
+/// Least gain margin of the designed loop on every identified model (2 with the plant 20 %
+/// stronger).
+pub const GAIN_MARGIN: f64 = 2.4;
+/// Least phase margin, degrees.
+pub const PHASE_MARGIN_DEG: f64 = 50.0;
+/// The reference model's triple pole, Hz: 0.45 dB down at 40 Hz.
+pub const REFERENCE_HZ: f32 = 200.0;
+
+/// Why a controller could not be designed.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    #[error(transparent)]
+    Run(#[from] ScenarioError),
+    #[error("identification at {load_g} g: {source}")]
+    Identify {
+        load_g: f32,
+        #[source]
+        source: IdentifyError,
+    },
+    #[error("no model converged on the response measured at {load_g} g")]
+    NoModel { load_g: f32 },
+    #[error("no integral gain gives the margins at every load (the model at {load_g} g has a gain margin of {margin:.2} with none)")]
+    NoMargin { load_g: f32, margin: f64 },
+}
+
+/// The identified model at one preload.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct LoadModel {
+    pub load_g: f32,
+    pub model: ApplicatorModel,
+}
+
+/// The chirp's amplitude at a preload: a fifth of it, at most the memo protocol's 5 g (the
+/// inertia–finger mode multiplies it up to 4.4 times); halved while the probe leaves the
+/// finger.
+fn excitation_amplitude_g(load_g: f32) -> f32 {
+    (0.4 * load_g).clamp(0.25, 5.0)
+}
+
+/// Runs the excitation at each of [`DESIGN_LOADS_G`] on a rig built from `config` (the loop
+/// that holds the preload is the one `config` has) and fits the model at each.
+pub fn identify_loads(config: &RigConfig) -> Result<Vec<LoadModel>, DesignError> {
+    let runs: Vec<Result<LoadModel, DesignError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = DESIGN_LOADS_G
+            .iter()
+            .map(|&load_g| {
+                let config = RigConfig {
+                    scan_array: false,
+                    ..config.clone()
+                };
+                scope.spawn(move || identify_at(config, load_g))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or(Err(DesignError::NoModel { load_g: f32::NAN }))
+            })
+            .collect()
+    });
+    runs.into_iter().collect()
+}
+
+fn identify_at(config: RigConfig, load_g: f32) -> Result<LoadModel, DesignError> {
+    let mut amplitude_g = excitation_amplitude_g(load_g);
+    loop {
+        let protocol = tactile_core::profile::Protocol::Excitation {
+            preload_g: load_g,
+            amplitude_g,
+            periods: 8,
+        };
+        let actuator = config.firmware.actuator;
+        let run = run_protocol("excitation", protocol, config.clone(), false, |_| {})?;
+        match crate::identify::frequency_response(&run.ticks, protocol, &actuator) {
+            Ok(response) => {
+                let model =
+                    crate::identify::fit_model(&response).ok_or(DesignError::NoModel { load_g })?;
+                return Ok(LoadModel { load_g, model });
+            }
+            Err(IdentifyError::LostContact { .. }) if amplitude_g > 0.3 => amplitude_g *= 0.5,
+            Err(source) => return Err(DesignError::Identify { load_g, source }),
+        }
+    }
+}
+
+/// 1 + (2ζ/ω)s + s²/ω² as coefficients in s.
+fn quadratic(r: crate::identify::Resonance) -> [f64; 3] {
+    let w = 2.0 * std::f64::consts::PI * r.hz;
+    [1.0, 2.0 * r.damping_ratio / w, 1.0 / (w * w)]
+}
+
+fn times(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
+/// The feed-forward's series c₀ + c₁s + c₂s² + c₃s³ for one load: the inverse of the model's
+/// path from drive to contact force, delay left out (no controller can take it back). The
+/// gauge reads the contact force plus the tip's inertia, gauge = contact·(1 + s²/ω_z²), the
+/// anti-resonance ω_z being the tip on the finger alone; the contact force, which the user
+/// asks for, is the model without that factor, and its inverse is a polynomial: the modes'
+/// quadratics times the amplifier's pole over the gain, truncated after s³.
+///
+/// Tried and dropped: matching the series to the measured response by least squares over
+/// 1–50 Hz (the stiction lowers the small chirp's gain to 0.92 at every frequency, and the
+/// feed-forward then drove 1.3 dB too hard across the band).
+pub fn inverse_series(m: &ApplicatorModel) -> [f64; 4] {
+    let pole = [1.0, 1.0 / (2.0 * std::f64::consts::PI * m.pole_hz)];
+    let n = times(
+        &times(&quadratic(m.modes[0]), &quadratic(m.modes[1])),
+        &pole,
+    );
+    core::array::from_fn(|k| n.get(k).copied().unwrap_or(0.0) / m.gain)
+}
+
+/// Gain and phase margins of a loop given by its response on a frequency grid (first to last
+/// point): the smallest 1/|L| where the phase crosses −180° (∞ where it never does) and the
+/// smallest distance of the phase from −180° where |L| crosses 1 (180 where it never does).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Margins {
+    pub gain: f64,
+    pub phase_deg: f64,
+}
+
+pub fn margins(l: &[Complex64]) -> Margins {
+    let mut gain = f64::INFINITY;
+    let mut phase_deg: f64 = 180.0;
+    for w in l.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        // The phase crossing −180°: the imaginary part changes sign with a negative real part.
+        if a.im.signum() != b.im.signum() && (a.re < 0.0 || b.re < 0.0) {
+            let t = a.im / (a.im - b.im);
+            let re = a.re + t * (b.re - a.re);
+            if re < 0.0 {
+                gain = gain.min(1.0 / -re);
+            }
+        }
+        if (a.norm() - 1.0).signum() != (b.norm() - 1.0).signum() {
+            let p = (180.0 + b.arg().to_degrees()).rem_euclid(360.0);
+            phase_deg = phase_deg.min(p.min(360.0 - p));
+        }
+    }
+    Margins { gain, phase_deg }
+}
+
+/// The loop's frequencies: 0.1 Hz to just under the Nyquist rate, log-spaced.
+pub fn loop_grid_hz() -> Vec<f64> {
+    let (lo, hi) = (0.1f64, 0.49 / TICK_S);
+    let n = 2000;
+    (0..n)
+        .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+        .collect()
+}
+
+/// The feedback's response at `hz`: kp + ki·T/(1 − z⁻¹), with the tick it waits for the
+/// reading (z⁻¹).
+pub fn feedback(kp: f64, ki_per_s: f64, hz: f64) -> Complex64 {
+    let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * TICK_S);
+    (kp + ki_per_s * TICK_S / (1.0 - z_inv)) * z_inv
+}
+
+/// The margins of the designed feedback on `plant` (gauge g per drive g at each hertz).
+pub fn loop_margins(kp: f64, ki_per_s: f64, plant: impl Fn(f64) -> Complex64) -> Margins {
+    let l: Vec<Complex64> = loop_grid_hz()
+        .into_iter()
+        .map(|hz| feedback(kp, ki_per_s, hz) * plant(hz))
+        .collect();
+    margins(&l)
+}
+
+/// The designed controller and what it was designed on.
+#[derive(Clone, Debug, Serialize)]
+pub struct Design {
+    #[serde(skip)]
+    pub config: TrackingConfig,
+    pub models: Vec<LoadModel>,
+    pub kp: f64,
+    pub ki_per_s: f64,
+    /// Margins on each identified model.
+    pub margins: Vec<Margins>,
+}
+
+/// The controller for the identified `models` (in increasing load), the actuator's range
+/// `drive_range_g`.
+pub fn design(
+    models: &[LoadModel],
+    friction_g: f32,
+    drive_range_g: (f32, f32),
+) -> Result<Design, DesignError> {
+    let ok = |kp: f64, ki: f64| {
+        models.iter().all(|m| {
+            let mg = loop_margins(kp, ki, |hz| m.model.response(hz));
+            mg.gain >= GAIN_MARGIN && mg.phase_deg >= PHASE_MARGIN_DEG
+        })
+    };
+    // The largest integral gain for each proportional gain on a grid; the pair with the most
+    // integral action (what the steady state and the stiction need).
+    let mut best: Option<(f64, f64)> = None;
+    for kp in [0.0, 0.05, 0.1, 0.2, 0.3] {
+        if !ok(kp, 0.0) {
+            continue;
+        }
+        let (mut lo, mut hi) = (0.0f64, 2000.0f64);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if ok(kp, mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if best.is_none_or(|b| lo > b.1) {
+            best = Some((kp, lo));
+        }
+    }
+    let Some((kp, ki)) = best.filter(|b| b.1 > 0.0) else {
+        let worst = models
+            .iter()
+            .map(|m| {
+                (
+                    m.load_g,
+                    loop_margins(0.0, 1.0, |hz| m.model.response(hz)).gain,
+                )
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((f32::NAN, f64::NAN));
+        return Err(DesignError::NoMargin {
+            load_g: worst.0,
+            margin: worst.1,
+        });
+    };
+    let mut schedule = [InverseSeries {
+        load_g: 0.0,
+        c: [1.0, 0.0, 0.0, 0.0],
+    }; TRACKING_POINTS];
+    for (slot, m) in schedule.iter_mut().zip(models) {
+        *slot = InverseSeries {
+            load_g: m.load_g,
+            c: inverse_series(&m.model).map(|v| v as f32),
+        };
+    }
+    let config = TrackingConfig {
+        dt_s: TICK_S as f32,
+        reference_hz: REFERENCE_HZ,
+        schedule,
+        points: models.len().min(TRACKING_POINTS) as u8,
+        friction_g,
+        kp: kp as f32,
+        ki_per_s: ki as f32,
+        delay_ticks: 2,
+        integral_limit_g: 20.0,
+        drive_min_g: drive_range_g.0,
+        drive_max_g: drive_range_g.1,
+    };
+    let margins = models
+        .iter()
+        .map(|m| loop_margins(kp, ki, |hz| m.model.response(hz)))
+        .collect();
+    Ok(Design {
+        config,
+        models: models.to_vec(),
+        kp,
+        ki_per_s: ki,
+        margins,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::Resonance;
+
+    #[test]
+    fn the_series_of_a_single_mode_is_its_quadratic() {
+        // One mode at 50 Hz (ζ 0.1), gain 2, the beam, the pole and the anti-resonance far
+        // away: C = (1 + 2ζs/ω + s²/ω²)/2 (the anti-resonance is the gauge's, not the force's,
+        // and never enters).
+        let far = Resonance {
+            hz: 1e7,
+            damping_ratio: 0.0,
+        };
+        let m = ApplicatorModel {
+            gain: 2.0,
+            anti_resonance: Resonance {
+                hz: 80.0,
+                damping_ratio: 0.05,
+            },
+            modes: [
+                Resonance {
+                    hz: 50.0,
+                    damping_ratio: 0.1,
+                },
+                far,
+            ],
+            pole_hz: 1e9,
+            delay_s: 1e-3,
+            rms_log_error: 0.0,
+        };
+        let c = inverse_series(&m);
+        let w = 2.0 * std::f64::consts::PI * 50.0;
+        let expected = [0.5, 0.1 / w, 0.5 / (w * w)];
+        for k in 0..3 {
+            assert!(
+                (c[k] - expected[k]).abs() <= 1e-6 * expected[k].abs(),
+                "c{k} {} vs {}",
+                c[k],
+                expected[k]
+            );
+        }
+        assert!(c[3].abs() < 1e-6 / (w * w * w), "c3 {}", c[3]);
+    }
+
+    #[test]
+    fn margins_of_an_integrator_with_a_delay_by_hand() {
+        // L = (k/s)·e^(−sτ): the phase reaches −180° where ωτ = π/2, |L| = k/ω there; the gain
+        // crossover at ω = k with phase −90° − kτ.
+        let (k, tau) = (20.0f64, 0.005f64);
+        let l: Vec<Complex64> = loop_grid_hz()
+            .into_iter()
+            .map(|hz| {
+                let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * hz);
+                k / s * (-s * tau).exp()
+            })
+            .collect();
+        let m = margins(&l);
+        let w180 = std::f64::consts::FRAC_PI_2 / tau;
+        assert!((m.gain - w180 / k).abs() < 0.01 * w180 / k, "{m:?}");
+        let pm = 90.0 - (k * tau).to_degrees();
+        assert!((m.phase_deg - pm).abs() < 0.2, "{m:?} vs {pm}");
+    }
+}
