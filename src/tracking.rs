@@ -31,19 +31,22 @@
 use crate::control::Adjusted;
 
 /// Loads in the feed-forward's schedule.
-pub const TRACKING_POINTS: usize = 6;
+pub const TRACKING_POINTS: usize = 9;
 /// The reference's rate at which the friction compensation is whole, g/s (below it, in
 /// proportion: a hold gets none, and the compensation does not chatter about it).
 pub const FRICTION_RATE_G_PER_S: f32 = 20.0;
 /// Ticks of reference kept for the feedback's comparison.
 const HISTORY: usize = 8;
 
-/// The plant's inverse at one load, as a series in s: drive grams per gauge gram and its first
-/// three derivatives (c₀ in g/g, c₁ in s, c₂ in s², c₃ in s³).
+/// The controller at one load: the plant's inverse as a series in s, drive grams per gram of
+/// force and of its first three derivatives (c₀ in g/g, c₁ in s, c₂ in s², c₃ in s³), and the
+/// share of the feedback gains the margins allow there (the lighter the load, the sharper the
+/// inertia–finger mode: the memo's reason for A1's schedule).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InverseSeries {
     pub load_g: f32,
     pub c: [f32; 4],
+    pub feedback: f32,
 }
 
 /// Everything the designed controller is configured by (what its table carries).
@@ -89,6 +92,7 @@ impl TrackingConfig {
         schedule: [InverseSeries {
             load_g: 0.0,
             c: [1.0, 0.0, 0.0, 0.0],
+            feedback: 1.0,
         }; TRACKING_POINTS],
         points: 1,
         friction_g: 0.0,
@@ -137,7 +141,11 @@ impl TrackingConfig {
             .filter(|s| !s.is_empty())
             .ok_or(TrackingError::Invalid("points"))?;
         for p in used {
-            if !(p.load_g.is_finite() && p.c.iter().all(|c| c.is_finite()) && p.c[0] > 0.0) {
+            if !(p.load_g.is_finite()
+                && p.c.iter().all(|c| c.is_finite())
+                && p.c[0] > 0.0
+                && (0.0..=1.0).contains(&p.feedback))
+            {
                 return Err(TrackingError::Invalid("schedule"));
             }
         }
@@ -150,30 +158,39 @@ impl TrackingConfig {
         Ok(())
     }
 
-    /// The inverse's series at `load_g`.
+    /// The inverse's series and the feedback's share at `load_g`: linear between the
+    /// schedule's loads, the heaviest's beyond it; below the lightest the series is the
+    /// lightest's and the feedback's share falls in proportion to the load (zero at no load,
+    /// where the contact has no stiffness to speak of).
     #[inline]
-    pub fn series_at(&self, load_g: f32) -> [f32; 4] {
+    pub fn series_at(&self, load_g: f32) -> ([f32; 4], f32) {
         let n = usize::from(self.points).clamp(1, TRACKING_POINTS);
         let used = self.schedule.get(..n).unwrap_or(&[]);
         let (Some(first), Some(last)) = (used.first(), used.last()) else {
-            return [1.0, 0.0, 0.0, 0.0];
+            return ([1.0, 0.0, 0.0, 0.0], 0.0);
         };
         if load_g <= first.load_g {
-            return first.c;
+            let share = if first.load_g > 0.0 {
+                crate::limit(load_g / first.load_g, 0.0, 1.0)
+            } else {
+                1.0
+            };
+            return (first.c, first.feedback * share);
         }
         for w in used.windows(2) {
             if let [a, b] = w {
                 if load_g <= b.load_g {
                     let t = (load_g - a.load_g) / (b.load_g - a.load_g);
-                    return core::array::from_fn(|i| {
+                    let c = core::array::from_fn(|i| {
                         let (x, y) = (a.c.get(i).copied(), b.c.get(i).copied());
                         let (x, y) = (x.unwrap_or(0.0), y.unwrap_or(0.0));
                         x + t * (y - x)
                     });
+                    return (c, a.feedback + t * (b.feedback - a.feedback));
                 }
             }
         }
-        last.c
+        (last.c, last.feedback)
     }
 }
 
@@ -303,7 +320,8 @@ impl Tracking {
             .step(&mut self.x, self.last_command_g, command_g);
         self.last_command_g = command_g;
         let third = self.reference.third(&self.x, command_g);
-        let k = c.series_at(self.x[0]);
+        let (k, share) = c.series_at(self.x[0]);
+        let (kp, ki) = (share * c.kp, share * c.ki_per_s);
         let friction = c.friction_g * crate::limit(self.x[1] / FRICTION_RATE_G_PER_S, -1.0, 1.0);
         let feed_forward =
             k[0] * self.x[0] + k[1] * self.x[1] + k[2] * self.x[2] + k[3] * third + friction;
@@ -315,17 +333,17 @@ impl Tracking {
         let back = (self.head + HISTORY - usize::from(c.delay_ticks)) % HISTORY;
         let past = self.history.get(back).copied().unwrap_or(self.x[0]);
         let error_g = past - sensed_g;
-        let raw_without = feed_forward + c.kp * error_g + self.integral_g;
+        let raw_without = feed_forward + kp * error_g + self.integral_g;
         let pushing_out = (raw_without >= c.drive_max_g && error_g > 0.0)
             || (raw_without <= c.drive_min_g && error_g < 0.0);
         if integrate && !pushing_out {
             self.integral_g = crate::limit(
-                self.integral_g + c.ki_per_s * c.dt_s * error_g,
+                self.integral_g + ki * c.dt_s * error_g,
                 -c.integral_limit_g,
                 c.integral_limit_g,
             );
         }
-        let raw = feed_forward + c.kp * error_g + self.integral_g;
+        let raw = feed_forward + kp * error_g + self.integral_g;
         let force_g = crate::limit(raw, c.drive_min_g, c.drive_max_g);
         TrackingOutput {
             drive: Adjusted {
@@ -416,14 +434,17 @@ mod tests {
         cfg.schedule[0] = InverseSeries {
             load_g: 10.0,
             c: [1.0, 2.0, 3.0, 4.0],
+            feedback: 0.5,
         };
         cfg.schedule[1] = InverseSeries {
             load_g: 50.0,
             c: [2.0, 4.0, 6.0, 8.0],
+            feedback: 1.0,
         };
-        assert_eq!(cfg.series_at(0.0), [1.0, 2.0, 3.0, 4.0]);
-        assert_eq!(cfg.series_at(30.0), [1.5, 3.0, 4.5, 6.0]);
-        assert_eq!(cfg.series_at(90.0), [2.0, 4.0, 6.0, 8.0]);
+        assert_eq!(cfg.series_at(5.0), ([1.0, 2.0, 3.0, 4.0], 0.25));
+        assert_eq!(cfg.series_at(0.0), ([1.0, 2.0, 3.0, 4.0], 0.0));
+        assert_eq!(cfg.series_at(30.0), ([1.5, 3.0, 4.5, 6.0], 0.75));
+        assert_eq!(cfg.series_at(90.0), ([2.0, 4.0, 6.0, 8.0], 1.0));
     }
 
     #[test]

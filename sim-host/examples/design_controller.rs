@@ -1,5 +1,13 @@
-//! Identify the applicator, design the controller, and measure it against A1 on the rig.
+//! Identify the applicator, design the force controller, and measure it against A1 on the rig:
+//! closed-loop magnitude about 10, 50 and 100 g, the force steps (settling into ±1 g and
+//! overshoot per step) and the touch-downs of `low-force`.
+//!
 //! `cargo run --release -p sim-host --example design_controller [APPLICATOR.toml]`
+//!
+//! `ANALYTIC=1`: design on the simulator's own plant linearized at each load instead of the
+//! identified models (what the design would do with a perfect identification).
+//! `FF_ONLY=1`: the feed-forward alone (no feedback). `ONLY=1`: skip A1. `FRICTION=G`: G grams
+//! of stiction compensated instead of `design::FRICTION_SHARE` of the applicator file's.
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -15,56 +23,72 @@ fn main() {
             sim_host::error::read_applicator(std::path::Path::new(&path)).expect("applicator");
     }
     let t0 = std::time::Instant::now();
-    let models = if std::env::var("ANALYTIC").is_ok() {
+    let d = if std::env::var("ANALYTIC").is_ok() {
         let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
-        design::DESIGN_LOADS_G
+        let models: Vec<design::LoadModel> = design::DESIGN_LOADS_G
             .iter()
             .map(|&load_g| {
                 let response: Vec<sim_host::identify::ResponsePoint> = (2..300)
                     .map(|hz| {
+                        let w = 2.0 * std::f64::consts::PI * f64::from(hz);
                         let g = sim_host::analysis::applicator_response(
                             &config.applicator,
                             &law,
                             f64::from(load_g),
-                            2.0 * std::f64::consts::PI * hz as f64,
+                            w,
                         );
                         sim_host::identify::ResponsePoint {
-                            hz: hz as f64,
+                            hz: f64::from(hz),
                             re: g.re,
                             im: g.im,
                         }
                     })
                     .collect();
-                let model = sim_host::identify::fit_model(&response).unwrap();
+                let model = sim_host::identify::fit_model(&response).expect("fit");
                 design::LoadModel { load_g, model }
             })
-            .collect()
+            .collect();
+        let p = &config.applicator;
+        let friction_g = design::FRICTION_SHARE * p.static_friction_nm
+            / p.arm_m
+            / sim_host::applicator::NEWTONS_PER_GRAM;
+        let law = config.firmware.law;
+        design::design(
+            &models,
+            friction_g as f32,
+            (law.adjusted_min_g, law.adjusted_max_g),
+        )
+        .expect("design")
     } else {
-        design::identify_loads(&config).expect("identify")
+        design::design_for_rig(&config).expect("design")
     };
-    for m in &models {
+    // `FRICTION=G`: the same models, G grams of stiction compensated.
+    let d = match std::env::var("FRICTION")
+        .ok()
+        .and_then(|v| v.parse::<f32>().ok())
+    {
+        Some(friction_g) => {
+            let law = config.firmware.law;
+            design::design(
+                &d.models,
+                friction_g,
+                (law.adjusted_min_g, law.adjusted_max_g),
+            )
+            .expect("design")
+        }
+        None => d,
+    };
+    for (m, p) in d.models.iter().zip(&d.config.schedule) {
         println!(
-            "{:5} g: {} | series {:?}",
-            m.load_g,
-            m.model,
-            design::inverse_series(&m.model)
+            "{:5} g: {} | series {:?}, feedback share {:.2}",
+            m.load_g, m.model, p.c, p.feedback
         );
     }
-    let law = config.firmware.law;
-    let friction_g = std::env::var("FRICTION")
-        .map(|v| v.parse().unwrap())
-        .unwrap_or(0.0);
-    let d = design::design(
-        &models,
-        friction_g,
-        (law.adjusted_min_g, law.adjusted_max_g),
-    )
-    .expect("design");
     println!(
-        "kp {:.3} ki {:.1}/s; margins {:?} ({:.1} s)",
+        "kp {:.3}, ki {:.1}/s, friction {:.2} g ({:.1} s)",
         d.kp,
         d.ki_per_s,
-        d.margins,
+        d.config.friction_g,
         t0.elapsed().as_secs_f64()
     );
     let mut designed = config.clone();
@@ -74,15 +98,10 @@ fn main() {
         tc.ki_per_s = 0.0;
     }
     designed.firmware.tracking = Some(tc);
-    if std::env::var("DEBUG").is_ok() {
-        debug_sine(designed.clone(), 10.0, 2.0, 25.0);
-        return;
+    let mut runs = vec![("designed", &designed)];
+    if std::env::var("ONLY").is_err() {
+        runs.insert(0, ("A1", &config));
     }
-    let runs: Vec<(&str, &RigConfig)> = if std::env::var("ONLY").is_ok() {
-        vec![("designed", &designed)]
-    } else {
-        vec![("A1", &config), ("designed", &designed)]
-    };
     for (name, cfg) in runs {
         println!("== {name}");
         for (load, amp) in [(10.0, 2.0), (50.0, 10.0), (100.0, 10.0)] {
@@ -93,69 +112,42 @@ fn main() {
                     format!("{hz} Hz {:+.2} dB", 20.0 * g.log10())
                 })
                 .collect();
-            println!("  about {load} g: {}", g.join(", "));
+            println!("  {amp} g about {load} g: {}", g.join(", "));
         }
         let o = ScenarioOptions::default();
         let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
             .unwrap()
             .ticks;
+        let settle: Vec<String> = metrics::segments(&steps)
+            .iter()
+            .filter(|s| s.command_g > 0.0)
+            .map(|s| {
+                let t = metrics::settling_time_s(&steps, s, 1.0).unwrap_or(f64::NAN);
+                format!("{}:{:.0}", s.command_g, 1e3 * t)
+            })
+            .collect();
+        println!(
+            "  force-steps, settling into ±1 g (ms): {}",
+            settle.join(" ")
+        );
         let over: Vec<String> = metrics::step_overshoots_g(&steps)
             .iter()
             .map(|(l, o)| format!("{l}:{o:.2}"))
             .collect();
-        let segs = metrics::segments(&steps);
-        let st: Vec<String> = segs
-            .iter()
-            .filter(|s| s.command_g > 0.0)
-            .map(|s| {
-                format!(
-                    "{}:{:.0}",
-                    s.command_g,
-                    1e3 * metrics::settling_time_s(&steps, s, 1.0).unwrap_or(f64::NAN)
-                )
-            })
-            .collect();
-        println!("  settling ms {}", st.join(" "));
-        println!(
-            "  force-steps: worst settling {:?} s; overshoot {}",
-            metrics::worst_step_settling_s(&steps),
-            over.join(" ")
-        );
+        println!("  force-steps, overshoot (g): {}", over.join(" "));
         let low = run_named("low-force", &o, cfg.clone(), |_| {})
             .unwrap()
             .ticks;
         let over: Vec<String> = metrics::step_overshoots_g(&low)
             .iter()
+            .filter(|(l, _)| *l > 0.0)
             .map(|(l, o)| format!("{l}:{o:.2}"))
             .collect();
-        println!("  low-force overshoot {}", over.join(" "));
+        println!("  low-force touch-downs, overshoot (g): {}", over.join(" "));
         for (level, lost, worst) in metrics::hold_quality(&low, 0.3) {
             println!(
                 "    {level:>4} g: out of contact {:5.1} %, worst error {worst:6.2} g",
                 lost * 100.0
-            );
-        }
-    }
-}
-
-#[allow(dead_code)]
-pub fn debug_sine(cfg: RigConfig, offset: f64, amp: f64, hz: f64) {
-    let mut rig = sim_host::rig::Rig::new(RigConfig {
-        command_slew_g_per_s: f32::INFINITY,
-        ..cfg
-    })
-    .unwrap();
-    let w = 2.0 * std::f64::consts::PI * hz;
-    for k in 0..1000 {
-        rig.tick((offset * k as f64 / 1000.0) as f32, |_, _| {});
-    }
-    for k in 0..400 {
-        let t = rig.time_s();
-        let r = rig.tick((offset + amp * (w * t).sin()) as f32, |_, _| {});
-        if k % 10 == 0 {
-            println!(
-                "{:.3} cmd {:.2} sensed {:.2} true {:.2} adj {:.2} faults {:?}",
-                r.t_s, r.command_g, r.sensed_g, r.true_force_g, r.adjusted_g, r.faults
             );
         }
     }
