@@ -258,11 +258,12 @@ pub struct TrackingOutput {
 impl Tracking {
     pub fn new(config: TrackingConfig) -> Result<Self, TrackingError> {
         config.check()?;
-        let w = 2.0 * core::f64::consts::PI * f64::from(config.reference_hz);
+        // f32 throughout: an f64 exp is 2 KB of soft float on the Cortex-M4F.
+        let w = 2.0 * core::f32::consts::PI * config.reference_hz;
         Ok(Self {
             reference: Reference {
-                w: w as f32,
-                decay: libm::exp(-w * f64::from(config.dt_s)) as f32,
+                w,
+                decay: libm::expf(-w * config.dt_s),
                 dt_s: config.dt_s,
             },
             config,
