@@ -45,7 +45,11 @@ fn main() {
                     })
                     .collect();
                 let model = sim_host::identify::fit_model(&response).expect("fit");
-                design::LoadModel { load_g, model }
+                design::LoadModel {
+                    load_g,
+                    model,
+                    static_gain: model.gain,
+                }
             })
             .collect();
         let p = &config.applicator;
@@ -60,7 +64,12 @@ fn main() {
         )
         .expect("design")
     } else {
-        design::design_for_rig(&config).expect("design")
+        let r = design::design_for_rig(&config).expect("design");
+        println!(
+            "static gain {:.3}, stiction {:.2} g (identified from the holds)",
+            r.identified.static_gain, r.identified.stiction_g
+        );
+        r.design
     };
     // `FRICTION=G`: the same models, G grams of stiction compensated.
     let d = match std::env::var("FRICTION")
@@ -80,8 +89,8 @@ fn main() {
     };
     for (m, p) in d.models.iter().zip(&d.config.schedule) {
         println!(
-            "{:5} g: {} | series {:?}, feedback share {:.2}",
-            m.load_g, m.model, p.c, p.feedback
+            "{:5} g: {} | static gain {:.3}, series {:?}, feedback share {:.2}",
+            m.load_g, m.model, m.static_gain, p.c, p.feedback
         );
     }
     println!(

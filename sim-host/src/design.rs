@@ -56,6 +56,9 @@ pub enum DesignError {
 pub struct LoadModel {
     pub load_g: f32,
     pub model: ApplicatorModel,
+    /// Gauge grams per drive gram of the still holds before the chirps
+    /// ([`crate::identify::static_line`]): the feed-forward's static gain.
+    pub static_gain: f64,
 }
 
 /// The chirp's amplitude at a preload: 0.4 of it, at most the memo protocol's 5 g (at a fifth,
@@ -80,11 +83,22 @@ pub fn plausible(m: &ApplicatorModel) -> bool {
         && m.delay_s.abs() < 3e-3
 }
 
+/// What the excitation at several preloads identified.
+#[derive(Clone, Debug, Serialize)]
+pub struct Identified {
+    /// The plausible models, in increasing load.
+    pub models: Vec<LoadModel>,
+    /// The static line of the holds: gain and stiction (g at the probe).
+    pub static_gain: f64,
+    pub stiction_g: f64,
+}
+
 /// Runs the excitation at each of [`DESIGN_LOADS_G`] on a rig built from `config` (the loop
 /// that holds the preload is the one `config` has) and fits the model at each; loads whose
-/// fit is not [`plausible`] are left out (at least two must remain).
-pub fn identify_loads(config: &RigConfig) -> Result<Vec<LoadModel>, DesignError> {
-    let runs: Vec<Result<LoadModel, DesignError>> = std::thread::scope(|scope| {
+/// fit is not [`plausible`] are left out (at least two must remain). The holds before the
+/// chirps give the static gain and the stiction.
+pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
+    let runs: Vec<Result<AtLoad, DesignError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = DESIGN_LOADS_G
             .iter()
             .map(|&load_g| {
@@ -103,7 +117,14 @@ pub fn identify_loads(config: &RigConfig) -> Result<Vec<LoadModel>, DesignError>
             })
             .collect()
     });
-    let models: Vec<LoadModel> = runs.into_iter().collect::<Result<_, _>>()?;
+    let runs: Vec<AtLoad> = runs.into_iter().collect::<Result<_, _>>()?;
+    let holds: Vec<(f64, f64)> = runs.iter().map(|r| r.1).collect();
+    let (static_gain, stiction_g) =
+        crate::identify::static_line(&holds).ok_or(DesignError::NoModel { load_g: f32::NAN })?;
+    let models: Vec<LoadModel> = runs
+        .into_iter()
+        .map(|(m, _)| LoadModel { static_gain, ..m })
+        .collect();
     let kept: Vec<LoadModel> = models
         .iter()
         .filter(|m| plausible(&m.model))
@@ -116,10 +137,17 @@ pub fn identify_loads(config: &RigConfig) -> Result<Vec<LoadModel>, DesignError>
             .map_or(f32::NAN, |m| m.load_g);
         return Err(DesignError::NoModel { load_g });
     }
-    Ok(kept)
+    Ok(Identified {
+        models: kept,
+        static_gain,
+        stiction_g,
+    })
 }
 
-fn identify_at(config: RigConfig, load_g: f32) -> Result<LoadModel, DesignError> {
+/// The model at one preload (its static gain still 1) and the hold's mean drive and gauge, g.
+type AtLoad = (LoadModel, (f64, f64));
+
+fn identify_at(config: RigConfig, load_g: f32) -> Result<AtLoad, DesignError> {
     let mut amplitude_g = excitation_amplitude_g(load_g);
     loop {
         let protocol = tactile_core::profile::Protocol::Excitation {
@@ -133,7 +161,14 @@ fn identify_at(config: RigConfig, load_g: f32) -> Result<LoadModel, DesignError>
             Ok(response) => {
                 let model =
                     crate::identify::fit_model(&response).ok_or(DesignError::NoModel { load_g })?;
-                return Ok(LoadModel { load_g, model });
+                let hold = crate::identify::hold_means(&run.ticks, &actuator)
+                    .ok_or(DesignError::NoModel { load_g })?;
+                let model = LoadModel {
+                    load_g,
+                    model,
+                    static_gain: 1.0,
+                };
+                return Ok((model, hold));
             }
             // Too strong a chirp: the probe left the finger, or the beam's mode drove the
             // gauge out of its range.
@@ -175,7 +210,11 @@ pub fn extrapolate(models: &[LoadModel], load_g: f32) -> Option<LoadModel> {
     let b_anti = slope(&|m| m.anti_resonance.hz)?;
     model.modes[0].hz *= ratio.powf(b_mode);
     model.anti_resonance.hz *= ratio.powf(b_anti);
-    Some(LoadModel { load_g, model })
+    Some(LoadModel {
+        load_g,
+        model,
+        static_gain: lightest.static_gain,
+    })
 }
 
 /// 1 + (2ζ/ω)s + s²/ω² as coefficients in s.
@@ -199,18 +238,21 @@ fn times(a: &[f64], b: &[f64]) -> Vec<f64> {
 /// gauge reads the contact force plus the tip's inertia, gauge = contact·(1 + s²/ω_z²), the
 /// anti-resonance ω_z being the tip on the finger alone; the contact force, which the user
 /// asks for, is the model without that factor, and its inverse is a polynomial: the modes'
-/// quadratics times the amplifier's pole over the gain, truncated after s³.
+/// quadratics times the amplifier's pole over the static gain (the hold's, not the chirp's:
+/// measured, the chirp's gain overdrove the memo's rig by 0.7 dB across the band), truncated
+/// after s³.
 ///
 /// Tried and dropped: matching the series to the measured response by least squares over
 /// 1–50 Hz (the stiction lowers the small chirp's gain to 0.92 at every frequency, and the
 /// feed-forward then drove 1.3 dB too hard across the band).
-pub fn inverse_series(m: &ApplicatorModel) -> [f64; 4] {
+pub fn inverse_series(load: &LoadModel) -> [f64; 4] {
+    let m = &load.model;
     let pole = [1.0, 1.0 / (2.0 * std::f64::consts::PI * m.pole_hz)];
     let n = times(
         &times(&quadratic(m.modes[0]), &quadratic(m.modes[1])),
         &pole,
     );
-    core::array::from_fn(|k| n.get(k).copied().unwrap_or(0.0) / m.gain)
+    core::array::from_fn(|k| n.get(k).copied().unwrap_or(0.0) / load.static_gain)
 }
 
 /// Gain and phase margins of a loop given by its response on a frequency grid (first to last
@@ -377,7 +419,7 @@ pub fn design(
     for (slot, m) in schedule.iter_mut().zip(models) {
         *slot = InverseSeries {
             load_g: m.load_g,
-            c: inverse_series(&m.model).map(|v| v as f32),
+            c: inverse_series(m).map(|v| v as f32),
             feedback: share_at(m) as f32,
         };
     }
@@ -414,29 +456,31 @@ pub fn design(
     })
 }
 
-/// The share of the applicator's stiction the feed-forward pushes against. Measured on the
-/// memo's rig (`FRICTION=G cargo run --release -p sim-host --example design_controller`, of its
-/// 1.11 g): none leaves a 2 g sine about 10 g stuck from 30 Hz (−57 dB) but overshoots the
-/// touch-downs least (0.7–1.7 g); a quarter keeps it to 30 Hz (+1.8 dB at 20 Hz) with
-/// touch-downs 1.1–1.8 g and 50 g +1.3 dB at 40 Hz; a half overshoots the 2 g touch-down by
-/// 3.4 g and 50 g by +1.6 dB at 40 Hz.
+/// The share of the identified stiction the feed-forward pushes against, in the direction the
+/// reference moves. Measured on the memo's rig (`FRICTION=G cargo run --release -p sim-host
+/// --example design_controller`, of its 1.11 g): none leaves a 2 g sine about 10 g stuck from
+/// 30 Hz (−57 dB) but overshoots the touch-downs least (0.7–1.7 g); a quarter keeps it to 30 Hz;
+/// a half overshoots the 2 g touch-down by 3.4 g.
 pub const FRICTION_SHARE: f64 = 0.25;
 
+/// What [`design_for_rig`] identified and designed.
+#[derive(Clone, Debug, Serialize)]
+pub struct RigDesign {
+    pub identified: Identified,
+    pub design: Design,
+}
+
 /// Identifies the rig `config` describes and designs its controller: the stiction compensated
-/// is [`FRICTION_SHARE`] of the applicator file's (not identified: a slow drive sweep would
-/// show it as the gap between its rising and falling branches; not built yet), the drive's
-/// range A1's.
-pub fn design_for_rig(config: &RigConfig) -> Result<Design, DesignError> {
-    let models = identify_loads(config)?;
-    let p = &config.applicator;
-    let friction_g =
-        FRICTION_SHARE * p.static_friction_nm / p.arm_m / crate::applicator::NEWTONS_PER_GRAM;
+/// is [`FRICTION_SHARE`] of the identified, the drive's range A1's.
+pub fn design_for_rig(config: &RigConfig) -> Result<RigDesign, DesignError> {
+    let identified = identify_loads(config)?;
     let law = config.firmware.law;
-    design(
-        &models,
-        friction_g as f32,
+    let design = design(
+        &identified.models,
+        (FRICTION_SHARE * identified.stiction_g) as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
-    )
+    )?;
+    Ok(RigDesign { identified, design })
 }
 
 #[cfg(test)]
@@ -446,7 +490,7 @@ mod tests {
 
     #[test]
     fn the_series_of_a_single_mode_is_its_quadratic() {
-        // One mode at 50 Hz (ζ 0.1), gain 2, the beam, the pole and the anti-resonance far
+        // One mode at 50 Hz (ζ 0.1), static gain 2, the beam, the pole and the anti-resonance far
         // away: C = (1 + 2ζs/ω + s²/ω²)/2 (the anti-resonance is the gauge's, not the force's,
         // and never enters).
         let far = Resonance {
@@ -470,7 +514,11 @@ mod tests {
             delay_s: 1e-3,
             rms_log_error: 0.0,
         };
-        let c = inverse_series(&m);
+        let c = inverse_series(&LoadModel {
+            load_g: 50.0,
+            model: m,
+            static_gain: 2.0,
+        });
         let w = 2.0 * std::f64::consts::PI * 50.0;
         let expected = [0.5, 0.1 / w, 0.5 / (w * w)];
         for k in 0..3 {

@@ -85,6 +85,42 @@ pub fn frequency_response(
     response_of(&drive, &gauge, TICK_S)
 }
 
+/// The mean drive and gauge force (g) of the still hold at the preload before the chirp (its
+/// last 0.5 s); `None` if the hold is not in the record. Across preloads these give the
+/// applicator's static gain and its stiction ([`static_line`]).
+pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<(f64, f64)> {
+    let end = (f64::from(EXCITATION_SETTLE_S) / TICK_S).round() as usize;
+    let start = end.checked_sub((0.5 / TICK_S) as usize)?;
+    let hold = ticks.get(start..end)?;
+    let n = hold.len() as f64;
+    let drive: f64 = hold
+        .iter()
+        .map(|t| f64::from(actuator.force_g(AdcCode(t.dac_code))))
+        .sum();
+    let gauge: f64 = hold.iter().map(|t| f64::from(t.sensed_g)).sum();
+    Some((drive / n, gauge / n))
+}
+
+/// The applicator's static line through holds reached from below, (drive, gauge) in grams:
+/// gauge = gain·drive − stiction, by least squares. Each hold's motor stuck where the drive
+/// stopped overcoming friction on the way up, so the stiction is an offset, not a gain: one
+/// hold read a gain of 0.90 at 10 g and 0.99 at 100 g on the memo's rig. `None` for fewer than
+/// two holds or a line that is not a rig's (gain not positive).
+pub fn static_line(holds: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let n = holds.len() as f64;
+    if holds.len() < 2 {
+        return None;
+    }
+    let (mx, my) = holds
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let sxx: f64 = holds.iter().map(|(x, _)| (x - mx).powi(2)).sum();
+    let sxy: f64 = holds.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
+    let gain = sxy / sxx;
+    let stiction = gain * mx - my;
+    (gain.is_finite() && gain > 0.0 && stiction.is_finite()).then_some((gain, stiction.max(0.0)))
+}
+
 /// The first sample analysed at sample period `dt_s`: after the settling and one period that
 /// lets the loop settle into the periodic response.
 fn analysed_from(dt_s: f64) -> usize {
@@ -481,4 +517,22 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
         best = Some((cost, m));
     }
     best.map(|b| b.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_static_line_of_holds_from_below_is_gain_and_stiction() {
+        // gauge = drive − 1.1 at every preload: gain 1, stiction 1.1 g (a single hold at 10 g
+        // would read a gain of 0.89).
+        let holds: Vec<(f64, f64)> = [10.0, 20.0, 50.0, 100.0]
+            .iter()
+            .map(|d| (*d, d - 1.1))
+            .collect();
+        let (gain, stiction) = static_line(&holds).unwrap();
+        assert!((gain - 1.0).abs() < 1e-12 && (stiction - 1.1).abs() < 1e-12);
+        assert_eq!(static_line(&holds[..1]), None);
+    }
 }
