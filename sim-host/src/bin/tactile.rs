@@ -136,6 +136,19 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Design the force controller for the simulated rig (issue 13): the excitation at six
+    /// preloads, a model at each, the static gain and stiction from the holds, then the
+    /// feed-forward's schedule and the feedback's gains from the margins. A1 stays the
+    /// default loop; `cargo run --release -p sim-host --example design_controller` measures
+    /// the design against it.
+    Design {
+        /// The rig's applicator, a TOML file (default: the memo's).
+        #[arg(long)]
+        applicator: Option<PathBuf>,
+        /// Write the models, the gains and the margins as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Reproduce the memo's Tables I–IV on the simulator, beside the memo's numbers.
     Tables {
         #[arg(long, default_value = "out/tables")]
@@ -343,6 +356,49 @@ fn run(command: Command) -> Result<(), Error> {
                     },
                 )?;
                 outln!("  wrote {}", path.display());
+            }
+        }
+        Command::Design { applicator, json } => {
+            let mut config = sim_host::rig::RigConfig {
+                scan_array: false,
+                ..Default::default()
+            };
+            if let Some(path) = &applicator {
+                config.applicator = sim_host::error::read_applicator(path)?;
+            }
+            let r = sim_host::design::design_for_rig(&config)
+                .map_err(|e| Error::Failed(format!("design: {e}")))?;
+            let id = &r.identified;
+            outln!(
+                "static line of the holds: gain {:.3}, stiction {:.2} g",
+                id.static_gain,
+                id.stiction_g
+            );
+            let d = &r.design;
+            for ((m, p), mg) in d.models.iter().zip(&d.config.schedule).zip(&d.margins) {
+                let source = if id.models.iter().any(|i| i.load_g == m.load_g) {
+                    "identified"
+                } else {
+                    "extrapolated"
+                };
+                outln!("{:5} g ({source}): {}", m.load_g, m.model);
+                outln!(
+                    "        feedback share {:.2}: gain margin {:.2}, phase margin {:.0}°",
+                    p.feedback,
+                    mg.gain,
+                    mg.phase_deg
+                );
+            }
+            outln!(
+                "feedback kp {:.3}, ki {:.1}/s; stiction compensated {:.2} g; reference model {} Hz",
+                d.kp,
+                d.ki_per_s,
+                d.config.friction_g,
+                d.config.reference_hz
+            );
+            if let Some(path) = json {
+                sim_host::error::write_json(&path, &r)?;
+                outln!("wrote {}", path.display());
             }
         }
         Command::Fit { file, model, json } => {
