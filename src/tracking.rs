@@ -82,6 +82,17 @@ pub enum TrackingError {
     Invalid(&'static str),
     #[error("the schedule's loads must increase")]
     ScheduleOrder,
+    /// Not a controller table (an erased flash sector reads `0xFF…`).
+    #[error("not a controller table (no TCTL header)")]
+    BadMagic,
+    #[error("controller table version {found}; this build reads version {TABLE_VERSION}")]
+    UnsupportedVersion { found: u16 },
+    #[error("controller table too short: {bytes} bytes, need {needed}")]
+    TooShort { bytes: usize, needed: usize },
+    #[error(
+        "controller table checksum {stored:#010x} does not match its contents ({computed:#010x})"
+    )]
+    Checksum { stored: u32, computed: u32 },
 }
 
 impl TrackingConfig {
@@ -191,6 +202,115 @@ impl TrackingConfig {
             }
         }
         (last.c, last.feedback)
+    }
+}
+
+/// The controller table's header (what the firmware checks at start-up, as it checks the
+/// calibration table): `TCTL`, version, then the delay in ticks and the schedule's length.
+pub const TABLE_MAGIC: [u8; 4] = *b"TCTL";
+pub const TABLE_VERSION: u16 = 1;
+const TABLE_HEADER_BYTES: usize = 8;
+/// dt, reference, kp, ki, friction, integral bound, drive range; then per point load, c₀…c₃,
+/// feedback share.
+const TABLE_SCALARS: usize = 8;
+const POINT_FLOATS: usize = 6;
+/// The encoded table's length, bytes (the whole schedule, used points or not, and a CRC-32).
+pub const TABLE_BYTES: usize =
+    TABLE_HEADER_BYTES + 4 * (TABLE_SCALARS + TRACKING_POINTS * POINT_FLOATS) + 4;
+
+impl TrackingConfig {
+    /// The table's bytes, little-endian, checksummed; `check`ed first.
+    pub fn encode(&self) -> Result<[u8; TABLE_BYTES], TrackingError> {
+        self.check()?;
+        let mut out = [0u8; TABLE_BYTES];
+        let version = TABLE_VERSION.to_le_bytes();
+        let head = [
+            TABLE_MAGIC[0],
+            TABLE_MAGIC[1],
+            TABLE_MAGIC[2],
+            TABLE_MAGIC[3],
+            version[0],
+            version[1],
+            self.delay_ticks,
+            self.points,
+        ];
+        let scalars = [
+            self.dt_s,
+            self.reference_hz,
+            self.kp,
+            self.ki_per_s,
+            self.friction_g,
+            self.integral_limit_g,
+            self.drive_min_g,
+            self.drive_max_g,
+        ];
+        let points = self
+            .schedule
+            .iter()
+            .flat_map(|p| [p.load_g, p.c[0], p.c[1], p.c[2], p.c[3], p.feedback]);
+        let floats = scalars.into_iter().chain(points);
+        let (header, rest) = out.split_at_mut(TABLE_HEADER_BYTES);
+        header.copy_from_slice(&head);
+        for (slot, v) in rest.chunks_exact_mut(4).zip(floats) {
+            slot.copy_from_slice(&v.to_le_bytes());
+        }
+        let body = TABLE_BYTES - 4;
+        let crc = crate::calibration::crc32(out.get(..body).unwrap_or(&[]));
+        if let Some(slot) = out.get_mut(body..) {
+            slot.copy_from_slice(&crc.to_le_bytes());
+        }
+        Ok(out)
+    }
+
+    /// Reads a table, checking the header, the length, the checksum and every parameter
+    /// before trusting any of it. Bytes after the table are ignored.
+    pub fn decode(bytes: &[u8]) -> Result<TrackingConfig, TrackingError> {
+        let all = bytes.get(..TABLE_BYTES).ok_or(TrackingError::TooShort {
+            bytes: bytes.len(),
+            needed: TABLE_BYTES,
+        })?;
+        if all.get(..4) != Some(&TABLE_MAGIC[..]) {
+            return Err(TrackingError::BadMagic);
+        }
+        let version = u16::from_le_bytes(crate::calibration::bytes_at(all, 4));
+        if version != TABLE_VERSION {
+            return Err(TrackingError::UnsupportedVersion { found: version });
+        }
+        let body = TABLE_BYTES - 4;
+        let stored = u32::from_le_bytes(crate::calibration::bytes_at(all, body));
+        let computed = crate::calibration::crc32(all.get(..body).unwrap_or(&[]));
+        if stored != computed {
+            return Err(TrackingError::Checksum { stored, computed });
+        }
+        let f = |i: usize| {
+            f32::from_le_bytes(crate::calibration::bytes_at(
+                all,
+                TABLE_HEADER_BYTES + 4 * i,
+            ))
+        };
+        let point = |k: usize| {
+            let at = TABLE_SCALARS + k * POINT_FLOATS;
+            InverseSeries {
+                load_g: f(at),
+                c: [f(at + 1), f(at + 2), f(at + 3), f(at + 4)],
+                feedback: f(at + 5),
+            }
+        };
+        let config = TrackingConfig {
+            dt_s: f(0),
+            reference_hz: f(1),
+            kp: f(2),
+            ki_per_s: f(3),
+            friction_g: f(4),
+            integral_limit_g: f(5),
+            drive_min_g: f(6),
+            drive_max_g: f(7),
+            schedule: core::array::from_fn(point),
+            points: all.get(7).copied().unwrap_or(0),
+            delay_ticks: all.get(6).copied().unwrap_or(0),
+        };
+        config.check()?;
+        Ok(config)
     }
 }
 
@@ -480,6 +600,44 @@ mod tests {
         let held = t.integral_g;
         t.update(20.0, 0.0, false);
         assert_eq!(t.integral_g, held);
+    }
+
+    #[test]
+    fn the_table_round_trips_and_a_damaged_one_is_refused_with_the_reason() {
+        let mut cfg = TrackingConfig::UNIT_PLANT;
+        cfg.points = 2;
+        cfg.schedule[1] = InverseSeries {
+            load_g: 50.0,
+            c: [1.1, 2e-3, 1e-5, 1e-8],
+            feedback: 0.5,
+        };
+        let bytes = cfg.encode().unwrap();
+        assert_eq!(TrackingConfig::decode(&bytes), Ok(cfg));
+        // 8 + 4·(8 + 9·6) + 4 bytes.
+        assert_eq!(bytes.len(), 260);
+        let mut bad = bytes;
+        bad[20] ^= 1;
+        assert!(matches!(
+            TrackingConfig::decode(&bad),
+            Err(TrackingError::Checksum { .. })
+        ));
+        assert_eq!(
+            TrackingConfig::decode(&[0xFF; TABLE_BYTES]),
+            Err(TrackingError::BadMagic)
+        );
+        assert_eq!(
+            TrackingConfig::decode(&bytes[..100]),
+            Err(TrackingError::TooShort {
+                bytes: 100,
+                needed: TABLE_BYTES
+            })
+        );
+        let mut old = bytes;
+        old[4] = 0;
+        assert_eq!(
+            TrackingConfig::decode(&old),
+            Err(TrackingError::UnsupportedVersion { found: 0 })
+        );
     }
 
     #[test]

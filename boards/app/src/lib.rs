@@ -34,7 +34,7 @@ pub use sim::{
 };
 
 pub use safety::{CheckIns, ResetCause, SafeStop};
-pub use table::{BOARD, CALIBRATION_TABLE};
+pub use table::{BOARD, CALIBRATION_TABLE, CONTROLLER_TABLE};
 pub use tactile_core::io::{ControlIo, ScanIo};
 pub use tactile_core::tasks::{
     ArrayEstimate, CalibrationStatus, ConfigError, Controller, FirmwareConfig, ScanReport, Scanner,

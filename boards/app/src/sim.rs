@@ -11,7 +11,8 @@ use tactile_plant::finger::{
 };
 use tactile_plant::rig::{FaultInjection, InjectedFault, RigConfig};
 
-use crate::table::CALIBRATION_TABLE;
+use crate::table::{CALIBRATION_TABLE, CONTROLLER_TABLE};
+use tactile_core::tracking::TrackingConfig;
 
 /// One run of the firmware-in-the-loop session: a protocol on a fresh simulated board, with
 /// the fault that board injects. The QEMU firmware runs [`FIL_SESSION`] in order; the QEMU
@@ -27,6 +28,9 @@ pub struct FilRun {
     pub finger: Option<(TaxelId, u64)>,
     /// The element the finger's taxels vary about, for a finger unlike the memo's.
     pub element: Option<NonlinearMk>,
+    /// Run the designed force controller of [`CONTROLLER_TABLE`] instead of A1 (A1 if the
+    /// table is refused: the QEMU test checks it is not).
+    pub designed: bool,
 }
 
 impl FilRun {
@@ -36,6 +40,11 @@ impl FilRun {
         let defaults = RigConfig::default();
         let firmware = FirmwareConfig {
             calibration: &CALIBRATION_TABLE,
+            tracking: if self.designed {
+                TrackingConfig::decode(&CONTROLLER_TABLE).ok()
+            } else {
+                None
+            },
             ..defaults.firmware
         };
         let base = RigConfig {
@@ -65,6 +74,7 @@ const fn calibration_run(name: &'static str, taxel: TaxelId) -> FilRun {
         fault: None,
         finger: Some((taxel, CALIBRATION_FINGER_SEED)),
         element: None,
+        designed: false,
     }
 }
 
@@ -170,6 +180,7 @@ const fn fault_run(name: &'static str, fault: InjectedFault) -> FilRun {
         }),
         finger: None,
         element: None,
+        designed: false,
     }
 }
 
@@ -178,13 +189,14 @@ const fn fault_run(name: &'static str, fault: InjectedFault) -> FilRun {
 /// runs it with that duration), then three injected faults: a sensor fault (the gauge's wire
 /// breaks), an implausible reading (an 80 g spike) and a timing fault (the control task really
 /// misses a deadline on the Cortex-M4F).
-pub const FIL_SESSION: [FilRun; 5] = [
+pub const FIL_SESSION: [FilRun; 6] = [
     FilRun {
         name: "force-steps",
         protocol: Protocol::FORCE_STEPS_MEMO,
         fault: None,
         finger: None,
         element: None,
+        designed: false,
     },
     FilRun {
         name: "pseudo-random",
@@ -192,6 +204,15 @@ pub const FIL_SESSION: [FilRun; 5] = [
         fault: None,
         finger: None,
         element: None,
+        designed: false,
+    },
+    FilRun {
+        name: "force-steps-designed",
+        protocol: Protocol::FORCE_STEPS_MEMO,
+        fault: None,
+        finger: None,
+        element: None,
+        designed: true,
     },
     fault_run("fault-gauge-disconnected", InjectedFault::GaugeDisconnected),
     fault_run("fault-force-spike", InjectedFault::ForceSpike { g: 80.0 }),

@@ -212,7 +212,16 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
         latched_at - k0
     );
 
-    // The host rig, same protocol, fault and seed: identical to the bit.
+    is_the_rigs_to_the_bit(run, spec);
+}
+
+/// The host rig, same protocol, fault, controller and seed: every command, control output,
+/// DAC code and fault bit identical to the bit, and the same forces.
+fn is_the_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun) {
+    let name = spec.name;
+    let ticks = &run.ticks;
+    let records = run.tick_records();
+    let dac = |t: &tactile_decode::Tick| t.dac_code.expect("QEMU frames carry the DAC code");
     let host = run_protocol(name, spec.protocol, spec.rig(), false, |_| {}).expect("host rig");
     assert_eq!(ticks.len(), host.ticks.len(), "{name}");
     for (k, (fw, rig)) in ticks.iter().zip(&host.ticks).enumerate() {
@@ -237,8 +246,8 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
     let truth = rms_between(&records, &host.ticks, |r| f64::from(r.true_force_g));
     let sensed = rms_between(&records, &host.ticks, |r| f64::from(r.sensed_g));
     eprintln!(
-        "{name}: firmware vs host rig over {} ticks: command, A1 output, DAC code and fault bits \
-         identical; RMS true force {truth:.2e} g, gauge force {sensed:.2e} g",
+        "{name}: firmware vs host rig over {} ticks: command, control output, DAC code and \
+         fault bits identical; RMS true force {truth:.2e} g, gauge force {sensed:.2e} g",
         ticks.len()
     );
     assert!(truth == 0.0 && sensed == 0.0, "{name}: traces differ");
@@ -311,6 +320,34 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         let run = session.run(spec.name).expect("run decoded");
         fault_run_is_safe_and_is_the_rigs(run, spec);
     }
+    // The designed force controller (issue 13) from the table the build carries: the host
+    // rig's to the bit, and every force step after the first from rest into ±1 g within 40 ms
+    // (A1: 58–69 ms), as `sim-host/tests/controller.rs` finds on the host.
+    let spec = FIL_SESSION
+        .iter()
+        .find(|r| r.designed)
+        .expect("a designed run");
+    assert!(
+        spec.rig().firmware.tracking.is_some(),
+        "the controller table was refused: {:?}",
+        tactile_core::tracking::TrackingConfig::decode(&tactile_firmware::CONTROLLER_TABLE)
+    );
+    let run = session.run(spec.name).expect("run decoded");
+    is_the_rigs_to_the_bit(run, spec);
+    let records = run.tick_records();
+    let settling: Vec<f64> = sim_host::metrics::segments(&records)
+        .iter()
+        .filter(|s| s.command_g > 0.0)
+        .skip(1)
+        .map(|s| sim_host::metrics::settling_time_s(&records, s, 1.0).unwrap_or(f64::INFINITY))
+        .collect();
+    let worst = settling.iter().fold(0.0f64, |a, b| a.max(*b));
+    eprintln!(
+        "{}: worst settling into ±1 g after the first step {:.0} ms",
+        spec.name,
+        worst * 1e3
+    );
+    assert!(worst <= 0.040, "{}: {settling:?}", spec.name);
 
     for (name, duration_s) in [("force-steps", 10.5f32), ("pseudo-random", 10.0)] {
         let run = session.run(name).expect("run decoded");

@@ -148,6 +148,10 @@ enum Command {
         /// Write the models, the gains and the margins as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Write the controller's table here (the bytes the firmware checks at start-up;
+        /// `boards/controller/table.bin` is the QEMU build's).
+        #[arg(long)]
+        table: Option<PathBuf>,
     },
     /// Reproduce the memo's Tables I–IV on the simulator, beside the memo's numbers.
     Tables {
@@ -358,7 +362,11 @@ fn run(command: Command) -> Result<(), Error> {
                 outln!("  wrote {}", path.display());
             }
         }
-        Command::Design { applicator, json } => {
+        Command::Design {
+            applicator,
+            json,
+            table,
+        } => {
             let mut config = sim_host::rig::RigConfig {
                 scan_array: false,
                 ..Default::default()
@@ -399,6 +407,17 @@ fn run(command: Command) -> Result<(), Error> {
             if let Some(path) = json {
                 sim_host::error::write_json(&path, &r)?;
                 outln!("wrote {}", path.display());
+            }
+            if let Some(path) = table {
+                let bytes = d
+                    .config
+                    .encode()
+                    .map_err(|e| Error::Failed(format!("the designed controller: {e}")))?;
+                if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                    std::fs::create_dir_all(dir).map_err(sim_host::error::Error::io(dir))?;
+                }
+                std::fs::write(&path, bytes).map_err(sim_host::error::Error::io(&path))?;
+                outln!("wrote {} ({} bytes)", path.display(), bytes.len());
             }
         }
         Command::Fit { file, model, json } => {
