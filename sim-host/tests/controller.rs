@@ -149,3 +149,19 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         }
     }
 }
+
+#[test]
+fn the_committed_controller_table_is_what_tactile_design_writes() {
+    // The QEMU build carries boards/controller/table.bin; regenerate it with
+    // `tactile design --table boards/controller/table.bin` when the design changes.
+    let committed = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../boards/controller/table.bin"),
+    )
+    .unwrap();
+    let (_, d) = designed();
+    assert_eq!(d.config.encode().unwrap().to_vec(), committed);
+    assert_eq!(
+        tactile_core::tracking::TrackingConfig::decode(&committed),
+        Ok(d.config)
+    );
+}
