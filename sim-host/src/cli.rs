@@ -392,22 +392,9 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
         }
         eprint!("{}", o.summary);
     }
-    report.push_str(
-        "\n## Closed-loop magnitude (stepped sine, 10 g about 50 g)\n\n| Hz | dB |\n|---|---|\n",
-    );
-    for hz in [1.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0] {
-        let g = metrics::closed_loop_gain(
-            RigConfig {
-                seed,
-                ..Default::default()
-            },
-            50.0,
-            10.0,
-            hz,
-        )
-        .map_err(crate::scenario::ScenarioError::from)?;
-        let _ = writeln!(report, "| {hz} | {:+.2} |", 20.0 * g.log10());
-    }
+    let (section, plots) = controller_comparison(out, seed)?;
+    report.push_str(&section);
+    details.push_str(&plots);
     report.push_str("\n# The memo's tables on the simulator (`tactile tables`)\n\n");
     report.push_str(&crate::tables::render(&crate::tables::reproduce(seed)?));
     report.push_str("\n# Force estimators (`tactile estimators`)\n\n");
@@ -420,6 +407,118 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
     let path = out.join("report.md");
     std::fs::write(&path, report).map_err(crate::Error::io(&path))?;
     Ok(path)
+}
+
+/// The designed force controller (issue 13) beside A1 on the same rig: the design, the
+/// closed-loop magnitude, the force steps and the touch-downs, with the designed loop's plots.
+fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crate::Error> {
+    let a1 = RigConfig {
+        seed,
+        scan_array: false,
+        ..Default::default()
+    };
+    let r = crate::design::design_for_rig(&a1)
+        .map_err(|e| crate::Error::Failed(format!("the controller's design: {e}")))?;
+    let designed = RigConfig {
+        firmware: tactile_core::tasks::FirmwareConfig {
+            tracking: Some(r.design.config),
+            ..a1.firmware
+        },
+        ..a1.clone()
+    };
+    let mut s = String::from("\n## The designed force controller beside A1 (`tactile design`)\n\n");
+    let _ = writeln!(
+        s,
+        "Identified at six preloads (static gain {:.3}, stiction {:.2} g from the holds); feedback kp {:.2}, ki {:.1}/s; a triple-pole reference at {} Hz; the model's inverse as a series in s, scheduled on load (docs/design.md). A1 runs with K_e = {} as everywhere else.\n",
+        r.identified.static_gain,
+        r.identified.stiction_g,
+        r.design.kp,
+        r.design.ki_per_s,
+        r.design.config.reference_hz,
+        crate::rig::SIM_ERROR_GAIN
+    );
+    s.push_str("Closed-loop magnitude (true force over command, stepped sine of 10 g), dB:\n\n| Hz | A1, about 50 g | designed, about 50 g | A1, about 100 g | designed, about 100 g |\n|---|---|---|---|---|\n");
+    for hz in [1.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0] {
+        let mut row = format!("| {hz} |");
+        for offset in [50.0, 100.0] {
+            for cfg in [&a1, &designed] {
+                let g = metrics::closed_loop_gain(cfg.clone(), offset, 10.0, hz)
+                    .map_err(crate::scenario::ScenarioError::from)?;
+                let _ = write!(row, " {:+.2} |", 20.0 * g.log10());
+            }
+        }
+        let _ = writeln!(s, "{row}");
+    }
+    let o = ScenarioOptions::default();
+    let mut plots = String::new();
+    let mut figures = Vec::new();
+    for (label, cfg) in [("A1", &a1), ("designed", &designed)] {
+        let dir = out.join(format!("controller-{label}"));
+        let steps = experiment("force-steps", &o, cfg.clone(), &dir, 200.0, true)?;
+        let low = experiment("low-force", &o, cfg.clone(), &dir, 200.0, true)?;
+        let st = &steps.run.ticks;
+        let settle = metrics::segments(st)
+            .iter()
+            .filter(|g| g.command_g > 0.0)
+            .skip(1)
+            .map(|g| metrics::settling_time_s(st, g, 1.0).unwrap_or(f64::INFINITY))
+            .fold(0.0f64, f64::max);
+        let over = metrics::step_overshoots_g(st)
+            .into_iter()
+            .skip(1)
+            .map(|(_, o)| o)
+            .fold(0.0f32, f32::max);
+        let first = metrics::step_overshoots_g(st)
+            .first()
+            .map_or(f32::NAN, |(_, o)| *o);
+        let touch = metrics::step_overshoots_g(&low.run.ticks)
+            .into_iter()
+            .filter(|(l, _)| *l > 0.0)
+            .map(|(_, o)| o)
+            .fold(0.0f32, f32::max);
+        figures.push((settle, over, first, touch));
+        for f in steps.files.iter().chain(&low.files) {
+            if f.extension().is_some_and(|e| e == "png") {
+                let rel = f.strip_prefix(out).unwrap_or(f);
+                let _ = writeln!(plots, "![{label}: {}]({})\n", rel.display(), rel.display());
+            }
+        }
+    }
+    s.push_str("\n| figure (contact force) | A1 | designed | target |\n|---|---|---|---|\n");
+    let row = |name: &str, unit: &str, a: f64, b: f64, target: &str| {
+        let digits = if unit == "ms" { 0 } else { 2 };
+        format!("| {name} | {a:.digits$} {unit} | {b:.digits$} {unit} | {target} |\n")
+    };
+    let [a, b] = [figures[0], figures[1]];
+    s.push_str(&row(
+        "worst 10 g step into ±1 g, after the first",
+        "ms",
+        1e3 * a.0,
+        1e3 * b.0,
+        "30 ms",
+    ));
+    s.push_str(&row(
+        "worst step overshoot, after the first",
+        "g",
+        f64::from(a.1),
+        f64::from(b.1),
+        "1 g",
+    ));
+    s.push_str(&row(
+        "first step from rest, overshoot",
+        "g",
+        f64::from(a.2),
+        f64::from(b.2),
+        "1 g",
+    ));
+    s.push_str(&row(
+        "touch-downs of low-force, worst overshoot",
+        "g",
+        f64::from(a.3),
+        f64::from(b.3),
+        "1 g",
+    ));
+    Ok((s, plots))
 }
 
 /// `ROW,COL=FILE` → the taxel and the file.
