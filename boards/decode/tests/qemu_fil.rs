@@ -348,6 +348,21 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         worst * 1e3
     );
     assert!(worst <= 0.040, "{}: {settling:?}", spec.name);
+    // The control tick, the designed controller's runs included: within the 2 000
+    // instructions (measured 553–1 517 over the session; A1's alone were 505–1 190).
+    let control_tick_max: u32 = session
+        .notes
+        .iter()
+        .flat_map(|n| tactile_decode::text::parse_structs(n))
+        .find(|s| s.name == "InstructionCounts")
+        .and_then(|c| {
+            let f = c.fields();
+            let span = tactile_decode::text::parse_structs(f.text("control_tick").ok()?);
+            span.first()?.fields().num("max").ok()
+        })
+        .expect("the firmware reported its instruction counts");
+    eprintln!("control tick: at most {control_tick_max} instructions");
+    assert!(control_tick_max <= 2000, "{control_tick_max}");
 
     for (name, duration_s) in [("force-steps", 10.5f32), ("pseudo-random", 10.0)] {
         let run = session.run(name).expect("run decoded");
