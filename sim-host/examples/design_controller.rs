@@ -6,7 +6,7 @@
 //!
 //! `ANALYTIC=1`: design on the simulator's own plant linearized at each load instead of the
 //! identified models (what the design would do with a perfect identification).
-//! `FF_ONLY=1`: the feed-forward alone (no feedback). `ONLY=1`: skip A1. `FRICTION=G`: G grams
+//! `SEED=N`: the rig's seed (1). `FF_ONLY=1`: the feed-forward alone (no feedback). `ONLY=1`: skip A1. `FRICTION=G`: G grams
 //! of stiction compensated instead of `design::FRICTION_SHARE` of the applicator file's.
 use sim_host::design;
 use sim_host::metrics;
@@ -16,6 +16,10 @@ use sim_host::scenario::{run_named, ScenarioOptions};
 fn main() {
     let mut config = RigConfig {
         scan_array: false,
+        seed: std::env::var("SEED")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(1),
         ..Default::default()
     };
     if let Some(path) = std::env::args().nth(1) {

@@ -24,7 +24,10 @@ use crate::scenario::{run_protocol, ScenarioError};
 /// the probe on the finger at 2–5 g hardly moves the motor through its stiction (the fits came
 /// out with gains of 0.05–0.12 and errors of 130 %).
 pub const DESIGN_LOADS_G: [f32; 6] = [10.0, 20.0, 35.0, 50.0, 75.0, 100.0];
-/// Loads below the identified ones the design extrapolates to ([`extrapolate`]), g.
+/// Loads below the identified ones the design extrapolates to ([`extrapolate`]), g. Reaching
+/// down to 0.5 g took the memo rig's first step from rest from 1.5 g of overshoot to 0.03–0.24 g
+/// (seeds 1–4) but slowed the heavy rig's 20 g step to 44 ms (1.6 g over) and the light rig's
+/// to 41 ms: not kept.
 pub const EXTRAPOLATED_LOADS_G: [f32; 3] = [1.0, 2.0, 5.0];
 /// Least gain margin of the designed loop on every identified model (2 with the plant 20 %
 /// stronger).
