@@ -174,26 +174,41 @@ pub fn signed_rank_p_value(d: &[f64]) -> f64 {
     ways[observed..].iter().sum::<f64>() / all
 }
 
+/// The line y = a + b·x by weighted least squares; (a, b), `None` if the weights or the x
+/// values cannot fix it (fewer than two distinct x).
+pub fn weighted_line(x: &[f64], y: &[f64], w: &[f64]) -> Option<(f64, f64)> {
+    let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for ((xi, yi), wi) in x.iter().zip(y).zip(w) {
+        sw += wi;
+        sx += wi * xi;
+        sy += wi * yi;
+        sxx += wi * xi * xi;
+        sxy += wi * xi * yi;
+    }
+    let det = sw * sxx - sx * sx;
+    if det.abs() <= f64::MIN_POSITIVE || sw <= 0.0 {
+        return None;
+    }
+    let b = (sw * sxy - sx * sy) / det;
+    let a = (sy - b * sx) / sw;
+    (a.is_finite() && b.is_finite()).then_some((a, b))
+}
+
+/// The line y = a + b·x by least squares; (a, b), `None` without two distinct x.
+pub fn line(x: &[f64], y: &[f64]) -> Option<(f64, f64)> {
+    weighted_line(x, y, &vec![1.0; x.len()])
+}
+
 /// A line y = a + b·x fitted robustly (Huber weights, ten reweightings): a few wild samples do
 /// not tilt it. Returns (a, b).
 pub fn robust_line(x: &[f64], y: &[f64]) -> (f64, f64) {
     let mut w = vec![1.0; x.len()];
     let (mut a, mut b) = (0.0, 0.0);
     for _ in 0..10 {
-        let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for ((xi, yi), wi) in x.iter().zip(y).zip(&w) {
-            sw += wi;
-            sx += wi * xi;
-            sy += wi * yi;
-            sxx += wi * xi * xi;
-            sxy += wi * xi * yi;
-        }
-        let det = sw * sxx - sx * sx;
-        if det.abs() <= f64::MIN_POSITIVE || sw <= 0.0 {
+        let Some(fit) = weighted_line(x, y, &w) else {
             break;
-        }
-        b = (sw * sxy - sx * sy) / det;
-        a = (sy - b * sx) / sw;
+        };
+        (a, b) = fit;
         let r: Vec<f64> = x.iter().zip(y).map(|(xi, yi)| yi - a - b * xi).collect();
         let abs: Vec<f64> = r.iter().map(|v| v.abs()).collect();
         let scale = 1.4826 * quantile(&abs, 0.5);

@@ -490,34 +490,39 @@ fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crat
         format!("| {name} | {a:.digits$} {unit} | {b:.digits$} {unit} | {target} |\n")
     };
     let [a, b] = [figures[0], figures[1]];
-    s.push_str(&row(
-        "worst 10 g step into ±1 g, after the first",
-        "ms",
-        1e3 * a.0,
-        1e3 * b.0,
-        "30 ms",
-    ));
-    s.push_str(&row(
-        "worst step overshoot, after the first",
-        "g",
-        f64::from(a.1),
-        f64::from(b.1),
-        "1 g",
-    ));
-    s.push_str(&row(
-        "first step from rest, overshoot",
-        "g",
-        f64::from(a.2),
-        f64::from(b.2),
-        "1 g",
-    ));
-    s.push_str(&row(
-        "touch-downs of low-force, worst overshoot",
-        "g",
-        f64::from(a.3),
-        f64::from(b.3),
-        "1 g",
-    ));
+    let rows = [
+        (
+            "worst 10 g step into ±1 g, after the first",
+            "ms",
+            1e3 * a.0,
+            1e3 * b.0,
+            "30 ms",
+        ),
+        (
+            "worst step overshoot, after the first",
+            "g",
+            f64::from(a.1),
+            f64::from(b.1),
+            "1 g",
+        ),
+        (
+            "first step from rest, overshoot",
+            "g",
+            f64::from(a.2),
+            f64::from(b.2),
+            "1 g",
+        ),
+        (
+            "touch-downs of low-force, worst overshoot",
+            "g",
+            f64::from(a.3),
+            f64::from(b.3),
+            "1 g",
+        ),
+    ];
+    for (name, unit, a, b, target) in rows {
+        s.push_str(&row(name, unit, a, b, target));
+    }
     Ok((s, plots))
 }
 

@@ -194,18 +194,11 @@ fn identify_at(config: RigConfig, load_g: f32) -> Result<AtLoad, DesignError> {
 pub fn extrapolate(models: &[LoadModel], load_g: f32) -> Option<LoadModel> {
     let lightest = models.iter().min_by(|a, b| a.load_g.total_cmp(&b.load_g))?;
     let slope = |hz: &dyn Fn(&ApplicatorModel) -> f64| -> Option<f64> {
-        let pts: Vec<(f64, f64)> = models
+        let (ln_load, ln_hz): (Vec<f64>, Vec<f64>) = models
             .iter()
             .map(|m| (f64::from(m.load_g).ln(), hz(&m.model).ln()))
-            .collect();
-        let n = pts.len() as f64;
-        let (mx, my) = pts
-            .iter()
-            .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
-        let sxx: f64 = pts.iter().map(|(x, _)| (x - mx).powi(2)).sum();
-        let sxy: f64 = pts.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
-        let b = sxy / sxx;
-        (b.is_finite() && pts.len() >= 2).then_some(b)
+            .unzip();
+        Some(tactile_ident::stats::line(&ln_load, &ln_hz)?.1)
     };
     let ratio = f64::from(load_g) / f64::from(lightest.load_g);
     let mut model = lightest.model;
@@ -313,6 +306,21 @@ pub fn loop_margins(kp: f64, ki_per_s: f64, plant: impl Fn(f64) -> Complex64) ->
     margins(&l)
 }
 
+/// The largest x in [0, `hi`] that `passes` (which holds at 0 and fails past some point), by
+/// bisection to 2⁻⁴⁰ of `hi`.
+fn largest_passing(hi: f64, passes: impl Fn(f64) -> bool) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, hi);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if passes(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
 /// The designed controller and what it was designed on.
 #[derive(Clone, Debug, Serialize)]
 pub struct Design {
@@ -366,15 +374,7 @@ pub fn design(
         if !ok(kp, 0.0) {
             continue;
         }
-        let (mut lo, mut hi) = (0.0f64, 2000.0f64);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if ok(kp, mid) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let lo = largest_passing(2000.0, |ki| ok(kp, ki));
         if best.is_none_or(|b| lo > b.1) {
             best = Some((kp, lo));
         }
@@ -401,18 +401,10 @@ pub fn design(
     };
     let share_at = |m: &LoadModel| {
         if holds(m, 1.0) {
-            return 1.0;
+            1.0
+        } else {
+            largest_passing(1.0, |share| holds(m, share))
         }
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        for _ in 0..30 {
-            let mid = 0.5 * (lo + hi);
-            if holds(m, mid) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        lo
     };
     let mut schedule = [InverseSeries {
         load_g: 0.0,

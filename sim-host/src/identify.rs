@@ -107,18 +107,9 @@ pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<(f6
 /// hold read a gain of 0.90 at 10 g and 0.99 at 100 g on the memo's rig. `None` for fewer than
 /// two holds or a line that is not a rig's (gain not positive).
 pub fn static_line(holds: &[(f64, f64)]) -> Option<(f64, f64)> {
-    let n = holds.len() as f64;
-    if holds.len() < 2 {
-        return None;
-    }
-    let (mx, my) = holds
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
-    let sxx: f64 = holds.iter().map(|(x, _)| (x - mx).powi(2)).sum();
-    let sxy: f64 = holds.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
-    let gain = sxy / sxx;
-    let stiction = gain * mx - my;
-    (gain.is_finite() && gain > 0.0 && stiction.is_finite()).then_some((gain, stiction.max(0.0)))
+    let (drive, gauge): (Vec<f64>, Vec<f64>) = holds.iter().copied().unzip();
+    let (offset, gain) = tactile_ident::stats::line(&drive, &gauge)?;
+    (gain > 0.0).then_some((gain, (-offset).max(0.0)))
 }
 
 /// The first sample analysed at sample period `dt_s`: after the settling and one period that
