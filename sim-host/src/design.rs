@@ -2,8 +2,11 @@
 //! excitation protocol run at several preloads, a low-order model fitted at each
 //! ([`crate::identify::fit_model`]), and from those models the core's [`TrackingConfig`]:
 //!
-//! - the feed-forward's schedule: at each preload, the identified model's inverse as a series
-//!   in s up to s³ (the delay left out: no controller can undo it);
+//! - the feed-forward's schedule: at each preload, the inverse of the model's path to the
+//!   contact force as a series in s up to s³ (the delay left out: no controller can undo it),
+//!   over the static gain of the holds before the chirps ([`crate::identify::static_line`],
+//!   which also gives the stiction compensated); below the lightest identified load, models
+//!   extrapolated by the modes' power law in load ([`extrapolate`]);
 //! - the feedback: integral action (and a proportional term) as large as the margins allow at
 //!   every identified load: gain margin ≥ [`GAIN_MARGIN`] and phase margin ≥ [`PHASE_MARGIN_DEG`]
 //!   with the loop's extra tick of delay, so that the plant's gain may be 20 % off and still
