@@ -131,13 +131,9 @@ fn main() {
         let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
             .unwrap()
             .ticks;
-        let settle: Vec<String> = metrics::segments(&steps)
+        let settle: Vec<String> = metrics::step_settling_s(&steps)
             .iter()
-            .filter(|s| s.command_g > 0.0)
-            .map(|s| {
-                let t = metrics::settling_time_s(&steps, s, 1.0).unwrap_or(f64::NAN);
-                format!("{}:{:.0}", s.command_g, 1e3 * t)
-            })
+            .map(|(level, t)| format!("{level}:{:.0}", 1e3 * t.unwrap_or(f64::NAN)))
             .collect();
         println!(
             "  force-steps, settling into ±1 g (ms): {}",

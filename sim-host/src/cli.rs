@@ -457,20 +457,18 @@ fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crat
         let steps = experiment("force-steps", &o, cfg.clone(), &dir, 200.0, true)?;
         let low = experiment("low-force", &o, cfg.clone(), &dir, 200.0, true)?;
         let st = &steps.run.ticks;
-        let settle = metrics::segments(st)
-            .iter()
-            .filter(|g| g.command_g > 0.0)
-            .skip(1)
-            .map(|g| metrics::settling_time_s(st, g, 1.0).unwrap_or(f64::INFINITY))
-            .fold(0.0f64, f64::max);
-        let over = metrics::step_overshoots_g(st)
+        let settle = metrics::step_settling_s(st)
             .into_iter()
             .skip(1)
-            .map(|(_, o)| o)
+            .map(|(_, t)| t.unwrap_or(f64::INFINITY))
+            .fold(0.0f64, f64::max);
+        let overshoots = metrics::step_overshoots_g(st);
+        let over = overshoots
+            .iter()
+            .skip(1)
+            .map(|(_, o)| *o)
             .fold(0.0f32, f32::max);
-        let first = metrics::step_overshoots_g(st)
-            .first()
-            .map_or(f32::NAN, |(_, o)| *o);
+        let first = overshoots.first().map_or(f32::NAN, |(_, o)| *o);
         let touch = metrics::step_overshoots_g(&low.run.ticks)
             .into_iter()
             .filter(|(l, _)| *l > 0.0)

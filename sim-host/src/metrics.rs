@@ -41,12 +41,21 @@ pub fn settling_time_s(ticks: &[TickRecord], seg: &Segment, band_g: f32) -> Opti
     }
 }
 
+/// Each non-zero step of a step protocol, in order: its level and its settling time into
+/// ±1 g (`None`: it never settled).
+pub fn step_settling_s(ticks: &[TickRecord]) -> Vec<(f32, Option<f64>)> {
+    segments(ticks)
+        .iter()
+        .filter(|s| s.command_g > 0.0)
+        .map(|s| (s.command_g, settling_time_s(ticks, s, 1.0)))
+        .collect()
+}
+
 /// Force-steps summary: the worst settling time over the non-zero steps.
 pub fn worst_step_settling_s(ticks: &[TickRecord]) -> Option<f64> {
-    let segs = segments(ticks);
     let mut worst: f64 = 0.0;
-    for s in segs.iter().filter(|s| s.command_g > 0.0) {
-        worst = worst.max(settling_time_s(ticks, s, 1.0)?);
+    for (_, t) in step_settling_s(ticks) {
+        worst = worst.max(t?);
     }
     Some(worst)
 }

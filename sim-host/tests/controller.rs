@@ -78,13 +78,9 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
         .unwrap()
         .ticks;
-    let segments: Vec<_> = metrics::segments(&steps)
-        .into_iter()
-        .filter(|s| s.command_g > 0.0)
-        .collect();
-    for s in segments.iter().skip(1) {
-        let t = metrics::settling_time_s(&steps, s, 1.0).expect("settles");
-        assert!(t <= 0.040, "{} g: {t} s", s.command_g);
+    for (level, t) in metrics::step_settling_s(&steps).into_iter().skip(1) {
+        let t = t.expect("settles");
+        assert!(t <= 0.040, "{level} g: {t} s");
     }
     for (level, over) in metrics::step_overshoots_g(&steps).into_iter().skip(1) {
         assert!(over <= 1.0, "{level} g: overshoot {over} g");
@@ -136,13 +132,9 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         let steps = run_named("force-steps", &ScenarioOptions::default(), cfg, |_| {})
             .unwrap()
             .ticks;
-        for s in metrics::segments(&steps)
-            .iter()
-            .filter(|s| s.command_g > 0.0)
-            .skip(1)
-        {
-            let t = metrics::settling_time_s(&steps, s, 1.0).expect("settles");
-            assert!(t <= 0.040, "{file}, {} g: {t} s", s.command_g);
+        for (level, t) in metrics::step_settling_s(&steps).into_iter().skip(1) {
+            let t = t.expect("settles");
+            assert!(t <= 0.040, "{file}, {level} g: {t} s");
         }
         for (level, over) in metrics::step_overshoots_g(&steps).into_iter().skip(1) {
             assert!(over <= 1.5, "{file}, {level} g: overshoot {over} g");

@@ -335,11 +335,10 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     let run = session.run(spec.name).expect("run decoded");
     is_the_rigs_to_the_bit(run, spec);
     let records = run.tick_records();
-    let settling: Vec<f64> = sim_host::metrics::segments(&records)
-        .iter()
-        .filter(|s| s.command_g > 0.0)
+    let settling: Vec<f64> = sim_host::metrics::step_settling_s(&records)
+        .into_iter()
         .skip(1)
-        .map(|s| sim_host::metrics::settling_time_s(&records, s, 1.0).unwrap_or(f64::INFINITY))
+        .map(|(_, t)| t.unwrap_or(f64::INFINITY))
         .collect();
     let worst = settling.iter().fold(0.0f64, |a, b| a.max(*b));
     eprintln!(
