@@ -66,6 +66,33 @@ pub(crate) fn limit(x: f32, lo: f32, hi: f32) -> f32 {
     x.max(lo).min(hi)
 }
 
+/// Where `x` falls in a schedule of `points` in increasing load (`load_g` of each): the two
+/// points it lies between and its share of the way from the first to the second; the end point
+/// twice (share 0) at or beyond an end, the first for NaN. `None` for no points. Shared by the
+/// scheduled inverse and the designed controller, so a schedule is read one way on the chip.
+#[inline]
+pub(crate) fn bracket<P>(
+    points: &[P],
+    load_g: impl Fn(&P) -> f32,
+    x: f32,
+) -> Option<(&P, &P, f32)> {
+    let (first, last) = (points.first()?, points.last()?);
+    if x.is_nan() || x <= load_g(first) {
+        return Some((first, first, 0.0));
+    }
+    if x >= load_g(last) {
+        return Some((last, last, 0.0));
+    }
+    for pair in points.windows(2) {
+        if let [a, b] = pair {
+            if x < load_g(b) {
+                return Some((a, b, (x - load_g(a)) / (load_g(b) - load_g(a))));
+            }
+        }
+    }
+    Some((last, last, 0.0))
+}
+
 /// Signals the unit tests share.
 #[cfg(test)]
 pub(crate) mod test_support {

@@ -177,31 +177,23 @@ impl TrackingConfig {
     pub fn series_at(&self, load_g: f32) -> ([f32; 4], f32) {
         let n = usize::from(self.points).clamp(1, TRACKING_POINTS);
         let used = self.schedule.get(..n).unwrap_or(&[]);
-        let (Some(first), Some(last)) = (used.first(), used.last()) else {
+        let Some((a, b, t)) = crate::bracket(used, |p| p.load_g, load_g) else {
             return ([1.0, 0.0, 0.0, 0.0], 0.0);
         };
-        if load_g <= first.load_g {
-            let share = if first.load_g > 0.0 {
-                crate::limit(load_g / first.load_g, 0.0, 1.0)
+        if load_g <= a.load_g {
+            // At or below the lightest point (`a` is it): the feedback fades out.
+            let share = if a.load_g > 0.0 {
+                crate::limit(load_g / a.load_g, 0.0, 1.0)
             } else {
                 1.0
             };
-            return (first.c, first.feedback * share);
+            return (a.c, a.feedback * share);
         }
-        for w in used.windows(2) {
-            if let [a, b] = w {
-                if load_g <= b.load_g {
-                    let t = (load_g - a.load_g) / (b.load_g - a.load_g);
-                    let c = core::array::from_fn(|i| {
-                        let (x, y) = (a.c.get(i).copied(), b.c.get(i).copied());
-                        let (x, y) = (x.unwrap_or(0.0), y.unwrap_or(0.0));
-                        x + t * (y - x)
-                    });
-                    return (c, a.feedback + t * (b.feedback - a.feedback));
-                }
-            }
+        let mut c = a.c;
+        for (ci, bi) in c.iter_mut().zip(b.c) {
+            *ci += t * (bi - *ci);
         }
-        (last.c, last.feedback)
+        (c, a.feedback + t * (b.feedback - a.feedback))
     }
 }
 

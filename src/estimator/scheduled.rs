@@ -125,25 +125,12 @@ impl Schedule {
     /// The parameters at `load_g`.
     #[inline]
     pub fn at(&self, load_g: f32) -> ChainStep {
-        let pts = self.points();
-        let (Some(first), Some(last)) = (pts.first(), pts.last()) else {
-            return ChainStep::default();
-        };
-        if load_g.is_nan() || load_g <= first.load_g {
-            return *first;
+        match crate::bracket(self.points(), |p| p.load_g, load_g) {
+            // At an end, the point itself (no interpolation to round).
+            Some((a, _, 0.0)) => *a,
+            Some((a, b, w)) => a.lerp(b, w),
+            None => ChainStep::default(),
         }
-        if load_g >= last.load_g {
-            return *last;
-        }
-        for pair in pts.windows(2) {
-            if let [a, b] = pair {
-                if load_g < b.load_g {
-                    let w = (load_g - a.load_g) / (b.load_g - a.load_g);
-                    return a.lerp(b, w);
-                }
-            }
-        }
-        *last
     }
 }
 
