@@ -295,7 +295,7 @@ pub fn fit_taxel(
         mean_miss_pct: whole.mean_miss_pct,
         levels,
         range_g,
-        alpha_prior_share: whole.alpha_prior_share,
+        alpha_prior_share: alpha_prior_share(&frames, &everything, &knots, &whole),
         held_out_g: held_out,
         nominal_held_out_g: nominal_held_out,
         estimator: model.estimator.name().to_string(),
@@ -398,8 +398,6 @@ struct ElementFit {
     /// RMS and mean of (measured − predicted) strain over the fitted samples, percent.
     rms_pct: f64,
     mean_miss_pct: f64,
-    /// How much of the fit's knowledge of α is its prior's (0: all the record's).
-    alpha_prior_share: f64,
 }
 
 /// Internal parameters of a spring: the log mean compliance (%/g) of each segment between its
@@ -581,27 +579,11 @@ fn fit_element(
     knots: &[f32; CURVE_KNOTS],
     start: Option<&[f64]>,
 ) -> Option<ElementFit> {
-    let fit_index: Vec<usize> = (0..frames.force.len()).filter(|&i| in_fit[i]).collect();
     let starts: Vec<Vec<f64>> = match start {
         Some(t) => vec![t.to_vec()],
         None => nominal_starts(frames, knots),
     };
-    let forward_index: Vec<usize> = fit_index.iter().copied().step_by(FORWARD_STEP).collect();
-    let forward_g_per_pct = top_secant_g_per_pct(frames);
-    let problem_at = |theta: &[f64]| {
-        let mut problem = ElementProblem {
-            frames,
-            knots: *knots,
-            smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
-            forward_g_per_pct,
-            forward_index: forward_index.clone(),
-            theta: DVector::from_column_slice(theta),
-            prediction: None,
-            fit_index: fit_index.clone(),
-        };
-        problem.set_params(&DVector::from_column_slice(theta));
-        problem
-    };
+    let problem_at = element_problem(frames, in_fit, knots);
     let solve = |theta: Vec<f64>| {
         let (solved, report) = LevenbergMarquardt::new()
             .with_patience(PATIENCE)
@@ -622,18 +604,53 @@ fn fit_element(
     let (_, theta) = best?;
     let element = element_of(&theta, knots)?;
     let pred = simulate(&element, &frames.force, frames.dt_s);
-    let miss: Vec<f64> = fit_index
-        .iter()
-        .map(|&i| frames.strain[i] - pred[i])
+    let miss: Vec<f64> = (0..frames.force.len())
+        .filter(|&i| in_fit[i])
+        .map(|i| frames.strain[i] - pred[i])
         .collect();
-    let alpha_prior_share = problem_at(&theta).alpha_prior_share();
     Some(ElementFit {
         element,
         theta,
         rms_pct: tactile_ident::stats::rms(&miss),
         mean_miss_pct: tactile_ident::stats::mean(&miss),
-        alpha_prior_share,
     })
+}
+
+/// The fit's problem over the samples `in_fit` of `frames`, set at a given θ.
+fn element_problem<'a>(
+    frames: &'a Frames,
+    in_fit: &[bool],
+    knots: &[f32; CURVE_KNOTS],
+) -> impl Fn(&[f64]) -> ElementProblem<'a> {
+    let fit_index: Vec<usize> = (0..frames.force.len()).filter(|&i| in_fit[i]).collect();
+    let forward_index: Vec<usize> = fit_index.iter().copied().step_by(FORWARD_STEP).collect();
+    let forward_g_per_pct = top_secant_g_per_pct(frames);
+    let knots = *knots;
+    move |theta: &[f64]| {
+        let mut problem = ElementProblem {
+            frames,
+            knots,
+            smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
+            forward_g_per_pct,
+            forward_index: forward_index.clone(),
+            theta: DVector::from_column_slice(theta),
+            prediction: None,
+            fit_index: fit_index.clone(),
+        };
+        problem.set_params(&DVector::from_column_slice(theta));
+        problem
+    }
+}
+
+/// How much of what `fit` (to the samples `in_fit`) knows of α is its prior's; see
+/// [`ElementProblem::alpha_prior_share`]. Only the reported fit needs it: one more Jacobian.
+fn alpha_prior_share(
+    frames: &Frames,
+    in_fit: &[bool],
+    knots: &[f32; CURVE_KNOTS],
+    fit: &ElementFit,
+) -> f64 {
+    element_problem(frames, in_fit, knots)(&fit.theta).alpha_prior_share()
 }
 
 /// The record's stiffness at the top of its range (g/%): its 99.5th percentiles of force and
@@ -782,8 +799,9 @@ mod tests {
         let share = |hold_s: usize| {
             let frames = creep_record(hold_s);
             let all = vec![true; frames.force.len()];
-            let fit = fit_element(&frames, &all, &knots_for(50.0), None).unwrap();
-            fit.alpha_prior_share
+            let knots = knots_for(50.0);
+            let fit = fit_element(&frames, &all, &knots, None).unwrap();
+            alpha_prior_share(&frames, &all, &knots, &fit)
         };
         let (long, short) = (share(3000), share(20));
         eprintln!("prior's share of α: 3 000 s hold {long:.3}, 20 s hold {short:.3}");
