@@ -356,20 +356,15 @@ pub fn design(
         .collect();
     all.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
     all.truncate(TRACKING_POINTS);
-    let models = &all[..];
     // The gains from the identified loads; each extrapolated light load gets the share of them
     // its margins allow.
-    let identified: Vec<LoadModel> = models
-        .iter()
-        .filter(|m| m.load_g >= lightest)
-        .copied()
-        .collect();
-    let ok = |kp: f64, ki: f64| {
-        identified.iter().all(|m| {
-            let mg = loop_margins(kp, ki, |hz| m.model.response(hz));
-            mg.gain >= GAIN_MARGIN && mg.phase_deg >= PHASE_MARGIN_DEG
-        })
+    let identified = models;
+    let models = &all[..];
+    let passes = |m: &LoadModel, kp: f64, ki: f64| {
+        let mg = loop_margins(kp, ki, |hz| m.model.response(hz));
+        mg.gain >= GAIN_MARGIN && mg.phase_deg >= PHASE_MARGIN_DEG
     };
+    let ok = |kp: f64, ki: f64| identified.iter().all(|m| passes(m, kp, ki));
     // The largest integral gain for each proportional gain on a grid; the pair with the most
     // integral action (what the steady state and the stiction need).
     let mut best: Option<(f64, f64)> = None;
@@ -398,10 +393,7 @@ pub fn design(
             margin: worst.1,
         });
     };
-    let holds = |m: &LoadModel, share: f64| {
-        let mg = loop_margins(share * kp, share * ki, |hz| m.model.response(hz));
-        mg.gain >= GAIN_MARGIN && mg.phase_deg >= PHASE_MARGIN_DEG
-    };
+    let holds = |m: &LoadModel, share: f64| passes(m, share * kp, share * ki);
     let share_at = |m: &LoadModel| {
         if holds(m, 1.0) {
             1.0
