@@ -2,6 +2,7 @@
 //! regressors, forward selection by blocked cross-validation with a paired test over folds.
 
 use std::fmt::Write as _;
+use std::rc::Rc;
 
 use serde::Serialize;
 
@@ -293,6 +294,20 @@ impl Work<'_> {
         j
     }
 
+    /// Adds a term computed from `recipe` wherever it is read (see `Pool::add_computed`).
+    fn add_computed(
+        &mut self,
+        term: Term,
+        recipe: impl Fn() -> Vec<f64> + 'static,
+        sign: Sign,
+    ) -> usize {
+        let name = format!("{term:?}");
+        let recipe = move || recipe().into_iter().map(|v| v as f32).collect();
+        let j = self.pool.add_computed(name, recipe, sign);
+        self.terms.push(term);
+        j
+    }
+
     fn residual(&self, cols: &[usize], beta: &[f64]) -> Vec<f64> {
         // In place over the prediction: a 600 s record at 1 kHz has no room for two copies.
         let mut r = self.pool.predict(cols, beta);
@@ -512,7 +527,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let before_tests = state.tests.clone();
     let mut candidates = Vec::new();
 
-    // Candidate columns that do not depend on the current model: built once.
+    // Candidate columns that do not depend on the current model: one pass over the force each,
+    // computed where they are read rather than stored.
+    let force: Rc<[f64]> = s.force_g.as_slice().into();
     let slow: Vec<usize> = if t_s / 2.0 > 1.5 * settings.base_tau_max_s {
         grid(
             settings.base_tau_max_s * 1.5,
@@ -521,8 +538,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         )
         .into_iter()
         .map(|tau| {
-            let v = terms::lowpass(&s.force_g, tau, dt);
-            work.add(Term::SlowRelaxation(tau), &v, Sign::NonNegative)
+            let f = Rc::clone(&force);
+            let recipe = move || terms::lowpass(&f, tau, dt);
+            work.add_computed(Term::SlowRelaxation(tau), recipe, Sign::NonNegative)
         })
         .collect()
     } else {
@@ -549,7 +567,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     radius_g: r,
                     settled,
                 };
-                (swing > 0.01 * r).then(|| work.add(term, &v, Sign::Free))
+                let f = Rc::clone(&force);
+                let recipe = move || terms::play(&f, r, settled);
+                (swing > 0.01 * r).then(|| work.add_computed(term, recipe, Sign::Free))
             })
             .collect()
     });
