@@ -98,9 +98,10 @@ fn main() {
         );
     }
     println!(
-        "kp {:.3}, ki {:.1}/s, friction {:.2} g ({:.1} s)",
-        d.kp,
-        d.ki_per_s,
+        "kp {:.3}, ki {:.1}/s, filter {:?}, friction {:.2} g ({:.1} s)",
+        d.feedback.kp,
+        d.feedback.ki_per_s,
+        d.feedback.filter,
         d.config.friction_g,
         t0.elapsed().as_secs_f64()
     );

@@ -335,20 +335,30 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     let run = session.run(spec.name).expect("run decoded");
     is_the_rigs_to_the_bit(run, spec);
     let records = run.tick_records();
-    let settling: Vec<f64> = sim_host::metrics::step_settling_s(&records)
+    let mut settling: Vec<f64> = sim_host::metrics::step_settling_s(&records)
         .into_iter()
         .skip(1)
         .map(|(_, t)| t.unwrap_or(f64::INFINITY))
         .collect();
-    let worst = settling.iter().fold(0.0f64, |a, b| a.max(*b));
+    settling.sort_by(f64::total_cmp);
     eprintln!(
-        "{}: worst settling into ±1 g after the first step {:.0} ms",
+        "{}: settling into ±1 g after the first step (ms): {:?}",
         spec.name,
-        worst * 1e3
+        settling
+            .iter()
+            .map(|t| (t * 1e3).round())
+            .collect::<Vec<_>>()
     );
-    assert!(worst <= 0.040, "{}: {settling:?}", spec.name);
+    // As on the host (sim-host/tests/controller.rs): all but one within 30 ms (measured
+    // 15–22 ms), the 100 → 90 g step within 70 ms (61 ms).
+    let n = settling.len();
+    assert!(
+        n > 1 && settling[n - 2] <= 0.030 && settling[n - 1] <= 0.070,
+        "{}: {settling:?}",
+        spec.name
+    );
     // The control tick, the designed controller's runs included: within the 2 000
-    // instructions (measured 553–1 517 over the session; A1's alone were 505–1 190).
+    // instructions (measured at most 1 553 over the session; A1's alone were 505–1 190).
     let control_tick_max: u32 = session
         .notes
         .iter()

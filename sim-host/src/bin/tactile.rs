@@ -391,16 +391,17 @@ fn run(command: Command) -> Result<(), Error> {
                 };
                 outln!("{:5} g ({source}): {}", m.load_g, m.model);
                 outln!(
-                    "        feedback share {:.2}: gain margin {:.2}, phase margin {:.0}°",
+                    "        feedback share {:.2}: least margins with the model 20 % off: gain {:.2}, phase {:.0}°",
                     p.feedback,
                     mg.gain,
                     mg.phase_deg
                 );
             }
             outln!(
-                "feedback kp {:.3}, ki {:.1}/s; stiction compensated {:.2} g; reference model {} Hz",
-                d.kp,
-                d.ki_per_s,
+                "feedback kp {:.3}, ki {:.1}/s through {:?}; stiction compensated {:.2} g; reference model {} Hz",
+                d.feedback.kp,
+                d.feedback.ki_per_s,
+                d.feedback.filter,
                 d.config.friction_g,
                 d.config.reference_hz
             );
