@@ -98,7 +98,7 @@ fn main() {
         );
     }
     println!(
-        "kp {:.3}, ki {:.1}/s, filter {:?}, friction {:.2} g ({:.1} s)",
+        "kp {:.3}, ki {:.1}/s, {}, friction {:.2} g ({:.1} s)",
         d.feedback.kp,
         d.feedback.ki_per_s,
         d.feedback.filter,

@@ -429,7 +429,7 @@ fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crat
     let mut s = String::from("\n## The designed force controller beside A1 (`tactile design`)\n\n");
     let _ = writeln!(
         s,
-        "Identified at six preloads (static gain {:.3}, stiction {:.2} g from the holds); feedback kp {:.2}, ki {:.1}/s on the error through {:?}; a triple-pole reference at {} Hz; the model's inverse as a series in s, scheduled on load (docs/design.md). A1 runs with K_e = {} as everywhere else.\n",
+        "Identified at six preloads (static gain {:.3}, stiction {:.2} g from the holds); feedback kp {:.2}, ki {:.1}/s on the error through {}; a triple-pole reference at {} Hz; the model's inverse as a series in s, scheduled on load (docs/design.md). A1 runs with K_e = {} as everywhere else.\n",
         r.identified.static_gain,
         r.identified.stiction_g,
         r.design.feedback.kp,

@@ -380,6 +380,18 @@ impl ErrorFilter {
     }
 }
 
+impl std::fmt::Display for ErrorFilter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ErrorFilter::Pass => write!(f, "no filter"),
+            ErrorFilter::Notch { hz, damping } => {
+                write!(f, "a notch at {hz:.0} Hz (poles damped {damping})")
+            }
+            ErrorFilter::Lowpass { hz } => write!(f, "a double pole at {hz:.0} Hz"),
+        }
+    }
+}
+
 /// (b₀ + b₁z⁻¹ + b₂z⁻²)/(1 + a₁z⁻¹ + a₂z⁻²) at `z_inv`.
 fn biquad_at([b0, b1, b2, a1, a2]: [f64; 5], z_inv: Complex64) -> Complex64 {
     (b0 + z_inv * (b1 + z_inv * b2)) / (1.0 + z_inv * (a1 + z_inv * a2))

@@ -398,7 +398,7 @@ fn run(command: Command) -> Result<(), Error> {
                 );
             }
             outln!(
-                "feedback kp {:.3}, ki {:.1}/s through {:?}; stiction compensated {:.2} g; reference model {} Hz",
+                "feedback kp {:.3}, ki {:.1}/s through {}; stiction compensated {:.2} g; reference model {} Hz",
                 d.feedback.kp,
                 d.feedback.ki_per_s,
                 d.feedback.filter,
