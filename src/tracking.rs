@@ -11,10 +11,11 @@
 //!   mode and the amplifier's pole and a few per cent off at 40 Hz for the beam.
 //! - **Feedback**: proportional and integral action on the error against the reference force
 //!   `delay_ticks` ago (the loop's delay: the feedback must not fight the feed-forward for what
-//!   no controller can have earlier), the error through a biquad the design chooses (a notch
-//!   at the beam's mode: the gauge sits on the beam, whose mode is barely damped; unfiltered, a
-//!   gain of 0.2 left a gain margin of 0.6–1.0 on the friction-free plant). Its gains are set
-//!   by the margins; it removes what the model and the stiction leave.
+//!   no controller can have earlier), the error through a biquad the design chooses (none, a
+//!   notch at the beam's mode or a low-pass: the gauge sits on the beam, whose mode is barely
+//!   damped; unfiltered, a gain of 0.2 left a gain margin of 0.6–1.0 on the friction-free
+//!   plant). Its gains are set by the margins; it removes what the model and the stiction
+//!   leave.
 //!
 //! While the supervisor re-approaches the finger, the integral holds (the gauge reads the tip's
 //! inertia in the air, not a force to correct).

@@ -287,8 +287,6 @@ pub struct Margins {
 
 /// The band the closed loop must be flat in, Hz.
 pub const BAND_HZ: f64 = 40.0;
-/// The sensitivity's largest peak allowed in the band, dB.
-pub const BAND_SENSITIVITY_DB: f64 = 1.0;
 
 /// The margins of the loop `l` given on [`loop_grid_hz`].
 pub fn margins(l: &[Complex64]) -> Margins {
@@ -353,7 +351,7 @@ impl ErrorFilter {
     /// prewarped to its frequency; the poles matched, e^(−ωT)).
     pub fn biquad(&self) -> [f64; 5] {
         match *self {
-            ErrorFilter::Pass => [1.0, 0.0, 0.0, 0.0, 0.0],
+            ErrorFilter::Pass => tactile_core::tracking::FEEDBACK_PASS.map(f64::from),
             ErrorFilter::Notch { hz, damping } => {
                 let w = 2.0 * std::f64::consts::PI * hz;
                 let k = w / (w * TICK_S / 2.0).tan();
@@ -372,11 +370,6 @@ impl ErrorFilter {
                 [(1.0 - a) * (1.0 - a), 0.0, 0.0, -2.0 * a, a * a]
             }
         }
-    }
-
-    /// The biquad's response at `z⁻¹`.
-    fn at(&self, z_inv: Complex64) -> Complex64 {
-        biquad_at(self.biquad(), z_inv)
     }
 }
 
@@ -397,16 +390,20 @@ fn biquad_at([b0, b1, b2, a1, a2]: [f64; 5], z_inv: Complex64) -> Complex64 {
     (b0 + z_inv * (b1 + z_inv * b2)) / (1.0 + z_inv * (a1 + z_inv * a2))
 }
 
+/// The feedback's response at `hz`: (kp + ki·T/(1 − z⁻¹))·F(z)·z⁻¹, F the biquad on the
+/// error and z⁻¹ the tick the loop waits for the reading; as `tactile_core::tracking` runs it.
+fn feedback_at(kp: f64, ki_per_s: f64, biquad: [f64; 5], hz: f64) -> Complex64 {
+    let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * TICK_S);
+    (kp + ki_per_s * TICK_S / (1.0 - z_inv)) * biquad_at(biquad, z_inv) * z_inv
+}
+
 /// The feedback a controller table runs at `load_g` (its share there), as [`Feedback::response`]
 /// computes a design's: to check a table on a plant it was not designed on.
 pub fn table_feedback(c: &TrackingConfig, load_g: f32) -> impl Fn(f64) -> Complex64 {
     let share = f64::from(c.series_at(load_g).1);
     let (kp, ki) = (share * f64::from(c.kp), share * f64::from(c.ki_per_s));
     let biquad = c.feedback_filter.map(f64::from);
-    move |hz| {
-        let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * TICK_S);
-        (kp + ki * TICK_S / (1.0 - z_inv)) * biquad_at(biquad, z_inv) * z_inv
-    }
+    move |hz| feedback_at(kp, ki, biquad, hz)
 }
 
 /// The controller's feedback: what the margins are computed for.
@@ -418,7 +415,7 @@ pub struct Feedback {
 }
 
 impl Feedback {
-    /// The gains times `share` (a load's feedback share), the pole unchanged.
+    /// The gains times `share` (a load's feedback share), the filter unchanged.
     pub fn scaled(self, share: f64) -> Feedback {
         Feedback {
             kp: share * self.kp,
@@ -427,11 +424,9 @@ impl Feedback {
         }
     }
 
-    /// The response at `hz`: (kp + ki·T/(1 − z⁻¹))·F(z), with the tick it waits for the
-    /// reading (z⁻¹); as `tactile_core::tracking` computes it.
+    /// The response at `hz` ([`feedback_at`]).
     pub fn response(&self, hz: f64) -> Complex64 {
-        let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * TICK_S);
-        (self.kp + self.ki_per_s * TICK_S / (1.0 - z_inv)) * self.filter.at(z_inv) * z_inv
+        feedback_at(self.kp, self.ki_per_s, self.filter.biquad(), hz)
     }
 }
 
@@ -566,19 +561,18 @@ pub fn design(
     let identified_models = models;
     let identified: Vec<Vec<Complex64>> = models.iter().flat_map(family).collect();
     let models = &all[..];
-    let worst = |fb: Feedback, plants: &[Vec<Complex64>]| {
-        let c: Vec<Complex64> = grid.iter().map(|hz| fb.response(*hz)).collect();
-        worst_margins(plants, &c)
-    };
+    let on_grid =
+        |fb: Feedback| -> Vec<Complex64> { grid.iter().map(|hz| fb.response(*hz)).collect() };
+    let worst = |fb: Feedback, plants: &[Vec<Complex64>]| worst_margins(plants, &on_grid(fb));
     // Stops at the first plant that fails (the search's inner loop).
     let passes = |fb: Feedback, plants: &[Vec<Complex64>]| {
-        let c: Vec<Complex64> = grid.iter().map(|hz| fb.response(*hz)).collect();
+        let c = on_grid(fb);
         plants.iter().all(|p| {
             let m = worst_margins(std::slice::from_ref(p), &c);
             m.gain >= GAIN_MARGIN && m.phase_deg >= PHASE_MARGIN_DEG
         })
     };
-    // For each proportional gain and pole on a grid, the largest integral gain the margins
+    // For each filter and proportional gain on a grid, the largest integral gain the margins
     // allow; of those with integral action enough for the stiction, the one whose sensitivity
     // peaks least in the band (the feedback's job there is what the feed-forward leaves).
     let nominal: Vec<Vec<Complex64>> = models
@@ -792,10 +786,10 @@ mod tests {
     #[test]
     fn the_error_filters_pass_the_static_error_and_the_notch_removes_its_frequency() {
         let at = |f: ErrorFilter, hz: f64| {
-            f.at(Complex64::from_polar(
-                1.0,
-                -2.0 * std::f64::consts::PI * hz * TICK_S,
-            ))
+            biquad_at(
+                f.biquad(),
+                Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * TICK_S),
+            )
         };
         for f in [
             ErrorFilter::Pass,
