@@ -504,8 +504,29 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             .collect::<Vec<_>>(),
         dt,
     );
-    let floor = stats::noise_variance(&s.kept(work.pool.y()), window)
-        + energy * force_noise * force_noise_passed;
+    let passed_var = force_noise * force_noise_passed;
+    let floor = stats::noise_variance(&s.kept(work.pool.y()), window) + energy * passed_var;
+    // A candidate's fold errors less the force noise it passes beyond the current model's: a
+    // model that smooths the force (the baseline standing in for a delay with a fast branch)
+    // wins the quiet folds by passing less of the reference's noise, not by fitting the finger
+    // better.
+    let energy_of = |work: &Work, sc: &Scored| -> f64 {
+        impulse_energy(
+            &sc.columns
+                .iter()
+                .zip(&sc.beta)
+                .map(|(c, b)| (work.terms[*c], *b))
+                .collect::<Vec<_>>(),
+            dt,
+        )
+    };
+    let noise_matched = |work: &Work, sc: &Scored, to: &Scored| -> Vec<f64> {
+        let extra = (energy_of(work, sc) - energy_of(work, to)) * passed_var;
+        sc.fold_mse
+            .iter()
+            .map(|m| (m - extra).max(0.5 * m))
+            .collect()
+    };
     let mut state = State {
         delay_s: 0.0,
         cols: base.clone(),
@@ -824,7 +845,10 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         let mut passed = Vec::new();
         for (i, (t, sc)) in best.iter().enumerate() {
             let (effect, variant) = (&t.effect, &t.variant);
-            let d = fold_gains(&state.scored.fold_mse, &sc.fold_mse);
+            let d = fold_gains(
+                &state.scored.fold_mse,
+                &noise_matched(&work, sc, &state.scored),
+            );
             let p = stats::paired_p_value(&d);
             let gain = state.scored.cv_mse - sc.cv_mse;
             let excess = (state.scored.cv_mse - floor).max(0.0);
@@ -872,7 +896,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             // By the bar an effect clears against the model without it: consistently over
             // the folds, and a share of what the simpler one leaves above the floor.
             let beats = |a: &Scored, b: &Scored| {
-                paired(&fold_gains(&b.fold_mse, &a.fold_mse)) < settings.alpha
+                paired(&fold_gains(&b.fold_mse, &noise_matched(&work, a, b))) < settings.alpha
                     && b.cv_mse - a.cv_mse
                         >= settings.min_excess_share * (b.cv_mse - floor).max(0.0)
             };
@@ -942,7 +966,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .filter(|c| !state.groups[i].1.contains(c))
                 .collect();
             let sc = work.pool.score(&without);
-            let d = fold_gains(&sc.fold_mse, &state.scored.fold_mse);
+            let d = fold_gains(&sc.fold_mse, &noise_matched(&work, &state.scored, &sc));
             let gain = sc.cv_mse - state.scored.cv_mse;
             let excess = (sc.cv_mse - floor).max(0.0);
             let needed = stats::paired_p_value(&d) < settings.alpha
