@@ -305,6 +305,11 @@ impl ForceLoop {
         let mean_command_g =
             self.recent_command_g.iter().sum::<f32>() / self.recent_command_g.len() as f32;
         let mut shaped_g = shaped_probe;
+        // The designed controller's own touch-down: the reading is expected to lag the command
+        // (not a contact loss), and a finger not found within the contact limit latches.
+        let (touching_down, searching) = self.tracking.as_ref().map_or((false, false), |t| {
+            (t.touching_down(), !t.landed() && shaped_probe > 0.0)
+        });
         if self.approaching {
             // In the air the gauge reads the tip's inertia, about a third of the approach force,
             // under the beam's ringing; on the finger it reads the approach force itself. The
@@ -326,7 +331,10 @@ impl ForceLoop {
                 }
                 shaped_g = self.slew.update(command_g);
             }
-        } else if mean_g < 0.5 * mean_command_g && mean_command_g > s.contact_command_g {
+        } else if !touching_down
+            && mean_g < 0.5 * mean_command_g
+            && mean_command_g > s.contact_command_g
+        {
             self.off_finger_ticks = self.off_finger_ticks.saturating_add(1);
             if self.off_finger_ticks >= s.contact_ticks {
                 self.approaching = true;
@@ -336,6 +344,11 @@ impl ForceLoop {
                 // The release test must see only readings taken during the approach (a ringing
                 // sample from before would release it at once).
                 self.recent_g = [0.0; 32];
+                // The designed controller touches down again (a force command in the air
+                // accelerates the probe into the finger).
+                if let Some(t) = &mut self.tracking {
+                    t.lift();
+                }
             }
         } else {
             self.off_finger_ticks = 0;
@@ -344,13 +357,16 @@ impl ForceLoop {
             faults.insert(FaultFlags::CONTACT_LOST | FaultFlags::APPROACHING);
             self.in_contact_ticks = 0;
             shaped_g = shaped_g.min(s.approach_g);
+        } else if searching {
+            faults.insert(FaultFlags::APPROACHING);
+            self.in_contact_ticks = 0;
         } else if self.approach_ticks > 0 {
             self.in_contact_ticks = self.in_contact_ticks.saturating_add(1);
             if self.in_contact_ticks >= SETTLED_CONTACT_TICKS {
                 self.approach_ticks = 0;
             }
         }
-        if self.approaching || self.approach_ticks > 0 {
+        if self.approaching || searching || self.approach_ticks > 0 {
             self.approach_ticks = self.approach_ticks.saturating_add(1);
             if self.approach_ticks >= s.contact_latch_ticks {
                 self.latched.insert(FaultFlags::CONTACT_LOST);

@@ -20,6 +20,21 @@
 //! While the supervisor re-approaches the finger, the integral holds (the gauge reads the tip's
 //! inertia in the air, not a force to correct).
 //!
+//! - **Touch-down**: the gauge reads nothing of the gap, so force control cannot tell flight
+//!   from a rest on the finger, and in flight it accelerates the probe until it strikes (from
+//!   1 mm off the memo rig's finger, a 10 g command landed at 34 g). Until the gauge reads
+//!   contact the drive is a train of pulses instead: [`APPROACH_TICKS`] ticks at the
+//!   stiction (`approach_hold_g`) and a smooth push on it ([`APPROACH_SHAPE`], peaking at
+//!   `approach_push_g`), then a smooth brake as long (peaking at `approach_brake_g`).
+//!   Each push gives the probe a bounded momentum (what the push has beyond the friction, over
+//!   its length), and the brake takes it back (or the friction does), so the probe steps toward
+//!   the finger at a bounded speed however far off it is, and strikes it with that momentum at
+//!   most. Contact is [`CONTACT_COUNT`] of the last [`CONTACT_TICKS`] readings at `contact_g`. Force control then starts
+//!   from the reading, the command ramping up from it ([`TOUCH_RATE_G_PER_S`], [`TOUCH_TAU_S`]). A command at or
+//!   below zero rests the probe (no drive); once no recent reading is at `contact_g`, the next
+//!   command touches down again. A rig whose friction has grown past the push since it was
+//!   identified does not move: the supervisor's contact limit latches.
+//!
 //! ```
 //! use tactile_core::tracking::{Tracking, TrackingConfig};
 //! // A plant that is a unit gain: c = (1, 0, 0, 0) at every load.
@@ -40,6 +55,40 @@ pub const TRACKING_POINTS: usize = 9;
 pub const FRICTION_RATE_G_PER_S: f32 = 20.0;
 /// Ticks of reference kept for the feedback's comparison.
 const HISTORY: usize = 8;
+/// Ticks of each half of a touch-down pulse (push, then brake).
+pub const APPROACH_TICKS: u16 = 10;
+/// The pulses' shape over their [`APPROACH_TICKS`] ticks: sin²(π(k + ½)/10), a Hann window
+/// (its mean is ½). A square pulse's edges ring the free beam (±1.2 g on the memo rig, damped
+/// over 0.1 s), which the contact test would have to see through.
+pub const APPROACH_SHAPE: [f32; APPROACH_TICKS as usize] = [
+    0.024471742,
+    0.206_107_38,
+    0.5,
+    0.7938926,
+    0.97552826,
+    0.97552826,
+    0.7938926,
+    0.5,
+    0.206_107_38,
+    0.024471742,
+];
+/// Readings the contact test looks at, and how many of them must reach `contact_g`: the free
+/// beam rings at the pulses' edges (±1.2 g on the memo rig, slowly damped) about the tip's
+/// inertia, and a ringing reading spends under half its time above a small threshold; on the
+/// finger the force stays there.
+pub const CONTACT_TICKS: usize = 8;
+pub const CONTACT_COUNT: usize = 6;
+/// A command that rises from below [`TOUCH_END_G`] (a touch-down, a step up from a light
+/// load) ramps up at this rate, g/s, plus the force reached over [`TOUCH_TAU_S`] (a ramp that
+/// grows as the finger stiffens: 150 g/s at 10 g, 550 g/s at 50 g) until it meets the command.
+/// The reference's
+/// acceleration at the start of a step meets the lightest loads' inverse, the largest (their
+/// mode is the lowest): at the protocols' 500 g/s, a step from rest on the memo rig was a
+/// drive spike of about 25 g and landed 1.4–2.5 g over.
+pub const TOUCH_RATE_G_PER_S: f32 = 50.0;
+/// Below this force a rise ramps, g (the lightest load the design identifies).
+pub const TOUCH_END_G: f32 = 10.0;
+pub const TOUCH_TAU_S: f32 = 0.1;
 
 /// The controller at one load: the plant's inverse as a series in s, drive grams per gram of
 /// force and of its first three derivatives (c₀ in g/g, c₁ in s, c₂ in s², c₃ in s³), and the
@@ -76,6 +125,14 @@ pub struct TrackingConfig {
     pub feedback_filter: [f32; 5],
     /// The integral's bound, drive g (what stiction and the model's gain error can need).
     pub integral_limit_g: f32,
+    /// Touch-down: the drive held through a push (the identified stiction), g; what the push
+    /// adds at its peak (what bounds the probe's momentum), g; the brake's peak, g (≤ 0).
+    pub approach_hold_g: f32,
+    pub approach_push_g: f32,
+    pub approach_brake_g: f32,
+    /// The reading that means the probe is on the finger ([`CONTACT_COUNT`] of the last
+    /// [`CONTACT_TICKS`] at it), g; zero: no touch-down (a plant always in contact).
+    pub contact_g: f32,
     /// Actuator range for the drive, g at the probe.
     pub drive_min_g: f32,
     pub drive_max_g: f32,
@@ -118,6 +175,10 @@ impl TrackingConfig {
         delay_ticks: 2,
         feedback_filter: FEEDBACK_PASS,
         integral_limit_g: 10.0,
+        approach_hold_g: 0.0,
+        approach_push_g: 0.5,
+        approach_brake_g: -0.5,
+        contact_g: 0.0,
         drive_min_g: -192.0,
         drive_max_g: 192.0,
     };
@@ -143,6 +204,10 @@ impl TrackingConfig {
         non_negative(self.ki_per_s, "ki_per_s")?;
         non_negative(self.integral_limit_g, "integral_limit_g")?;
         non_negative(self.friction_g, "friction_g")?;
+        non_negative(self.approach_hold_g, "approach_hold_g")?;
+        positive(self.approach_push_g, "approach_push_g")?;
+        non_negative(-self.approach_brake_g, "approach_brake_g")?;
+        non_negative(self.contact_g, "contact_g")?;
         // Stable: both poles inside the unit circle (the triangle a₂ < 1, |a₁| < 1 + a₂).
         let [b0, b1, b2, a1, a2] = self.feedback_filter;
         if ![b0, b1, b2, a1, a2].iter().all(|v| v.is_finite()) || a2 >= 1.0 || a1.abs() >= 1.0 + a2
@@ -213,11 +278,11 @@ impl TrackingConfig {
 /// The controller table's header (what the firmware checks at start-up, as it checks the
 /// calibration table): `TCTL`, version, then the delay in ticks and the schedule's length.
 pub const TABLE_MAGIC: [u8; 4] = *b"TCTL";
-pub const TABLE_VERSION: u16 = 2;
+pub const TABLE_VERSION: u16 = 3;
 const TABLE_HEADER_BYTES: usize = 8;
-/// dt, reference, kp, ki, friction, integral bound, drive range, the feedback's biquad; then
-/// per point load, c₀…c₃, feedback share.
-const TABLE_SCALARS: usize = 13;
+/// dt, reference, kp, ki, friction, integral bound, drive range, the feedback's biquad, the
+/// touch-down's hold, push, brake and contact; then per point load, c₀…c₃, feedback share.
+const TABLE_SCALARS: usize = 17;
 /// The biquad that passes the error unchanged.
 pub const FEEDBACK_PASS: [f32; 5] = [1.0, 0.0, 0.0, 0.0, 0.0];
 const POINT_FLOATS: usize = 6;
@@ -255,6 +320,10 @@ impl TrackingConfig {
             self.feedback_filter[2],
             self.feedback_filter[3],
             self.feedback_filter[4],
+            self.approach_hold_g,
+            self.approach_push_g,
+            self.approach_brake_g,
+            self.contact_g,
         ];
         let points = self
             .schedule
@@ -318,6 +387,10 @@ impl TrackingConfig {
             drive_min_g: f(6),
             drive_max_g: f(7),
             feedback_filter: [f(8), f(9), f(10), f(11), f(12)],
+            approach_hold_g: f(13),
+            approach_push_g: f(14),
+            approach_brake_g: f(15),
+            contact_g: f(16),
             schedule: core::array::from_fn(point),
             points: all.get(7).copied().unwrap_or(0),
             delay_ticks: all.get(6).copied().unwrap_or(0),
@@ -380,6 +453,16 @@ pub struct Tracking {
     integral_g: f32,
     /// The feedback biquad's state (transposed direct form II).
     filter_state: [f32; 2],
+    /// On the finger (force control) or touching down.
+    landed: bool,
+    /// Ticks since the touch-down began.
+    approach_tick: u16,
+    /// The last readings, for the contact test.
+    recent_g: [f32; CONTACT_TICKS],
+    recent_head: usize,
+    /// The most the command may be while it ramps up from a light load, g, and whether it is.
+    ramp_g: f32,
+    ramping: bool,
 }
 
 /// What one tick of the controller decided, besides the drive.
@@ -408,6 +491,12 @@ impl Tracking {
             head: 0,
             integral_g: 0.0,
             filter_state: [0.0; 2],
+            landed: config.contact_g <= 0.0,
+            approach_tick: 0,
+            recent_g: [0.0; CONTACT_TICKS],
+            recent_head: 0,
+            ramp_g: 0.0,
+            ramping: false,
         })
     }
 
@@ -422,6 +511,27 @@ impl Tracking {
         self.history = [0.0; HISTORY];
         self.integral_g = 0.0;
         self.filter_state = [0.0; 2];
+        self.lift();
+    }
+
+    /// The probe may be off the finger (start, safe output, contact lost): the next command
+    /// touches down.
+    pub fn lift(&mut self) {
+        // A table without a contact force has no touch-down (a plant that is always in
+        // contact, as the unit plant of the tests).
+        self.landed = self.config.contact_g <= 0.0;
+        self.approach_tick = 0;
+        self.recent_g = [0.0; CONTACT_TICKS];
+    }
+
+    /// On the finger, under force control.
+    pub fn landed(&self) -> bool {
+        self.landed
+    }
+
+    /// Touching down: off the finger, or on it with the command ramping up from a light load.
+    pub fn touching_down(&self) -> bool {
+        !self.landed || self.ramping
     }
 
     /// Starts the reference from `force_g` at rest (after a re-approach: from where the force
@@ -443,8 +553,7 @@ impl Tracking {
     }
 
     /// [`Self::update`] with the reference force.
-    pub fn tick(&mut self, command_g: f32, sensed_g: f32, integrate: bool) -> TrackingOutput {
-        let c = &self.config;
+    pub fn tick(&mut self, mut command_g: f32, sensed_g: f32, integrate: bool) -> TrackingOutput {
         if !command_g.is_finite() || !sensed_g.is_finite() {
             return TrackingOutput {
                 drive: Adjusted {
@@ -455,6 +564,37 @@ impl Tracking {
                 reference_g: self.x[0],
             };
         }
+        if let Some(slot) = self.recent_g.get_mut(self.recent_head) {
+            *slot = sensed_g;
+        }
+        self.recent_head = (self.recent_head + 1) % CONTACT_TICKS;
+        let contact_g = self.config.contact_g;
+        let above = self.recent_g.iter().filter(|v| **v >= contact_g).count();
+        if self.landed && command_g <= 0.0 && above == 0 {
+            self.lift();
+        }
+        if !self.landed {
+            if command_g > 0.0 && above >= CONTACT_COUNT {
+                // Force control from the reading, the command ramping up from it.
+                self.landed = true;
+                self.restart_from(sensed_g);
+                self.ramp_g = sensed_g;
+            } else {
+                return self.touch_down(command_g, sensed_g);
+            }
+        }
+        // A ramp starts below TOUCH_END_G and runs until it meets the command.
+        self.ramping = (self.ramping || self.ramp_g < TOUCH_END_G)
+            && command_g > self.ramp_g
+            && contact_g > 0.0;
+        if self.ramping {
+            let rate = TOUCH_RATE_G_PER_S + self.ramp_g.max(0.0) / TOUCH_TAU_S;
+            self.ramp_g += rate * self.config.dt_s;
+            command_g = command_g.min(self.ramp_g);
+        } else {
+            self.ramp_g = command_g;
+        }
+        let c = &self.config;
         self.reference
             .step(&mut self.x, self.last_command_g, command_g);
         self.last_command_g = command_g;
@@ -497,6 +637,39 @@ impl Tracking {
                 invalid_input: false,
             },
             reference_g: self.x[0],
+        }
+    }
+
+    /// A tick off the finger: at rest for a command at or below zero, else the next step of
+    /// the pulse train. The reference waits at the reading.
+    fn touch_down(&mut self, command_g: f32, sensed_g: f32) -> TrackingOutput {
+        let c = &self.config;
+        let force_g = if command_g > 0.0 {
+            let phase = self.approach_tick % (2 * APPROACH_TICKS);
+            self.approach_tick = self.approach_tick.wrapping_add(1) % (2 * APPROACH_TICKS);
+            let shape = APPROACH_SHAPE
+                .get(usize::from(phase % APPROACH_TICKS))
+                .copied()
+                .unwrap_or(0.0);
+            if phase >= APPROACH_TICKS {
+                shape * c.approach_brake_g
+            } else {
+                c.approach_hold_g + shape * c.approach_push_g
+            }
+        } else {
+            self.approach_tick = 0;
+            0.0
+        };
+        self.x = [sensed_g, 0.0, 0.0];
+        self.last_command_g = sensed_g;
+        let force_g = crate::limit(force_g, c.drive_min_g, c.drive_max_g);
+        TrackingOutput {
+            drive: Adjusted {
+                force_g,
+                saturated: false,
+                invalid_input: false,
+            },
+            reference_g: sensed_g,
         }
     }
 }
@@ -627,6 +800,78 @@ mod tests {
     }
 
     #[test]
+    fn the_approach_shape_is_a_hann_window_of_mean_one_half() {
+        for (k, v) in APPROACH_SHAPE.iter().enumerate() {
+            let x = (core::f32::consts::PI * (k as f32 + 0.5) / 10.0).sin();
+            assert!((v - x * x).abs() < 1e-6, "{k}: {v}");
+        }
+        let mean = APPROACH_SHAPE.iter().sum::<f32>() / APPROACH_SHAPE.len() as f32;
+        assert!((mean - 0.5).abs() < 1e-6, "{mean}");
+    }
+
+    #[test]
+    fn off_the_finger_it_pulses_lands_on_contact_and_ramps_up_from_the_reading() {
+        let mut cfg = TrackingConfig::UNIT_PLANT;
+        cfg.approach_hold_g = 1.0;
+        cfg.approach_push_g = 0.8;
+        cfg.approach_brake_g = -0.4;
+        cfg.contact_g = 0.4;
+        let mut t = Tracking::new(cfg).unwrap();
+        assert!(!t.landed() && t.touching_down());
+        // At rest (no command) there is no drive.
+        assert_eq!(t.update(0.0, 0.0, true).force_g, 0.0);
+        // A command: ten ticks of push on the stiction, ten of brake, and again.
+        let drives: Vec<f32> = (0..40).map(|_| t.update(5.0, 0.0, true).force_g).collect();
+        for (k, d) in drives.iter().enumerate() {
+            let shape = APPROACH_SHAPE[k % 10];
+            let expected = if k % 20 < 10 {
+                1.0 + 0.8 * shape
+            } else {
+                -0.4 * shape
+            };
+            assert!((d - expected).abs() < 1e-6, "tick {k}: {d} vs {expected}");
+        }
+        // Readings at the contact force: a ringing beam's (half the time above) does not land
+        // it, six of eight do.
+        for k in 0..16 {
+            t.update(5.0, if k % 2 == 0 { 0.9 } else { -0.9 }, true);
+            assert!(!t.landed(), "ringing landed it at {k}");
+        }
+        for _ in 0..8 {
+            t.update(5.0, 0.0, true);
+        }
+        for _ in 0..5 {
+            t.update(5.0, 0.5, true);
+            assert!(!t.landed());
+        }
+        t.update(5.0, 0.5, true);
+        assert!(t.landed() && t.touching_down());
+        // From the reading, the reference follows a command ramping up as
+        // r' = TOUCH_RATE_G_PER_S + r/TOUCH_TAU_S (per tick, r ← r + dt·(a + r/τ)).
+        let (a, tau) = (TOUCH_RATE_G_PER_S * 1e-3, TOUCH_TAU_S * 1e3);
+        let ramp_g = |ticks: i32| (0..ticks).fold(0.5f32, |r, _| r + a + r / tau);
+        let mut last = 0.0;
+        for k in 1..=200 {
+            last = t.tick(5.0, 0.5, false).reference_g;
+            if k == 10 {
+                // Ten ticks: 0.5·1.01¹⁰ + 0.05·(1.01¹⁰ − 1)/0.01 = 0.5523 + 0.5231 g.
+                assert!((ramp_g(10) - 1.0754).abs() < 1e-3, "{}", ramp_g(10));
+                assert!(last < ramp_g(10) && last > ramp_g(10) - 0.3, "{last}");
+            }
+        }
+        assert!((last - 5.0).abs() < 1e-3, "{last}");
+        assert!(!t.touching_down());
+        // Back to no command: once no reading is at the contact force, the next command
+        // touches down again.
+        t.update(0.0, 0.3, true);
+        assert!(t.landed());
+        for _ in 0..8 {
+            t.update(0.0, 0.1, true);
+        }
+        assert!(!t.landed());
+    }
+
+    #[test]
     fn the_table_round_trips_and_a_damaged_one_is_refused_with_the_reason() {
         let mut cfg = TrackingConfig::UNIT_PLANT;
         cfg.points = 2;
@@ -637,8 +882,8 @@ mod tests {
         };
         let bytes = cfg.encode().unwrap();
         assert_eq!(TrackingConfig::decode(&bytes), Ok(cfg));
-        // 8 + 4·(13 + 9·6) + 4 bytes.
-        assert_eq!(bytes.len(), 280);
+        // 8 + 4·(17 + 9·6) + 4 bytes.
+        assert_eq!(bytes.len(), 296);
         let mut bad = bytes;
         bad[20] ^= 1;
         assert!(matches!(

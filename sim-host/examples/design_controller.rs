@@ -57,13 +57,11 @@ fn main() {
             })
             .collect();
         let p = &config.applicator;
-        let friction_g = design::FRICTION_SHARE * p.static_friction_nm
-            / p.arm_m
-            / sim_host::applicator::NEWTONS_PER_GRAM;
+        let stiction_g = p.static_friction_nm / p.arm_m / sim_host::applicator::NEWTONS_PER_GRAM;
         let law = config.firmware.law;
         design::design(
             &models,
-            friction_g as f32,
+            stiction_g as f32,
             (law.adjusted_min_g, law.adjusted_max_g),
         )
         .expect("design")
@@ -76,21 +74,13 @@ fn main() {
         r.design
     };
     // `FRICTION=G`: the same models, G grams of stiction compensated.
-    let d = match std::env::var("FRICTION")
+    let mut d = d;
+    if let Some(friction_g) = std::env::var("FRICTION")
         .ok()
         .and_then(|v| v.parse::<f32>().ok())
     {
-        Some(friction_g) => {
-            let law = config.firmware.law;
-            design::design(
-                &d.models,
-                friction_g,
-                (law.adjusted_min_g, law.adjusted_max_g),
-            )
-            .expect("design")
-        }
-        None => d,
-    };
+        d.config.friction_g = friction_g;
+    }
     for (m, p) in d.models.iter().zip(&d.config.schedule) {
         println!(
             "{:5} g: {} | static gain {:.3}, series {:?}, feedback share {:.2}",

@@ -533,9 +533,10 @@ pub struct Design {
 /// `drive_range_g`.
 pub fn design(
     models: &[LoadModel],
-    friction_g: f32,
+    stiction_g: f32,
     drive_range_g: (f32, f32),
 ) -> Result<Design, DesignError> {
+    let friction_g = (FRICTION_SHARE * f64::from(stiction_g)) as f32;
     // The identified models and, below the lightest, the extrapolated ones.
     let lightest = models
         .iter()
@@ -658,6 +659,17 @@ pub fn design(
             feedback: share_at(plants) as f32,
         };
     }
+    // The touch-down's pulses: the momentum a push gives the probe beyond the friction is what
+    // it strikes the finger with at most, and a mass with momentum p landing on a spring that
+    // rings at ω overshoots by about p·ω: at the lightest load's inertia–finger mode, a
+    // momentum worth TOUCH_OVERSHOOT_G. A pulse's shape has a mean of one half, so its peak
+    // is twice the push.
+    let w_light = 2.0 * std::f64::consts::PI * models.first().map_or(50.0, |m| m.model.modes[0].hz);
+    let pulse_s = f64::from(tactile_core::tracking::APPROACH_TICKS) * TICK_S;
+    let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32;
+    // And enough to press the finger to the contact test's force against a stiction 15 % above
+    // the identified (the identification reads it 4–9 % low on the three rigs).
+    let push_g = push_g.max(CONTACT_G + 0.15 * stiction_g + 0.2);
     let config = TrackingConfig {
         dt_s: TICK_S as f32,
         reference_hz: REFERENCE_HZ,
@@ -672,6 +684,14 @@ pub fn design(
         // gain 0.65–0.81 through twice the stiction, and the feed-forward overdrove 70 g by 21 g
         // (a 20 g bound left 1.2 g of error standing).
         integral_limit_g: 0.5 * drive_range_g.1.max(-drive_range_g.0),
+        approach_hold_g: stiction_g,
+        approach_push_g: push_g,
+        // Half the push back: on a rig without friction a brake as strong as the push would
+        // leave any drift the probe had (an offset of the drive's zero, a push from the finger)
+        // uncorrected, and the probe would never arrive; half leaves a net push of a quarter
+        // of a pulse's, which the friction of any other rig takes.
+        approach_brake_g: -0.5 * push_g,
+        contact_g: CONTACT_G,
         drive_min_g: drive_range_g.0,
         drive_max_g: drive_range_g.1,
     };
@@ -695,6 +715,13 @@ pub fn design(
 /// a half overshoots the 2 g touch-down by 3.4 g.
 pub const FRICTION_SHARE: f64 = 0.25;
 
+/// The overshoot a touch-down's momentum is sized for, g (the bound is 1 g).
+pub const TOUCH_OVERSHOOT_G: f64 = 0.5;
+/// The gauge's mean that tells the probe is on the finger, g: above the tip's inertia under a
+/// push (a third of the push's net force on the memo rig) and 3.6 noise deviations of the
+/// 8-tick mean (0.14 g/√8).
+pub const CONTACT_G: f32 = 0.4;
+
 /// What [`design_for_rig`] identified and designed.
 #[derive(Clone, Debug, Serialize)]
 pub struct RigDesign {
@@ -702,14 +729,13 @@ pub struct RigDesign {
     pub design: Design,
 }
 
-/// Identifies the rig `config` describes and designs its controller: the stiction compensated
-/// is [`FRICTION_SHARE`] of the identified, the drive's range A1's.
+/// Identifies the rig `config` describes and designs its controller, the drive's range A1's.
 pub fn design_for_rig(config: &RigConfig) -> Result<RigDesign, DesignError> {
     let identified = identify_loads(config)?;
     let law = config.firmware.law;
     let design = design(
         &identified.models,
-        (FRICTION_SHARE * identified.stiction_g) as f32,
+        identified.stiction_g as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
     )?;
     Ok(RigDesign { identified, design })

@@ -207,3 +207,45 @@ pub fn closed_loop_gain(
     }
     Ok(acc_f.norm() / acc_c.norm())
 }
+
+/// A touch-down from a gap: when the probe met the finger, s after the command (none: never),
+/// the contact force's overshoot over the command, g, and its mean over the run's last 0.2 s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TouchDown {
+    pub contact_s: Option<f64>,
+    pub overshoot_g: f32,
+    pub final_g: f32,
+}
+
+/// The probe at rest `gap_m` off the finger, 0.1 s with no command, then `target_g` for
+/// `run_s`.
+pub fn touch_down(
+    config: crate::rig::RigConfig,
+    gap_m: f64,
+    target_g: f32,
+    run_s: f64,
+) -> Result<TouchDown, crate::rig::RigError> {
+    let mut rig = crate::rig::Rig::new(config)?;
+    rig.hardware.lift_probe(gap_m);
+    let (rest, run) = (100usize, (run_s / crate::rig::TICK_S).round() as usize);
+    let tail = 200usize.min(run);
+    let (mut contact_s, mut peak_g, mut sum_g) = (None, 0.0f32, 0.0f32);
+    for k in 0..rest + run {
+        let command_g = if k < rest { 0.0 } else { target_g };
+        let t = rig.tick(command_g, |_, _| {});
+        if k >= rest {
+            if t.in_contact && contact_s.is_none() {
+                contact_s = Some((k - rest) as f64 * crate::rig::TICK_S);
+            }
+            peak_g = peak_g.max(t.true_force_g);
+        }
+        if k >= rest + run - tail {
+            sum_g += t.true_force_g;
+        }
+    }
+    Ok(TouchDown {
+        contact_s,
+        overshoot_g: peak_g - target_g,
+        final_g: sum_g / tail.max(1) as f32,
+    })
+}

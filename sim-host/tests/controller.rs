@@ -170,8 +170,9 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
         assert!(over <= 1.1, "{level} g: overshoot {over} g");
     }
 
-    // Touch-down after a rest (low-force): 8, 6, 4, 2 g overshoot by at most 3 g (measured
-    // 0.7–2.5 g; the target is 1 g), where A1 overshoots 6 g by about 20 g.
+    // Touch-down after a rest (low-force): 8, 6, 4, 2 g overshoot by at most the target's 1 g
+    // (measured 0.03–0.47 g; 0.7–2.5 g before the touch-down and its ramp), where A1
+    // overshoots 6 g by about 20 g.
     let touch = |c: &RigConfig| {
         let ticks = run_named("low-force", &o, c.clone(), |_| {}).unwrap().ticks;
         metrics::step_overshoots_g(&ticks)
@@ -181,8 +182,45 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     };
     let (new, old) = (touch(&cfg), touch(&a1));
     eprintln!("touch-down overshoot, designed {new:?}, A1 {old:?}");
-    assert!(new.iter().all(|(_, o)| *o <= 3.0), "{new:?}");
+    assert!(new.iter().all(|(_, o)| *o <= 1.0), "{new:?}");
     assert!(old.iter().any(|(_, o)| *o > 10.0), "{old:?}");
+}
+
+#[test]
+fn the_touch_down_lands_within_a_gram_from_a_gap_on_every_rig() {
+    // The target: from out of contact to 2, 5 and 10 g, overshoot ≤ 1 g. The probe at
+    // rest 0.2 and 1 mm off the finger of each rig of `applicators/` (measured with
+    // `cargo run --release -p sim-host --example touch_down FILE`: at most +0.11 g, on the
+    // finger after 50–1130 ms, the last 0.2 s of 2.5 s within 0.07 g of the command). A1 on
+    // the memo rig from 0.2 mm strikes the finger with what its loop accelerated the probe to.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../applicators");
+    for file in [
+        "memo.toml",
+        "heavy-motor-soft-beam.toml",
+        "light-motor-stiff-beam.toml",
+    ] {
+        let mut cfg = rig();
+        cfg.applicator = sim_host::error::read_applicator(&root.join(file)).unwrap();
+        let a1 = cfg.clone();
+        cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
+        for gap_mm in [0.2, 1.0] {
+            for target_g in [2.0, 5.0, 10.0] {
+                let t = metrics::touch_down(cfg.clone(), gap_mm * 1e-3, target_g, 2.5).unwrap();
+                eprintln!("{file}, {gap_mm} mm → {target_g} g: {t:?}");
+                assert!(
+                    t.contact_s.is_some_and(|s| s < 1.5)
+                        && t.overshoot_g <= 1.0
+                        && (t.final_g - target_g).abs() < 0.14,
+                    "{file}, {gap_mm} mm → {target_g} g: {t:?}"
+                );
+            }
+        }
+        if file == "memo.toml" {
+            let t = metrics::touch_down(a1, 0.2e-3, 5.0, 1.0).unwrap();
+            eprintln!("A1, {file}, 0.2 mm → 5 g: {t:?}");
+            assert!(t.overshoot_g > 3.0, "{t:?}");
+        }
+    }
 }
 
 #[test]

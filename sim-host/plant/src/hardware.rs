@@ -234,6 +234,16 @@ impl SimHardware {
         self.true_force_g
     }
 
+    /// Puts the probe `gap_m` off the finger, at rest with the beam unbent (a rig whose probe
+    /// was retracted before the run: the touch-down's start).
+    pub fn lift_probe(&mut self, gap_m: f64) {
+        self.plant.motor_m = -gap_m;
+        self.plant.tip_m = -gap_m;
+        self.plant.motor_m_per_s = 0.0;
+        self.plant.tip_m_per_s = 0.0;
+        self.plant.stuck = true;
+    }
+
     pub fn in_contact(&self) -> bool {
         self.true_force_g > 0.0
     }
