@@ -51,6 +51,18 @@ pub fn step_settling_s(ticks: &[TickRecord]) -> Vec<(f32, Option<f64>)> {
         .collect()
 }
 
+/// The settling times of the steps after the first (the first starts from rest: a
+/// touch-down), sorted; a step that never settled counts as infinite.
+pub fn settling_after_first_s(ticks: &[TickRecord]) -> Vec<f64> {
+    let mut settle: Vec<f64> = step_settling_s(ticks)
+        .into_iter()
+        .skip(1)
+        .map(|(_, t)| t.unwrap_or(f64::INFINITY))
+        .collect();
+    settle.sort_by(f64::total_cmp);
+    settle
+}
+
 /// Force-steps summary: the worst settling time over the non-zero steps.
 pub fn worst_step_settling_s(ticks: &[TickRecord]) -> Option<f64> {
     let mut worst: f64 = 0.0;

@@ -154,12 +154,7 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
         .unwrap()
         .ticks;
-    let mut settle: Vec<f64> = metrics::step_settling_s(&steps)
-        .into_iter()
-        .skip(1)
-        .map(|(_, t)| t.expect("settles"))
-        .collect();
-    settle.sort_by(f64::total_cmp);
+    let settle = metrics::settling_after_first_s(&steps);
     eprintln!("settling after the first step: {settle:?}");
     assert!(
         settle.iter().rev().nth(1).is_some_and(|t| *t <= 0.030),
@@ -257,12 +252,7 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         let steps = run_named("force-steps", &ScenarioOptions::default(), cfg, |_| {})
             .unwrap()
             .ticks;
-        let mut settle: Vec<f64> = metrics::step_settling_s(&steps)
-            .into_iter()
-            .skip(1)
-            .map(|(_, t)| t.expect("settles"))
-            .collect();
-        settle.sort_by(f64::total_cmp);
+        let settle = metrics::settling_after_first_s(&steps);
         eprintln!("{file}: settling after the first step {settle:?}");
         assert!(
             settle.last().is_some_and(|t| *t <= 0.100),

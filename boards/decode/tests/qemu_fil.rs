@@ -335,12 +335,7 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     let run = session.run(spec.name).expect("run decoded");
     is_the_rigs_to_the_bit(run, spec);
     let records = run.tick_records();
-    let mut settling: Vec<f64> = sim_host::metrics::step_settling_s(&records)
-        .into_iter()
-        .skip(1)
-        .map(|(_, t)| t.unwrap_or(f64::INFINITY))
-        .collect();
-    settling.sort_by(f64::total_cmp);
+    let settling = sim_host::metrics::settling_after_first_s(&records);
     eprintln!(
         "{}: settling into ±1 g after the first step (ms): {:?}",
         spec.name,
