@@ -78,16 +78,14 @@ pub const APPROACH_SHAPE: [f32; APPROACH_TICKS as usize] = [
 /// finger the force stays there.
 pub const CONTACT_TICKS: usize = 8;
 pub const CONTACT_COUNT: usize = 6;
-/// A command that rises from below [`TOUCH_END_G`] (a touch-down, a step up from a light
-/// load) ramps up at this rate, g/s, plus the force reached over [`TOUCH_TAU_S`] (a ramp that
-/// grows as the finger stiffens: 150 g/s at 10 g, 550 g/s at 50 g) until it meets the command.
-/// The reference's
-/// acceleration at the start of a step meets the lightest loads' inverse, the largest (their
-/// mode is the lowest): at the protocols' 500 g/s, a step from rest on the memo rig was a
-/// drive spike of about 25 g and landed 1.4–2.5 g over.
+/// A command that leaves rest (after a touch-down, or from zero with the probe held on the
+/// finger) ramps up at this rate, g/s, plus the force reached over [`TOUCH_TAU_S`] (a ramp
+/// that grows as the finger stiffens: 150 g/s at 10 g, 550 g/s at 50 g) until it meets the
+/// command. The reference's acceleration at the start of a step meets the lightest loads'
+/// inverse, the largest (their mode is the lowest): at the protocols' 500 g/s, a step from rest
+/// on the memo rig was a drive spike of about 25 g and landed 1.4–2.5 g over. A command that
+/// moves about a load (a sine about 10 g) is not ramped.
 pub const TOUCH_RATE_G_PER_S: f32 = 50.0;
-/// Below this force a rise ramps, g (the lightest load the design identifies).
-pub const TOUCH_END_G: f32 = 10.0;
 pub const TOUCH_TAU_S: f32 = 0.1;
 
 /// The controller at one load: the plant's inverse as a series in s, drive grams per gram of
@@ -579,14 +577,15 @@ impl Tracking {
                 self.landed = true;
                 self.restart_from(sensed_g);
                 self.ramp_g = sensed_g;
+                self.ramping = true;
             } else {
                 return self.touch_down(command_g, sensed_g);
             }
         }
-        // A ramp starts below TOUCH_END_G and runs until it meets the command.
-        self.ramping = (self.ramping || self.ramp_g < TOUCH_END_G)
-            && command_g > self.ramp_g
-            && contact_g > 0.0;
+        // A ramp starts at a touch-down or as the command leaves rest, and runs until it
+        // meets the command.
+        self.ramping =
+            (self.ramping || self.ramp_g <= 0.0) && command_g > self.ramp_g && contact_g > 0.0;
         if self.ramping {
             let rate = TOUCH_RATE_G_PER_S + self.ramp_g.max(0.0) / TOUCH_TAU_S;
             self.ramp_g += rate * self.config.dt_s;
