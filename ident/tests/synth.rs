@@ -222,6 +222,77 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
     );
 }
 
+/// Two effects in one record: both are named, whichever comes first (the pairs the sweep's
+/// `PAIRS=1` runs name right on these seeds; it lists the pairs that are not yet: a delay under
+/// hysteresis, a slow relaxation with hysteresis).
+#[test]
+fn two_effects_at_once_are_both_named() {
+    let interference = |amplitude, hz| SynthEffect::Interference { amplitude, hz };
+    let cases: [(u64, f64, f64, [SynthEffect; 2], [&str; 2]); 6] = [
+        (
+            21,
+            200.0,
+            180.0,
+            [SynthEffect::Hysteresis(0.05), SynthEffect::Drift(0.04)],
+            ["hysteresis", "baseline_drift"],
+        ),
+        (
+            23,
+            100.0,
+            240.0,
+            [SynthEffect::Hysteresis(0.08), SynthEffect::Drift(0.06)],
+            ["hysteresis", "baseline_drift"],
+        ),
+        (
+            22,
+            200.0,
+            180.0,
+            [SynthEffect::Stiffening(0.5), SynthEffect::Drift(0.04)],
+            ["load_dependent_stiffness", "baseline_drift"],
+        ),
+        (
+            24,
+            1000.0,
+            120.0,
+            [interference(0.01, 123.0), SynthEffect::Stiffening(0.5)],
+            ["periodic_interference", "load_dependent_stiffness"],
+        ),
+        (
+            21,
+            100.0,
+            240.0,
+            [SynthEffect::SensitivityDrift(0.1), interference(0.01, 17.3)],
+            ["sensitivity_drift", "periodic_interference"],
+        ),
+        (
+            24,
+            200.0,
+            300.0,
+            [
+                SynthEffect::SlowRelaxation {
+                    share: 0.3,
+                    tau_s: 60.0,
+                },
+                SynthEffect::Hysteresis(0.05),
+            ],
+            ["slow_relaxation", "hysteresis"],
+        ),
+    ];
+    for (seed, rate, length, effects, names) in cases {
+        let d = diag(seed, rate, length, &effects);
+        let mut named = d.effects.clone();
+        named.sort();
+        let mut expected = names.map(String::from).to_vec();
+        expected.sort();
+        assert_eq!(named, expected, "seed {seed}: {}", d.summary);
+        assert!(
+            d.after.held_out_rms_pct < d.before.held_out_rms_pct,
+            "{}",
+            d.summary
+        );
+    }
+}
+
 /// Another unit for either column does not move the verdict or the strain errors.
 #[test]
 fn scaling_a_column_keeps_the_verdict() {
