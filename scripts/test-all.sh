@@ -36,6 +36,7 @@ cargo core-thumb
 
 step "firmware lints for the Cortex-M4F: no unwrap, expect, panicking index or panic (clippy -D warnings)"
 cargo clippy -p tactile-firmware -p tactile-qemu -p tactile-f407 --target thumbv7em-none-eabihf -- -D warnings
+cargo clippy -p tactile-f407 --target thumbv7em-none-eabihf --features controller-designed -- -D warnings
 
 step "QEMU for the firmware-in-the-loop test (qemu-system-arm)"
 if ! command -v qemu-system-arm >/dev/null 2>&1; then

@@ -138,6 +138,7 @@ pub struct TrackingConfig {
 
 /// Why a configuration is refused, naming the parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum TrackingError {
     #[error("tracking parameter {0} is not finite, or out of its range")]
     Invalid(&'static str),

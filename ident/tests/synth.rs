@@ -228,7 +228,9 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
 #[test]
 fn two_effects_at_once_are_both_named() {
     let interference = |amplitude, hz| SynthEffect::Interference { amplitude, hz };
-    let cases: [(u64, f64, f64, [SynthEffect; 2], [&str; 2]); 6] = [
+    // (seed, rate Hz, length s, the effects, their names)
+    type Case = (u64, f64, f64, [SynthEffect; 2], [&'static str; 2]);
+    let cases: [Case; 6] = [
         (
             21,
             200.0,

@@ -1,4 +1,5 @@
-//! The STM32F407G-DISC1 firmware: builds it (`cargo fw-f407`) and checks its ELF: the vector
+//! The STM32F407G-DISC1 firmware: builds it (`cargo fw-f407`, and with the designed controller's
+//! table, `cargo fw-f407-designed`) and checks each ELF: the vector
 //! table at the start of flash, the RTT control block, the defmt table, and flash and static
 //! RAM against the budget. Ignored in plain `cargo test` (a second target's build);
 //! `scripts/test-all.sh` runs it with `--ignored`.
@@ -16,8 +17,15 @@ const STATIC_RAM_BUDGET: u64 = 32 * 1024;
 #[test]
 #[ignore = "builds the board firmware: scripts/test-all.sh runs it with --ignored"]
 fn f407_firmware_elf_has_its_parts_and_fits_the_budget() {
-    let path = build_firmware("fw-f407", "tactile-f407");
-    let data = std::fs::read(&path).expect("ELF readable");
+    // The build a user types, and the one that runs the designed controller's table.
+    for (alias, profile) in [("fw-f407", "release"), ("fw-f407-designed", "firmware")] {
+        let path = build_firmware(alias, profile, "tactile-f407");
+        check_elf(&path, alias);
+    }
+}
+
+fn check_elf(path: &std::path::Path, alias: &str) {
+    let data = std::fs::read(path).expect("ELF readable");
     let elf = object::File::parse(&*data).expect("an ELF");
     assert_eq!(elf.architecture(), object::Architecture::Arm);
 
@@ -74,13 +82,20 @@ fn f407_firmware_elf_has_its_parts_and_fits_the_budget() {
             }
         }
     }
+    let label = format!("tactile-f407 (cargo {alias})");
     println!(
-        "tactile-f407: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB)",
+        "{label}: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB)",
         flash as f64 / 1024.0,
         FLASH_BUDGET / 1024,
         ram as f64 / 1024.0,
         STATIC_RAM_BUDGET / 1024
     );
-    assert!(flash <= FLASH_BUDGET, "flash {flash} B over budget");
-    assert!(ram <= STATIC_RAM_BUDGET, "static RAM {ram} B over budget");
+    assert!(
+        flash <= FLASH_BUDGET,
+        "{label}: flash {flash} B over budget"
+    );
+    assert!(
+        ram <= STATIC_RAM_BUDGET,
+        "{label}: static RAM {ram} B over budget"
+    );
 }

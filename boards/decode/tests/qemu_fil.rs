@@ -99,7 +99,7 @@ fn firmware_for(what: &str) -> Option<(std::path::PathBuf, std::path::PathBuf)> 
         );
         return None;
     }
-    let elf = build_firmware("fw-qemu", "tactile-qemu");
+    let elf = build_firmware("fw-qemu", "release", "tactile-qemu");
     let dir = workspace().join("target/qemu-fil");
     std::fs::create_dir_all(&dir).expect("output directory");
     Some((elf, dir))

@@ -135,6 +135,23 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let config = tactile_firmware::BOARD;
+        // The designed controller's table, checked as the calibration table is (refused: A1).
+        #[cfg(feature = "controller-designed")]
+        let config = {
+            let table = &tactile_firmware::CONTROLLER_TABLE;
+            let tracking = tactile_core::tracking::TrackingConfig::decode(table);
+            match &tracking {
+                Ok(_) => defmt::info!(
+                    "controller: the designed one ({=usize} B table)",
+                    table.len()
+                ),
+                Err(e) => defmt::warn!("controller table refused ({}): A1", e),
+            }
+            tactile_core::tasks::FirmwareConfig {
+                tracking: tracking.ok(),
+                ..config
+            }
+        };
         let board::Hardware {
             mut adc,
             mut control_board,

@@ -8,8 +8,9 @@ pub fn workspace() -> PathBuf {
 }
 
 /// Builds firmware with the cargo alias `alias` into its own target directory (the outer
-/// `cargo test` holds its own) and returns the path of the ELF `binary`.
-pub fn build_firmware(alias: &str, binary: &str) -> PathBuf {
+/// `cargo test` holds its own) and returns the path of the ELF `binary` (built with the cargo
+/// profile `profile`).
+pub fn build_firmware(alias: &str, profile: &str, binary: &str) -> PathBuf {
     let target_dir = std::env::var_os("TACTILE_FW_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace().join("target/fw"));
@@ -22,6 +23,7 @@ pub fn build_firmware(alias: &str, binary: &str) -> PathBuf {
         .expect("cargo runs");
     assert!(status.success(), "the firmware ({alias}) does not build");
     target_dir
-        .join("thumbv7em-none-eabihf/release")
+        .join("thumbv7em-none-eabihf")
+        .join(profile)
         .join(binary)
 }
