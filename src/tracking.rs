@@ -29,11 +29,12 @@
 //!   Each push gives the probe a bounded momentum (what the push has beyond the friction, over
 //!   its length), and the brake takes it back (or the friction does), so the probe steps toward
 //!   the finger at a bounded speed however far off it is, and strikes it with that momentum at
-//!   most. Contact is [`CONTACT_COUNT`] of the last [`CONTACT_TICKS`] readings at `contact_g`. Force control then starts
-//!   from the reading, the command ramping up from it ([`TOUCH_RATE_G_PER_S`], [`TOUCH_TAU_S`]). A command at or
-//!   below zero rests the probe (no drive); once no recent reading is at `contact_g`, the next
-//!   command touches down again. A rig whose friction has grown past the push since it was
-//!   identified does not move: the supervisor's contact limit latches.
+//!   most. Contact is [`CONTACT_COUNT`] of the last [`CONTACT_TICKS`] readings at
+//!   `contact_g`. Force control then starts from the reading, the command ramping up from it
+//!   ([`TOUCH_RATE_G_PER_S`], [`TOUCH_TAU_S`]). A command at or below zero rests the probe (no
+//!   drive); once no recent reading is at `contact_g`, the next command touches down again. A
+//!   rig whose friction has grown past the push since it was identified does not move: the
+//!   supervisor's contact limit latches.
 //!
 //! ```
 //! use tactile_core::tracking::{Tracking, TrackingConfig};
@@ -454,12 +455,12 @@ pub struct Tracking {
     filter_state: [f32; 2],
     /// On the finger (force control) or touching down.
     landed: bool,
-    /// Ticks since the touch-down began.
+    /// The tick within the current pulse (push, then brake), 0 to 2·[`APPROACH_TICKS`] − 1.
     approach_tick: u16,
     /// The last readings, for the contact test.
     recent_g: [f32; CONTACT_TICKS],
     recent_head: usize,
-    /// The most the command may be while it ramps up from a light load, g, and whether it is.
+    /// The most the command may be while it ramps up from rest, g, and whether it is.
     ramp_g: f32,
     ramping: bool,
 }
@@ -477,7 +478,7 @@ impl Tracking {
         config.check()?;
         // f32 throughout: an f64 exp is 2 KB of soft float on the Cortex-M4F.
         let w = 2.0 * core::f32::consts::PI * config.reference_hz;
-        Ok(Self {
+        let mut t = Self {
             reference: Reference {
                 w,
                 decay: libm::expf(-w * config.dt_s),
@@ -490,13 +491,15 @@ impl Tracking {
             head: 0,
             integral_g: 0.0,
             filter_state: [0.0; 2],
-            landed: config.contact_g <= 0.0,
+            landed: false,
             approach_tick: 0,
             recent_g: [0.0; CONTACT_TICKS],
             recent_head: 0,
             ramp_g: 0.0,
             ramping: false,
-        })
+        };
+        t.lift();
+        Ok(t)
     }
 
     pub fn config(&self) -> &TrackingConfig {
@@ -528,7 +531,7 @@ impl Tracking {
         self.landed
     }
 
-    /// Touching down: off the finger, or on it with the command ramping up from a light load.
+    /// Touching down: off the finger, or on it with the command ramping up from rest.
     pub fn touching_down(&self) -> bool {
         !self.landed || self.ramping
     }
@@ -645,8 +648,8 @@ impl Tracking {
     fn touch_down(&mut self, command_g: f32, sensed_g: f32) -> TrackingOutput {
         let c = &self.config;
         let force_g = if command_g > 0.0 {
-            let phase = self.approach_tick % (2 * APPROACH_TICKS);
-            self.approach_tick = self.approach_tick.wrapping_add(1) % (2 * APPROACH_TICKS);
+            let phase = self.approach_tick;
+            self.approach_tick = (phase + 1) % (2 * APPROACH_TICKS);
             let shape = APPROACH_SHAPE
                 .get(usize::from(phase % APPROACH_TICKS))
                 .copied()

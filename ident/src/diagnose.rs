@@ -494,22 +494,8 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let base = baseline_columns(&mut work, &taus);
     let scored = work.pool.score(&base);
     let tests = work.tests(&base, &scored.beta);
-    // The force's noise reaches the strain through the baseline itself: its variance times the
-    // energy of the baseline's impulse response (a model that smooths the force passes less).
-    let energy = impulse_energy(
-        &base
-            .iter()
-            .zip(&scored.beta)
-            .map(|(c, b)| (work.terms[*c], *b))
-            .collect::<Vec<_>>(),
-        dt,
-    );
-    let passed_var = force_noise * force_noise_passed;
-    let floor = stats::noise_variance(&s.kept(work.pool.y()), window) + energy * passed_var;
-    // A candidate's fold errors less the force noise it passes beyond the current model's: a
-    // model that smooths the force (the baseline standing in for a delay with a fast branch)
-    // wins the quiet folds by passing less of the reference's noise, not by fitting the finger
-    // better.
+    // The energy of a fitted model's impulse response from the force: the force's noise
+    // reaches the strain through it (a model that smooths the force passes less).
     let energy_of = |work: &Work, sc: &Scored| -> f64 {
         impulse_energy(
             &sc.columns
@@ -520,8 +506,15 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             dt,
         )
     };
-    let noise_matched = |work: &Work, sc: &Scored, to: &Scored| -> Vec<f64> {
-        let extra = (energy_of(work, sc) - energy_of(work, to)) * passed_var;
+    let passed_var = force_noise * force_noise_passed;
+    let floor = stats::noise_variance(&s.kept(work.pool.y()), window)
+        + energy_of(&work, &scored) * passed_var;
+    // A candidate's fold errors less the force noise it passes beyond what a model of energy
+    // `to_energy` (the one it is judged against) passes: a model that smooths the force (the
+    // baseline standing in for a delay with a fast branch) wins the quiet folds by passing
+    // less of the reference's noise, not by fitting the finger better.
+    let noise_matched = |work: &Work, sc: &Scored, to_energy: f64| -> Vec<f64> {
+        let extra = (energy_of(work, sc) - to_energy) * passed_var;
         sc.fold_mse
             .iter()
             .map(|m| (m - extra).max(0.5 * m))
@@ -841,13 +834,14 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         }
         let mut winner: Option<(usize, f64)> = None;
         let cur_colored = work.whiteness(&state.cols, &state.scored.beta).1;
+        let cur_energy = energy_of(&work, &state.scored);
         let mut round_candidates = Vec::new();
         let mut passed = Vec::new();
         for (i, (t, sc)) in best.iter().enumerate() {
             let (effect, variant) = (&t.effect, &t.variant);
             let d = fold_gains(
                 &state.scored.fold_mse,
-                &noise_matched(&work, sc, &state.scored),
+                &noise_matched(&work, sc, cur_energy),
             );
             let p = stats::paired_p_value(&d);
             let gain = state.scored.cv_mse - sc.cv_mse;
@@ -896,7 +890,10 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             // By the bar an effect clears against the model without it: consistently over
             // the folds, and a share of what the simpler one leaves above the floor.
             let beats = |a: &Scored, b: &Scored| {
-                paired(&fold_gains(&b.fold_mse, &noise_matched(&work, a, b))) < settings.alpha
+                paired(&fold_gains(
+                    &b.fold_mse,
+                    &noise_matched(&work, a, energy_of(&work, b)),
+                )) < settings.alpha
                     && b.cv_mse - a.cv_mse
                         >= settings.min_excess_share * (b.cv_mse - floor).max(0.0)
             };
@@ -966,7 +963,10 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .filter(|c| !state.groups[i].1.contains(c))
                 .collect();
             let sc = work.pool.score(&without);
-            let d = fold_gains(&sc.fold_mse, &noise_matched(&work, &state.scored, &sc));
+            let d = fold_gains(
+                &sc.fold_mse,
+                &noise_matched(&work, &state.scored, energy_of(&work, &sc)),
+            );
             let gain = sc.cv_mse - state.scored.cv_mse;
             let excess = (sc.cv_mse - floor).max(0.0);
             let needed = stats::paired_p_value(&d) < settings.alpha

@@ -717,9 +717,10 @@ pub const FRICTION_SHARE: f64 = 0.25;
 
 /// The overshoot a touch-down's momentum is sized for, g (the bound is 1 g).
 pub const TOUCH_OVERSHOOT_G: f64 = 0.5;
-/// The gauge's mean that tells the probe is on the finger, g: above the tip's inertia under a
-/// push (a third of the push's net force on the memo rig) and 3.6 noise deviations of the
-/// 8-tick mean (0.14 g/√8).
+/// The reading that tells the probe is on the finger (`tactile_core::tracking::CONTACT_COUNT`
+/// of the last `CONTACT_TICKS` at it), g: above the tip's inertia under a push (a third of the
+/// push's net force on the memo rig), and 2.9 deviations of the gauge's 0.14 g of noise, which
+/// six readings of eight do not pass by chance.
 pub const CONTACT_G: f32 = 0.4;
 
 /// What [`design_for_rig`] identified and designed.

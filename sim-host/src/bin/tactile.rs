@@ -406,13 +406,14 @@ fn run(command: Command) -> Result<(), Error> {
                 d.config.reference_hz
             );
             outln!(
-                "touch-down: pulses of {} ms on {:.2} g of stiction, pushing to +{:.2} g and braking to {:.2} g; on the finger at {:.2} g, then the command ramps at {} g/s",
+                "touch-down: pulses of {} ms on {:.2} g of stiction, pushing to +{:.2} g and braking to {:.2} g; on the finger at {:.2} g, then the command ramps at {} g/s plus the force over {} s",
                 tactile_core::tracking::APPROACH_TICKS,
                 d.config.approach_hold_g,
                 d.config.approach_push_g,
                 d.config.approach_brake_g,
                 d.config.contact_g,
-                tactile_core::tracking::TOUCH_RATE_G_PER_S
+                tactile_core::tracking::TOUCH_RATE_G_PER_S,
+                tactile_core::tracking::TOUCH_TAU_S
             );
             if let Some(path) = json {
                 sim_host::error::write_json(&path, &r)?;
