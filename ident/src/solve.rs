@@ -49,6 +49,13 @@ pub struct Pool {
     cross: HashMap<(usize, usize), Vec<f64>>,
     with_y: HashMap<usize, Vec<f64>>,
     yy: Vec<f64>,
+    /// Judge each held-out fold after its own offset and slope (see `set_local_nuisance`).
+    local: bool,
+    /// Per column, per fold: Σ w·x and Σ w·τ·x, τ the time across the fold (−1 to 1).
+    local_x: HashMap<usize, Vec<[f64; 2]>>,
+    local_y: Vec<[f64; 2]>,
+    /// Per fold: the Gram matrix of (1, τ), as (Σ w, Σ w·τ, Σ w·τ²).
+    local_gram: Vec<[f64; 3]>,
 }
 
 /// A model scored on the folds.
@@ -84,12 +91,60 @@ impl Pool {
             cross: HashMap::new(),
             with_y: HashMap::new(),
             yy: Vec::new(),
+            local: false,
+            local_x: HashMap::new(),
+            local_y: Vec::new(),
+            local_gram: Vec::new(),
         };
         pool.yy = pool.per_fold(|i| {
             let v = pool.y[i];
             v * v
         });
+        pool.local_y = pool.local_sums(|i| pool.y[i]);
+        pool.local_gram = pool
+            .local_sums(|_| 1.0)
+            .iter()
+            .zip(pool.local_sums(|i| pool.tau(i)))
+            .map(|(a, b)| [a[0], a[1], b[1]])
+            .collect();
         pool
+    }
+
+    /// Whether each held-out fold is judged after an offset and a slope of its own, fitted to
+    /// that fold's residual. A model that has a drift basis cannot interpolate a drift that
+    /// turns inside a held-out block from the blocks around it, and any force-driven term that
+    /// happens to follow the force's slow course wins there; with the block's own offset and
+    /// slope taken out, a later effect is judged on what the drift cannot be. Only models
+    /// that are compared with each other may be scored under one setting.
+    pub fn set_local_nuisance(&mut self, on: bool) {
+        self.local = on;
+    }
+
+    /// The time across sample `i`'s fold, from −1 to 1.
+    fn tau(&self, i: usize) -> f64 {
+        let &(a, b) = self
+            .folds
+            .ranges
+            .iter()
+            .find(|r| i >= r.0 && i < r.1)
+            .unwrap_or(&(0, 1));
+        let half = ((b - a).max(2) - 1) as f64 / 2.0;
+        (i - a) as f64 / half - 1.0
+    }
+
+    /// Per fold: (Σ w·f, Σ w·τ·f).
+    fn local_sums(&self, f: impl Fn(usize) -> f64) -> Vec<[f64; 2]> {
+        self.folds
+            .ranges
+            .iter()
+            .map(|&(a, b)| {
+                let half = ((b - a).max(2) - 1) as f64 / 2.0;
+                (a..b).fold([0.0, 0.0], |s, i| {
+                    let v = f64::from(self.weight[i]) * f(i);
+                    [s[0] + v, s[1] + v * ((i - a) as f64 / half - 1.0)]
+                })
+            })
+            .collect()
     }
 
     /// The strain the pool models.
@@ -199,6 +254,7 @@ impl Pool {
         }
         self.cross.retain(|k, _| k.0 != j && k.1 != j);
         self.with_y.remove(&j);
+        self.local_x.remove(&j);
     }
 
     pub fn name(&self, j: usize) -> &str {
@@ -303,6 +359,16 @@ impl Pool {
         v
     }
 
+    fn local_of(&mut self, a: usize, built: &HashMap<usize, Vec<f32>>) -> Vec<[f64; 2]> {
+        if let Some(v) = self.local_x.get(&a) {
+            return v.clone();
+        }
+        let ca = self.read(a, built);
+        let v = self.local_sums(|i| f64::from(ca[i]));
+        self.local_x.insert(a, v.clone());
+        v
+    }
+
     /// Fits `columns` on every fold's complement and on the whole record.
     pub fn score(&mut self, columns: &[usize]) -> Scored {
         let p = columns.len();
@@ -315,6 +381,7 @@ impl Pool {
             .filter(|&&c| {
                 matches!(self.cols.get(c), Some(Column::Computed(_)))
                     && (!self.with_y.contains_key(&c)
+                        || (self.local && !self.local_x.contains_key(&c))
                         || columns
                             .iter()
                             .any(|&o| !self.cross.contains_key(&(c.min(o), c.max(o)))))
@@ -334,6 +401,11 @@ impl Pool {
                 }
             }
         }
+        let local: Vec<Vec<[f64; 2]>> = if self.local {
+            columns.iter().map(|&c| self.local_of(c, &built)).collect()
+        } else {
+            Vec::new()
+        };
         let total_g: DMatrix<f64> = g.iter().fold(DMatrix::zeros(p, p), |a, x| a + x);
         let total_b: DVector<f64> = b.iter().fold(DVector::zeros(p), |a, x| a + x);
         let total_yy: f64 = self.yy.iter().sum();
@@ -346,7 +418,21 @@ impl Pool {
         let mut held_sse = 0.0;
         for f in 0..k {
             let beta = nnls(&(&total_g - &g[f]), &(&total_b - &b[f]), &signs);
-            let s = sse(&g[f], &b[f], self.yy[f], &beta);
+            let mut s = sse(&g[f], &b[f], self.yy[f], &beta);
+            if self.local {
+                // Less the residual's projection on the fold's (1, τ).
+                let mut r = self.local_y[f];
+                for (x, w) in local.iter().zip(beta.iter()) {
+                    r[0] -= w * x[f][0];
+                    r[1] -= w * x[f][1];
+                }
+                let [s0, s1, s2] = self.local_gram[f];
+                let det = s0 * s2 - s1 * s1;
+                if det > 0.0 {
+                    s = (s - (s2 * r[0] * r[0] - 2.0 * s1 * r[0] * r[1] + s0 * r[1] * r[1]) / det)
+                        .max(0.0);
+                }
+            }
             held_sse += s;
             fold_mse.push(s / self.folds.counts[f].max(1) as f64);
             fold_beta.push(beta.iter().copied().collect());

@@ -94,6 +94,24 @@ fn a_wandering_drift_is_found() {
     }
 }
 
+/// A drift that turns inside a held-out block: the drift basis cannot interpolate it from the
+/// blocks around it, and a force-driven term that follows the force's slow course won there
+/// (seeds 66, 80, 87: drift then hysteresis or a sagging gain; seed 46: then stiffening), until
+/// later effects were judged on each block less its own offset and slope.
+#[test]
+fn a_drift_that_turns_inside_a_block_is_named_alone() {
+    for (seed, rate, length, a) in [
+        (66, 50.0, 300.0, 0.06),
+        (80, 50.0, 300.0, 0.06),
+        (87, 50.0, 300.0, 0.06),
+        (46, 200.0, 180.0, 0.02),
+    ] {
+        let d = diag(seed, rate, length, &[SynthEffect::Drift(a)]);
+        check(&d, "baseline_drift");
+        assert_eq!(d.effects, ["baseline_drift"], "{}", d.summary);
+    }
+}
+
 #[test]
 fn interference_off_the_mains_is_found_at_its_frequency() {
     for (seed, hz) in [(8, 13.7), (9, 37.0)] {
