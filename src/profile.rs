@@ -94,12 +94,19 @@ pub enum Protocol {
 
 /// Ramp and hold before the excitation's chirps, s.
 pub const EXCITATION_SETTLE_S: f32 = 1.5;
+/// Run on after the last period, s: a record that loses its last tick (a firmware log has no
+/// readings for it) keeps its last whole period.
+pub const EXCITATION_TAIL_S: f32 = 0.01;
 /// One chirp, s (the frequency resolution of the response: 1 Hz).
 pub const EXCITATION_PERIOD_S: f32 = 1.0;
 /// The chirp's start and end, Hz: whole cycles in a period (1 + 150), so it repeats seamlessly;
 /// past the beam modes of lighter rigs (near 250 Hz) and under the loop's Nyquist rate.
 pub const EXCITATION_START_HZ: f32 = 1.0;
 pub const EXCITATION_END_HZ: f32 = 301.0;
+
+/// Preloads the applicator is identified at for the controller's design, g
+/// ([`Protocol::design_excitation`]).
+pub const DESIGN_PRELOADS_G: [f32; 6] = [10.0, 20.0, 35.0, 50.0, 75.0, 100.0];
 
 /// Load levels the dynamic calibration excites, grams (the scheduled inverse's table).
 pub const CALIBRATION_OFFSETS_G: [f32; 4] = [12.0, 25.0, 45.0, 70.0];
@@ -166,6 +173,17 @@ impl Protocol {
         amplitude_g: 5.0,
         periods: 24,
     };
+    /// The excitation at one of the design's preloads ([`DESIGN_PRELOADS_G`]): a chirp of 0.4
+    /// of the preload, at least 0.25 g and at most the memo protocol's 5 g (at a fifth, the
+    /// 10 g fit had a gain of 0.60: the stiction), 8 periods. The firmware's identification
+    /// session and the host's design run exactly these.
+    pub const fn design_excitation(preload_g: f32) -> Protocol {
+        Protocol::Excitation {
+            preload_g,
+            amplitude_g: (0.4 * preload_g).clamp(0.25, 5.0),
+            periods: 8,
+        }
+    }
     pub const FORCE_STEPS_MEMO: Protocol = Protocol::ForceSteps {
         increment_g: 10.0,
         top_g: 100.0,
@@ -201,7 +219,7 @@ impl Protocol {
             }
             Protocol::LowForce { hold_s } => LOW_FORCE_G.len() as f32 * (1.0 + hold_s),
             Protocol::Excitation { periods, .. } => {
-                EXCITATION_SETTLE_S + f32::from(periods) * EXCITATION_PERIOD_S
+                EXCITATION_SETTLE_S + f32::from(periods) * EXCITATION_PERIOD_S + EXCITATION_TAIL_S
             }
             Protocol::BenchRecord { .. } => 180.0,
             Protocol::Calibration { per_offset_s, .. } => {
@@ -487,7 +505,7 @@ mod tests {
             amplitude_g: 3.0,
             periods: 4,
         };
-        assert!((p.duration_s() - 5.5).abs() < 1e-6);
+        assert!((p.duration_s() - 5.51).abs() < 1e-6);
         assert_eq!(p.slew_limit_g_per_s(), f32::INFINITY);
         let mut s = CommandSource::new(p);
         assert_eq!(s.command_g(0.0), 0.0);

@@ -22,14 +22,17 @@ use num_complex::Complex64;
 use serde::Serialize;
 use tactile_core::tracking::{InverseSeries, TrackingConfig, TRACKING_POINTS};
 
-use crate::identify::{ApplicatorModel, IdentifyError};
+use tactile_core::profile::Protocol;
+
+use crate::identify::{ApplicatorModel, IdentifyError, ResponsePoint};
 use crate::rig::{RigConfig, TICK_S};
 use crate::scenario::{run_protocol, ScenarioError};
 
-/// The preloads the applicator is identified at, g. Not lighter: a chirp small enough to keep
-/// the probe on the finger at 2–5 g hardly moves the motor through its stiction (the fits came
-/// out with gains of 0.05–0.12 and errors of 130 %).
-pub const DESIGN_LOADS_G: [f32; 6] = [10.0, 20.0, 35.0, 50.0, 75.0, 100.0];
+/// The preloads the applicator is identified at, g (the core's, which the firmware's
+/// identification session runs too). Not lighter: a chirp small enough to keep the probe on the
+/// finger at 2–5 g hardly moves the motor through its stiction (the fits came out with gains of
+/// 0.05–0.12 and errors of 130 %).
+pub use tactile_core::profile::DESIGN_PRELOADS_G as DESIGN_LOADS_G;
 /// Loads below the identified ones the design extrapolates to ([`extrapolate`]), g. Reaching
 /// down to 0.5 g took the memo rig's first step from rest from 1.5 g of overshoot to 0.03–0.24 g
 /// (seeds 1–4) but slowed the heavy rig's 20 g step to 44 ms (1.6 g over) and the light rig's
@@ -72,6 +75,10 @@ pub enum DesignError {
     },
     #[error("no model converged on the response measured at {load_g} g")]
     NoModel { load_g: f32 },
+    #[error("not a record of the excitation: no drive_g column, or no command holding a preload at the end of the first {settle_s} s")]
+    NotExcitation { settle_s: f32 },
+    #[error("the static line needs the excitation at two preloads or more; {have} distinct given (the holds' drive and gauge give the gain and the stiction)")]
+    TooFewPreloads { have: usize },
     #[error("no integral gain gives the margins at every load (the model at {load_g} g has a gain margin of {margin:.2} with none)")]
     NoMargin { load_g: f32, margin: f64 },
 }
@@ -84,13 +91,6 @@ pub struct LoadModel {
     /// Gauge grams per drive gram of the still holds before the chirps
     /// ([`crate::identify::static_line`]): the feed-forward's static gain.
     pub static_gain: f64,
-}
-
-/// The chirp's amplitude at a preload: 0.4 of it, at most the memo protocol's 5 g (at a fifth,
-/// the 10 g fit had a gain of 0.60: the stiction); halved while the probe leaves the finger or
-/// the gauge leaves its range.
-fn excitation_amplitude_g(load_g: f32) -> f32 {
-    (0.4 * load_g).clamp(0.25, 5.0)
 }
 
 /// Whether a fitted model is one the design can use: the inertia–finger mode under the chirp's
@@ -118,12 +118,20 @@ pub struct Identified {
     pub stiction_g: f64,
 }
 
+/// One preload's excitation as the design reads it: the measured response and the still
+/// hold before the chirps, (mean drive, mean gauge) in g.
+#[derive(Clone, Debug)]
+pub struct Excited {
+    pub load_g: f32,
+    pub response: Vec<ResponsePoint>,
+    pub hold: (f64, f64),
+}
+
 /// Runs the excitation at each of [`DESIGN_LOADS_G`] on a rig built from `config` (the loop
-/// that holds the preload is the one `config` has) and fits the model at each; loads whose
-/// fit is not [`plausible`] are left out (at least two must remain). The holds before the
-/// chirps give the static gain and the stiction.
+/// that holds the preload is the one `config` has) and identifies the applicator from them
+/// ([`identified_from`]).
 pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
-    let runs: Vec<Result<AtLoad, DesignError>> = std::thread::scope(|scope| {
+    let runs: Vec<Result<Excited, DesignError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = DESIGN_LOADS_G
             .iter()
             .map(|&load_g| {
@@ -131,7 +139,7 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
                     scan_array: false,
                     ..config.clone()
                 };
-                scope.spawn(move || identify_at(config, load_g))
+                scope.spawn(move || excite(config, load_g))
             })
             .collect();
         handles
@@ -142,14 +150,54 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
             })
             .collect()
     });
-    let runs: Vec<AtLoad> = runs.into_iter().collect::<Result<_, _>>()?;
-    let holds: Vec<(f64, f64)> = runs.iter().map(|r| r.1).collect();
+    identified_from(&runs.into_iter().collect::<Result<Vec<_>, _>>()?)
+}
+
+/// The design's reading of one record of the excitation (a board's, or the QEMU firmware's
+/// identification session, `tactile experiment excitation`): its preload is its command during
+/// the hold.
+pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, DesignError> {
+    let not_excitation = DesignError::NotExcitation {
+        settle_s: tactile_core::profile::EXCITATION_SETTLE_S,
+    };
+    let load_g = crate::identify::preload_of_record(rec).ok_or(not_excitation)?;
+    let response = crate::identify::frequency_response_of_record(rec)
+        .map_err(|source| DesignError::Identify { load_g, source })?;
+    let hold = crate::identify::hold_means_of_record(rec).ok_or(DesignError::NotExcitation {
+        settle_s: tactile_core::profile::EXCITATION_SETTLE_S,
+    })?;
+    Ok(Excited {
+        load_g,
+        response,
+        hold,
+    })
+}
+
+/// The models fitted at each preload, with the static gain and stiction of the holds; loads
+/// whose fit is not [`plausible`] are left out (at least two must remain).
+pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
+    let mut preloads: Vec<f32> = excited.iter().map(|e| e.load_g).collect();
+    preloads.sort_by(f32::total_cmp);
+    preloads.dedup();
+    if preloads.len() < 2 {
+        return Err(DesignError::TooFewPreloads {
+            have: preloads.len(),
+        });
+    }
+    let holds: Vec<(f64, f64)> = excited.iter().map(|e| e.hold).collect();
     let (static_gain, stiction_g) =
         crate::identify::static_line(&holds).ok_or(DesignError::NoModel { load_g: f32::NAN })?;
-    let models: Vec<LoadModel> = runs
-        .into_iter()
-        .map(|(m, _)| LoadModel { static_gain, ..m })
-        .collect();
+    let mut models = Vec::with_capacity(excited.len());
+    for e in excited {
+        let model = crate::identify::fit_model(&e.response)
+            .ok_or(DesignError::NoModel { load_g: e.load_g })?;
+        models.push(LoadModel {
+            load_g: e.load_g,
+            model,
+            static_gain,
+        });
+    }
+    models.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
     let kept: Vec<LoadModel> = models
         .iter()
         .filter(|m| plausible(&m.model))
@@ -169,40 +217,51 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
     })
 }
 
-/// The model at one preload (its static gain still 1) and the hold's mean drive and gauge, g.
-type AtLoad = (LoadModel, (f64, f64));
+/// The design's reading of a run of [`Protocol::design_excitation`] (the simulator's, or the
+/// firmware's decoded log) at 1 kHz.
+pub fn excited_of_run(
+    ticks: &[crate::rig::TickRecord],
+    protocol: Protocol,
+    actuator: &tactile_core::control::ActuatorConfig,
+) -> Result<Excited, DesignError> {
+    let Protocol::Excitation { preload_g, .. } = protocol else {
+        return Err(DesignError::Identify {
+            load_g: f32::NAN,
+            source: IdentifyError::NotTheExcitation,
+        });
+    };
+    let response =
+        crate::identify::frequency_response(ticks, protocol, actuator).map_err(|source| {
+            DesignError::Identify {
+                load_g: preload_g,
+                source,
+            }
+        })?;
+    let hold = crate::identify::hold_means(ticks, actuator)
+        .ok_or(DesignError::NoModel { load_g: preload_g })?;
+    Ok(Excited {
+        load_g: preload_g,
+        response,
+        hold,
+    })
+}
 
-fn identify_at(config: RigConfig, load_g: f32) -> Result<AtLoad, DesignError> {
-    let mut amplitude_g = excitation_amplitude_g(load_g);
+/// The excitation at one preload on the simulated rig ([`Protocol::design_excitation`]), its
+/// chirp halved while the probe leaves the finger or the gauge leaves its range.
+fn excite(config: RigConfig, load_g: f32) -> Result<Excited, DesignError> {
+    let mut protocol = Protocol::design_excitation(load_g);
     loop {
-        let protocol = tactile_core::profile::Protocol::Excitation {
-            preload_g: load_g,
-            amplitude_g,
-            periods: 8,
-        };
-        let actuator = config.firmware.actuator;
         let run = run_protocol("excitation", protocol, config.clone(), false, |_| {})?;
-        match crate::identify::frequency_response(&run.ticks, protocol, &actuator) {
-            Ok(response) => {
-                let model =
-                    crate::identify::fit_model(&response).ok_or(DesignError::NoModel { load_g })?;
-                let hold = crate::identify::hold_means(&run.ticks, &actuator)
-                    .ok_or(DesignError::NoModel { load_g })?;
-                let model = LoadModel {
-                    load_g,
-                    model,
-                    static_gain: 1.0,
-                };
-                return Ok((model, hold));
+        match excited_of_run(&run.ticks, protocol, &config.firmware.actuator) {
+            Err(DesignError::Identify {
+                source: IdentifyError::LostContact { .. } | IdentifyError::Faulted { .. },
+                ..
+            }) if matches!(protocol, Protocol::Excitation { amplitude_g, .. } if amplitude_g > 0.3) => {
+                if let Protocol::Excitation { amplitude_g, .. } = &mut protocol {
+                    *amplitude_g *= 0.5;
+                }
             }
-            // Too strong a chirp: the probe left the finger, or the beam's mode drove the
-            // gauge out of its range.
-            Err(IdentifyError::LostContact { .. } | IdentifyError::Faulted { .. })
-                if amplitude_g > 0.3 =>
-            {
-                amplitude_g *= 0.5
-            }
-            Err(source) => return Err(DesignError::Identify { load_g, source }),
+            other => return other,
         }
     }
 }
@@ -732,7 +791,15 @@ pub struct RigDesign {
 
 /// Identifies the rig `config` describes and designs its controller, the drive's range A1's.
 pub fn design_for_rig(config: &RigConfig) -> Result<RigDesign, DesignError> {
-    let identified = identify_loads(config)?;
+    design_identified(identify_loads(config)?, config)
+}
+
+/// Designs the controller from an identification (the simulator's, or records'), the drive's
+/// range that of `config`'s A1.
+pub fn design_identified(
+    identified: Identified,
+    config: &RigConfig,
+) -> Result<RigDesign, DesignError> {
     let law = config.firmware.law;
     let design = design(
         &identified.models,

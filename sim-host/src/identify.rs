@@ -89,16 +89,43 @@ pub fn frequency_response(
 /// last 0.5 s); `None` if the hold is not in the record. Across preloads these give the
 /// applicator's static gain and its stiction ([`static_line`]).
 pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<(f64, f64)> {
-    let end = (f64::from(EXCITATION_SETTLE_S) / TICK_S).round() as usize;
-    let start = end.checked_sub((0.5 / TICK_S) as usize)?;
-    let hold = ticks.get(start..end)?;
-    let n = hold.len() as f64;
-    let drive: f64 = hold
+    let drive: Vec<f64> = ticks
         .iter()
         .map(|t| f64::from(actuator.force_g(AdcCode(t.dac_code))))
-        .sum();
-    let gauge: f64 = hold.iter().map(|t| f64::from(t.sensed_g)).sum();
-    Some((drive / n, gauge / n))
+        .collect();
+    let gauge: Vec<f64> = ticks.iter().map(|t| f64::from(t.sensed_g)).collect();
+    hold_means_of(&drive, &gauge, TICK_S)
+}
+
+/// [`hold_means`] of a record of the excitation (its `drive_g` column and gauge force).
+pub fn hold_means_of_record(rec: &tactile_record::Record) -> Option<(f64, f64)> {
+    hold_means_of(rec.column("drive_g")?, &rec.force_g, record_dt_s(rec)?)
+}
+
+/// The excitation's preload in a record: its command, which holds still from half the
+/// settling time to the end (`None` for a record of another protocol).
+pub fn preload_of_record(rec: &tactile_record::Record) -> Option<f32> {
+    let from = (0.5 * f64::from(EXCITATION_SETTLE_S) / record_dt_s(rec)?).ceil() as usize;
+    let held = rec.column("command_g")?.get(from..)?;
+    let command = *held.first()?;
+    let still = held.iter().all(|c| (c - command).abs() <= 1e-3);
+    (still && command.is_finite() && command > 0.0).then_some(command as f32)
+}
+
+fn hold_means_of(drive: &[f64], gauge: &[f64], dt_s: f64) -> Option<(f64, f64)> {
+    let end = (f64::from(EXCITATION_SETTLE_S) / dt_s).round() as usize;
+    let start = end.checked_sub((0.5 / dt_s) as usize)?;
+    let (drive, gauge) = (drive.get(start..end)?, gauge.get(start..end)?);
+    let n = drive.len() as f64;
+    Some((drive.iter().sum::<f64>() / n, gauge.iter().sum::<f64>() / n))
+}
+
+/// A record's sample period from its first and last times.
+fn record_dt_s(rec: &tactile_record::Record) -> Option<f64> {
+    match rec.t_s.as_slice() {
+        [a, .., b] if b > a => Some((b - a) / (rec.t_s.len() - 1) as f64),
+        _ => None,
+    }
 }
 
 /// The applicator's static line through holds reached from below, (drive, gauge) in grams:
@@ -126,10 +153,7 @@ pub fn frequency_response_of_record(
     rec: &tactile_record::Record,
 ) -> Result<Vec<ResponsePoint>, IdentifyError> {
     let drive = rec.column("drive_g").ok_or(IdentifyError::NoDriveColumn)?;
-    let dt_s = match rec.t_s.as_slice() {
-        [a, .., b] => (b - a) / (rec.t_s.len() - 1) as f64,
-        _ => return Err(IdentifyError::TooFewPeriods { have: 0 }),
-    };
+    let dt_s = record_dt_s(rec).ok_or(IdentifyError::TooFewPeriods { have: 0 })?;
     let per = f64::from(EXCITATION_PERIOD_S) / dt_s;
     // Whole samples per period, and the chirp's top under the record's Nyquist rate.
     if (per - per.round()).abs() > 1e-3 * per || 0.5 / dt_s <= f64::from(EXCITATION_END_HZ) {

@@ -176,3 +176,51 @@ fn a_record_of_the_excitation_identifies_as_its_ticks_do() {
     let e = frequency_response_of_record(&rec).unwrap_err().to_string();
     assert!(e.contains("no drive_g column"), "{e}");
 }
+
+/// The design reads a record's preload from its command and its hold from the drive and gauge
+/// (`tactile design --records`): the memo's excitation record reads 50 g and the hold the
+/// simulator's ticks give; one preload is refused (no static line through one hold), and a
+/// record of another protocol is refused with the reason.
+#[test]
+fn the_design_reads_excitation_records_and_refuses_others() {
+    use sim_host::design::{excited_of_record, excited_of_run, identified_from, DesignError};
+    let config = RigConfig {
+        scan_array: false,
+        ..Default::default()
+    };
+    let protocol = Protocol::design_excitation(50.0);
+    let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).unwrap();
+    let dir = std::env::temp_dir().join(format!("design-records-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("excitation-50g.csv");
+    tactile_record::write_record(&path, &[], &run.ticks, 1).unwrap();
+    let rec = tactile_record::read_record(&path).unwrap();
+    let from_record = excited_of_record(&rec).unwrap();
+    let from_ticks = excited_of_run(&run.ticks, protocol, &config.firmware.actuator).unwrap();
+    assert_eq!(from_record.load_g, 50.0);
+    // The record rounds the gauge to 1 mg and the drive to 0.1 mg.
+    assert!((from_record.hold.0 - from_ticks.hold.0).abs() < 1e-4);
+    assert!((from_record.hold.1 - from_ticks.hold.1).abs() < 1e-3);
+    assert!(
+        (from_ticks.hold.1 - 50.0).abs() < 1.0,
+        "the hold reads {:?}",
+        from_ticks.hold
+    );
+    let twice = [from_record.clone(), from_record];
+    assert!(matches!(
+        identified_from(&twice),
+        Err(DesignError::TooFewPreloads { have: 1 })
+    ));
+    let steps = run_protocol(
+        "force-steps",
+        Protocol::FORCE_STEPS_MEMO,
+        config,
+        false,
+        |_| {},
+    )
+    .unwrap();
+    let path = dir.join("force-steps.csv");
+    tactile_record::write_record(&path, &[], &steps.ticks, 1).unwrap();
+    let e = excited_of_record(&tactile_record::read_record(&path).unwrap()).unwrap_err();
+    assert!(matches!(e, DesignError::NotExcitation { .. }), "{e}");
+}

@@ -30,7 +30,7 @@ pub mod sim;
 #[cfg(any(test, feature = "sim"))]
 pub use sim::{
     only_run_from_cmdline, runs_from_cmdline, session_from_cmdline, DeliberateCrash, FilRun,
-    Session, CALIBRATION_SESSION, FIL_SESSION,
+    Session, CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION,
 };
 
 pub use safety::{CheckIns, ResetCause, SafeStop};

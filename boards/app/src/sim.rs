@@ -2,7 +2,7 @@
 //! firmware-in-the-loop build (QEMU) and the host check that the task bodies reproduce the
 //! simulator's rig.
 
-use tactile_core::profile::Protocol;
+use tactile_core::profile::{Protocol, DESIGN_PRELOADS_G};
 use tactile_core::tactile::TaxelId;
 use tactile_core::tasks::FirmwareConfig;
 use tactile_core::viscoelastic::NonlinearMk;
@@ -95,6 +95,32 @@ pub const CALIBRATION_SESSION: [FilRun; 3] = {
     ]
 };
 
+const fn excitation_run(name: &'static str, preload_g: f32) -> FilRun {
+    FilRun {
+        name,
+        protocol: Protocol::design_excitation(preload_g),
+        fault: None,
+        finger: None,
+        element: None,
+        designed: false,
+    }
+}
+
+/// The QEMU identification session (`-append "session=excitation"`): the applicator's
+/// excitation at each of the design's preloads ([`DESIGN_PRELOADS_G`]) under A1, recorded over
+/// defmt for `tactile design --records` (9.5 s each).
+pub const EXCITATION_SESSION: [FilRun; 6] = {
+    let [a, b, c, d, e, f] = DESIGN_PRELOADS_G;
+    [
+        excitation_run("excitation-10g", a),
+        excitation_run("excitation-20g", b),
+        excitation_run("excitation-35g", c),
+        excitation_run("excitation-50g", d),
+        excitation_run("excitation-75g", e),
+        excitation_run("excitation-100g", f),
+    ]
+};
+
 /// The words of a semihosting command line (the ELF's path, then `-append`'s words), up to its
 /// NUL; none if it is not UTF-8.
 fn cmdline_words(cmdline: &[u8]) -> impl Iterator<Item = &str> {
@@ -116,6 +142,8 @@ pub enum Session {
     FirmwareInTheLoop,
     /// [`CALIBRATION_SESSION`] (`session=calibration`).
     Calibration,
+    /// [`EXCITATION_SESSION`] (`session=excitation`).
+    Excitation,
 }
 
 impl Session {
@@ -123,6 +151,7 @@ impl Session {
         match self {
             Session::FirmwareInTheLoop => &FIL_SESSION,
             Session::Calibration => &CALIBRATION_SESSION,
+            Session::Excitation => &EXCITATION_SESSION,
         }
     }
 
@@ -135,11 +164,13 @@ impl Session {
 
 /// Which session the QEMU firmware runs, from its semihosting command line.
 pub fn session_from_cmdline(cmdline: &[u8]) -> Session {
-    if cmdline_words(cmdline).any(|w| w == "session=calibration") {
-        Session::Calibration
-    } else {
-        Session::FirmwareInTheLoop
-    }
+    cmdline_words(cmdline)
+        .find_map(|w| match w {
+            "session=calibration" => Some(Session::Calibration),
+            "session=excitation" => Some(Session::Excitation),
+            _ => None,
+        })
+        .unwrap_or(Session::FirmwareInTheLoop)
 }
 
 /// The one run of the session that `run=N` (0-based) names, so that a test can run a long
@@ -388,6 +419,20 @@ mod tests {
             &CALIBRATION_SESSION[2..]
         );
         assert_eq!(runs_from_cmdline(b"fw run=1"), &FIL_SESSION[1..2]);
+        assert_eq!(
+            session_from_cmdline(b"fw session=excitation\0"),
+            Session::Excitation
+        );
+        assert_eq!(
+            runs_from_cmdline(b"fw session=excitation run=5"),
+            &EXCITATION_SESSION[5..]
+        );
+        // The identification session runs the design's excitations, named by their preloads.
+        for (r, load_g) in EXCITATION_SESSION.iter().zip(DESIGN_PRELOADS_G) {
+            assert_eq!(r.protocol, Protocol::design_excitation(load_g));
+            assert_eq!(r.name, format!("excitation-{load_g}g"));
+            assert!(r.fault.is_none() && r.finger.is_none() && !r.designed);
+        }
         for whole in [
             "fw session=calibration run=3",
             "fw session=calibration run=x",

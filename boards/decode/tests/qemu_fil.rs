@@ -676,3 +676,101 @@ fn calibration_on_the_firmware_end_to_end() {
         scores.nominal_g[0]
     );
 }
+
+/// Issue 13's identification end to end on the firmware: the QEMU firmware runs the
+/// applicator's excitation at the design's six preloads (`session=excitation`), the host
+/// decodes the log and designs the controller from it as `tactile design --records` does. The
+/// table is the one the firmware build carries (`boards/controller/table.bin`, designed on the
+/// host simulator): to the byte from the decoded ticks, and within 1 % from the CSV records
+/// (their rounding: 1 mg of gauge, 0.1 mg of drive).
+#[test]
+#[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
+fn the_controller_is_designed_from_the_firmwares_excitation() {
+    use sim_host::design::{
+        design_identified, excited_of_record, excited_of_run, identified_from, Excited,
+    };
+    use tactile_core::tracking::TrackingConfig;
+    use tactile_firmware::EXCITATION_SESSION;
+    let Some((elf, dir)) = firmware_for("identification test") else {
+        return;
+    };
+    let sessions: Vec<tactile_decode::Session> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..EXCITATION_SESSION.len())
+            .map(|k| {
+                let (elf, dir) = (&elf, &dir);
+                scope.spawn(move || {
+                    let log = dir.join(format!("excitation-{k}.defmt"));
+                    let append = format!("session=excitation run={k}");
+                    assert!(
+                        run_qemu(elf, &log, &append),
+                        "the firmware exited with a failure (`{append}`)"
+                    );
+                    decode_log(elf, &log)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a QEMU run"))
+            .collect()
+    });
+    let rig = RigConfig {
+        scan_array: false,
+        ..Default::default()
+    };
+    let out = dir.join("excitation");
+    let (mut from_ticks, mut from_csv) = (Vec::new(), Vec::new());
+    let runs = sessions.iter().flat_map(|s| &s.runs);
+    assert_eq!(runs.clone().count(), EXCITATION_SESSION.len());
+    for (run, spec) in runs.zip(&EXCITATION_SESSION) {
+        assert_eq!(run.name, spec.name);
+        let end = run.end.expect("RunEnd");
+        assert_eq!((end.control_frames_dropped, end.overruns), (0, 0));
+        let ticks = run.tick_records();
+        from_ticks.push(
+            excited_of_run(&ticks, spec.protocol, &rig.firmware.actuator)
+                .unwrap_or_else(|e| panic!("{}: {e}", run.name)),
+        );
+        let written = tactile_decode::write_run(&out, run, &[]).expect("records written");
+        let rec = tactile_record::read_record(&written[0]).expect("record read back");
+        from_csv.push(excited_of_record(&rec).unwrap_or_else(|e| panic!("{}: {e}", run.name)));
+    }
+    let design = |e: &[Excited]| {
+        design_identified(identified_from(e).expect("identified"), &rig)
+            .expect("designed")
+            .design
+            .config
+    };
+    let committed = std::fs::read(workspace().join("boards/controller/table.bin")).expect("table");
+    let exact = design(&from_ticks);
+    assert_eq!(
+        exact.encode().expect("encoded").to_vec(),
+        committed,
+        "the table from the firmware's records is not the build's"
+    );
+    let (csv, build) = (
+        design(&from_csv),
+        TrackingConfig::decode(&committed).expect("the build's table"),
+    );
+    let fields = |c: &TrackingConfig| -> Vec<f32> {
+        let mut v = vec![c.kp, c.ki_per_s, c.friction_g, c.reference_hz];
+        v.extend([c.approach_hold_g, c.approach_push_g, c.approach_brake_g]);
+        v.extend(c.feedback_filter);
+        for p in &c.schedule[..usize::from(c.points)] {
+            v.extend([p.load_g, p.feedback]);
+            v.extend(p.c);
+        }
+        v
+    };
+    assert_eq!(
+        (csv.points, csv.delay_ticks),
+        (build.points, build.delay_ticks)
+    );
+    let worst = fields(&csv)
+        .iter()
+        .zip(fields(&build))
+        .map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()).max(1e-6))
+        .fold(0.0f32, f32::max);
+    eprintln!("the design from the CSV records: worst relative difference {worst:.2e}");
+    assert!(worst < 0.01, "{csv:?}\nvs\n{build:?}");
+}

@@ -2,7 +2,7 @@
 //! run, the simulator truth that rides with each control frame, and the instruction counts.
 
 use core::mem::MaybeUninit;
-use core::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU8, AtomicUsize, Ordering};
 
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{TaxelCalibration, TAXELS};
@@ -12,29 +12,36 @@ use tactile_plant::rig::RigConfig;
 
 use tactile_firmware::FilRun;
 
-/// Set at start-up when the command line asks for the calibration session.
-static CALIBRATION: AtomicBool = AtomicBool::new(false);
+/// Set at start-up to the session the command line asks for (0: firmware in the loop,
+/// 1: calibration, 2: excitation).
+static SESSION: AtomicU8 = AtomicU8::new(0);
 /// Set at start-up to the one run the command line asks for (`run=N`); `usize::MAX`: all.
 static ONLY: AtomicUsize = AtomicUsize::new(usize::MAX);
+
+const SESSIONS: [tactile_firmware::Session; 3] = [
+    tactile_firmware::Session::FirmwareInTheLoop,
+    tactile_firmware::Session::Calibration,
+    tactile_firmware::Session::Excitation,
+];
 
 /// Chooses the session (and, with `run=N`, one run of it) from the semihosting command line
 /// (call first in `init`).
 pub fn choose(cmdline: &[u8]) {
-    let calibration =
-        tactile_firmware::session_from_cmdline(cmdline) == tactile_firmware::Session::Calibration;
-    CALIBRATION.store(calibration, Ordering::Release);
+    let session = tactile_firmware::session_from_cmdline(cmdline);
+    let index = SESSIONS.iter().position(|s| *s == session).unwrap_or(0);
+    SESSION.store(index as u8, Ordering::Release);
     let only = tactile_firmware::only_run_from_cmdline(cmdline).unwrap_or(usize::MAX);
     ONLY.store(only, Ordering::Release);
 }
 
 /// The session's runs (shared with the QEMU test, which replays them on the host simulator):
-/// the firmware-in-the-loop session, or the calibration session, or one run of either.
+/// the firmware-in-the-loop session, the calibration or the excitation session, or one run of
+/// one of them.
 pub fn runs() -> &'static [FilRun] {
-    let session = if CALIBRATION.load(Ordering::Acquire) {
-        tactile_firmware::Session::Calibration
-    } else {
-        tactile_firmware::Session::FirmwareInTheLoop
-    };
+    let session = SESSIONS
+        .get(usize::from(SESSION.load(Ordering::Acquire)))
+        .copied()
+        .unwrap_or(tactile_firmware::Session::FirmwareInTheLoop);
     let only = ONLY.load(Ordering::Acquire);
     session.runs_of((only != usize::MAX).then_some(only))
 }

@@ -145,6 +145,11 @@ enum Command {
         /// The rig's applicator, a TOML file (default: the memo's).
         #[arg(long)]
         applicator: Option<PathBuf>,
+        /// Design from these records of the excitation at several preloads instead of
+        /// simulating it (a board's, or the QEMU firmware's identification session:
+        /// `boards/qemu-netduinoplus2/run.sh OUT session=excitation`).
+        #[arg(long, num_args = 1.., conflicts_with = "applicator")]
+        records: Vec<PathBuf>,
         /// Write the models, the gains and the margins as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -364,6 +369,7 @@ fn run(command: Command) -> Result<(), Error> {
         }
         Command::Design {
             applicator,
+            records,
             json,
             table,
         } => {
@@ -374,8 +380,21 @@ fn run(command: Command) -> Result<(), Error> {
             if let Some(path) = &applicator {
                 config.applicator = sim_host::error::read_applicator(path)?;
             }
-            let r = sim_host::design::design_for_rig(&config)
-                .map_err(|e| Error::Failed(format!("design: {e}")))?;
+            let r = if records.is_empty() {
+                sim_host::design::design_for_rig(&config)
+            } else {
+                let mut excited = Vec::new();
+                for file in &records {
+                    let rec = tactile_record::read_record(file)?;
+                    excited.push(
+                        sim_host::design::excited_of_record(&rec)
+                            .map_err(|e| Error::Failed(format!("{}: {e}", file.display())))?,
+                    );
+                }
+                sim_host::design::identified_from(&excited)
+                    .and_then(|id| sim_host::design::design_identified(id, &config))
+            }
+            .map_err(|e| Error::Failed(format!("design: {e}")))?;
             let id = &r.identified;
             outln!(
                 "static line of the holds: gain {:.3}, stiction {:.2} g",
