@@ -1,5 +1,5 @@
 //! Telemetry frames: what the firmware streams over defmt, and what the simulator and the
-//! host tools write as records. Small in bytes (a control frame is 28 bytes of payload), every
+//! host tools write as records. Small in bytes (a control frame is 30 bytes of payload), every
 //! frame numbered, drops counted where they happen.
 
 use crate::tactile::{COLS, ROWS};
@@ -87,6 +87,9 @@ pub struct ControlFrame {
     pub strain_pct: f32,
     /// Contact force estimated from that strain by the on-chip inverse model.
     pub estimate_g: f32,
+    /// The code this tick wrote to the DAC: what the actuator was told, excitation included
+    /// (the applicator's identification takes its response against it).
+    pub dac_code: u16,
     pub faults: FaultFlags,
 }
 

@@ -30,16 +30,12 @@ pub fn write_ticks(
     for (k, v) in meta {
         writeln!(w, "# {k}={v}")?;
     }
-    // The drive is the simulator's (a board's frames do not carry it yet).
-    let truth_header = if truth {
-        ",true_force_g,contact,drive_g"
-    } else {
-        ""
-    };
+    let truth_header = if truth { ",true_force_g,contact" } else { "" };
+    // The drive in grams from the code the tick wrote (every frame carries it).
     let actuator = tactile_plant::rig::RigConfig::SIM_FIRMWARE.actuator;
     writeln!(
         w,
-        "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g{truth_header},faults"
+        "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g{truth_header},drive_g,faults"
     )?;
     for r in ticks.iter().skip(every.max(1) - 1).step_by(every.max(1)) {
         write!(
@@ -48,15 +44,10 @@ pub fn write_ticks(
             r.t_s, r.sensed_g, r.strain_pct, r.command_g, r.adjusted_g, r.estimate_g,
         )?;
         if truth {
-            let drive_g = actuator.force_g(tactile_core::gauge::AdcCode(r.dac_code));
-            write!(
-                w,
-                ",{:.3},{},{drive_g:.4}",
-                r.true_force_g,
-                u8::from(r.in_contact)
-            )?;
+            write!(w, ",{:.3},{}", r.true_force_g, u8::from(r.in_contact))?;
         }
-        writeln!(w, ",{}", r.faults.bits())?;
+        let drive_g = actuator.force_g(tactile_core::gauge::AdcCode(r.dac_code));
+        writeln!(w, ",{drive_g:.4},{}", r.faults.bits())?;
     }
     w.flush()
 }

@@ -36,7 +36,7 @@ pub enum IdentifyError {
     LostContact { t_s: f64 },
     #[error("the supervisor stopped the drive at {t_s:.2} s ({faults})")]
     Faulted { t_s: f64, faults: String },
-    #[error("the record has no drive_g column: the drive is what the response is taken against (the simulator's records carry it; a board's frames do not yet)")]
+    #[error("the record has no drive_g column: the drive is what the response is taken against (the simulator's and the decoder's records carry it)")]
     NoDriveColumn,
     #[error("the record is sampled at {hz:.1} Hz: identification needs whole samples in the chirp's 1 s period and the chirp's 301 Hz under half the rate (record at 1000 Hz)")]
     SampleRate { hz: f64 },

@@ -128,6 +128,7 @@ impl ControlLoop {
             adjusted_g: out.adjusted_g,
             strain_pct: self.reading.strain_pct,
             estimate_g: self.reading.estimate_g,
+            dac_code: out.dac_code.0,
             faults: out.faults,
         }
     }

@@ -38,8 +38,6 @@ pub struct Tick {
     pub frame: ControlFrame,
     pub true_force_g: Option<f32>,
     pub in_contact: Option<bool>,
-    /// The code this tick wrote to the (simulated) DAC, when the log carries it.
-    pub dac_code: Option<u16>,
 }
 
 /// One protocol run.
@@ -203,7 +201,7 @@ impl Builder {
                     session.flagged_drops += 1;
                 }
                 let truth = structs.iter().find(|s| s.name == "SimTruth");
-                let (true_force_g, in_contact, dac_code) = match truth {
+                let (true_force_g, in_contact) = match truth {
                     Some(s) => {
                         let f = s.fields();
                         let tick: u32 = f.num("tick")?;
@@ -213,19 +211,14 @@ impl Builder {
                                 frame.tick
                             ));
                         }
-                        (
-                            Some(f.num("true_force_g")?),
-                            Some(f.flag("in_contact")?),
-                            Some(f.num("dac_code")?),
-                        )
+                        (Some(f.num("true_force_g")?), Some(f.flag("in_contact")?))
                     }
-                    None => (None, None, None),
+                    None => (None, None),
                 };
                 self.run_mut("ControlFrame")?.ticks.push(Tick {
                     frame,
                     true_force_g,
                     in_contact,
-                    dac_code,
                 });
             }
             "TaxelFrame" => {
@@ -264,6 +257,7 @@ fn control_frame(f: &Fields) -> Result<ControlFrame, String> {
         adjusted_g: f.num("adjusted_g")?,
         strain_pct: f.num("strain_pct")?,
         estimate_g: f.num("estimate_g")?,
+        dac_code: f.num("dac_code")?,
         faults: FaultFlags::from_bits_retain(f.wrapped_num("faults", "FaultFlags")?),
     })
 }
@@ -403,8 +397,7 @@ impl Run {
                     in_contact: next.in_contact.unwrap_or(false),
                     faults: now.frame.faults | next.frame.faults,
                     // The code tick `k` wrote, as the simulator's record `k` holds it.
-                    // 0 when the log does not carry it (a board's log).
-                    dac_code: now.dac_code.unwrap_or_default(),
+                    dac_code: now.frame.dac_code,
                 }
             })
             .collect()

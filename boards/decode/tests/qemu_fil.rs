@@ -165,7 +165,7 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
         .iter()
         .position(|t| run.tick_time_s(t.frame.tick) >= injection.at_s - 1e-9)
         .expect("the injection falls inside the run");
-    let dac = |t: &tactile_decode::Tick| t.dac_code.expect("QEMU frames carry the DAC code");
+    let dac = |t: &tactile_decode::Tick| t.frame.dac_code;
     assert!(
         ticks[..k0].iter().rev().take(100).all(|t| dac(t) != zero),
         "{name}: the actuator was not driving before the fault"
@@ -221,7 +221,7 @@ fn is_the_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun) {
     let name = spec.name;
     let ticks = &run.ticks;
     let records = run.tick_records();
-    let dac = |t: &tactile_decode::Tick| t.dac_code.expect("QEMU frames carry the DAC code");
+    let dac = |t: &tactile_decode::Tick| t.frame.dac_code;
     let host = run_protocol(name, spec.protocol, spec.rig(), false, |_| {}).expect("host rig");
     assert_eq!(ticks.len(), host.ticks.len(), "{name}");
     for (k, (fw, rig)) in ticks.iter().zip(&host.ticks).enumerate() {
@@ -506,7 +506,7 @@ fn a_panic_and_a_hardfault_zero_the_actuator_before_reporting() {
             .and_then(|r| r.ticks.last())
             .expect("frames before the crash");
         assert_eq!(last.frame.tick, CRASH_TICK - 1, "{cause}");
-        let driving = last.dac_code.expect("DAC code in the frame");
+        let driving = last.frame.dac_code;
         assert_ne!(driving, zero, "{cause}: the actuator was not driving");
         // The crash report: the handler's SafeStop, with the DAC read back at the zero code.
         assert_eq!(session.errors.len(), 1, "{cause}: {:?}", session.errors);

@@ -224,7 +224,6 @@ mod app {
                     tick,
                     true_force_g,
                     in_contact,
-                    dac_code: hw.dac().0,
                 };
                 // An injected deadline overrun hits the coming period: this tick must run
                 // late for it (the rig's tick k sees the overrun of the task before it).

@@ -135,13 +135,12 @@ impl tactile_firmware::ScanIo for Converted<'_> {
 }
 
 /// Simulator truth riding with a control frame: the contact force when the converters
-/// sampled, and the code the tick wrote to the simulated DAC (what the actuator was told).
+/// sampled.
 #[derive(Clone, Copy, Debug, Default, PartialEq, defmt::Format)]
 pub struct SimTruth {
     pub tick: u32,
     pub true_force_g: f32,
     pub in_contact: bool,
-    pub dac_code: u16,
 }
 
 /// SysTick counts per instruction at `-icount shift=0` (1 ns each) and a 168 MHz core clock,
