@@ -12,6 +12,7 @@
 //! - [`viscoelastic`]: elastic, Maxwell–Kelvin, modified Maxwell–Kelvin and second-order
 //!   models, forward (strain from stress) and inverse (stress from strain).
 //! - [`calibration`]: the per-taxel calibration table (bytes the firmware checks at start-up).
+//! - [`command`]: commands from the host to a running board (framed, numbered, checked).
 //! - [`estimator`]: force estimators per taxel at the scan rate (scheduled inverse, observer).
 //! - [`hysteresis`]: play operators, and a loop taken off a force estimate.
 //! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
@@ -37,6 +38,7 @@
 )]
 
 pub mod calibration;
+pub mod command;
 pub mod control;
 pub mod estimator;
 pub mod filter;
