@@ -161,6 +161,8 @@ pub enum Refusal {
     TableRefused,
     #[error("the designed controller has no valid table")]
     NoControllerTable,
+    #[error("{param:?}: not on this board")]
+    Unsupported { param: Param },
 }
 
 /// A command as received: its sequence number and the command, or why it was refused.

@@ -178,8 +178,12 @@ impl ForceLoop {
         self.contact_losses
     }
 
-    /// The explicit command that clears latched faults; the loop restarts from rest.
+    /// The explicit command that clears latched faults; the loop restarts from rest. With no
+    /// fault latched it changes nothing (a host's clear must not upset a loop that is holding).
     pub fn clear_faults(&mut self) {
+        if self.latched.is_empty() {
+            return;
+        }
         self.latched = FaultFlags::NONE;
         self.bad_gauge_ticks = 0;
         self.stuck_ticks = 0;
@@ -430,6 +434,23 @@ mod tests {
             let wobble = if k % 2 == 0 { 0.05 } else { -0.05 };
             let out = l.tick(30.0, Ok(30.0 + wobble), false);
             assert!(!out.faults.contains(FaultFlags::LATCHED));
+        }
+    }
+
+    /// A clear with nothing latched (a host's command at any time) leaves a holding loop as it
+    /// was: the same outputs as a loop never told.
+    #[test]
+    fn a_clear_with_nothing_latched_changes_nothing() {
+        let (mut told, mut untold) = (memo_loop(), memo_loop());
+        run_normally(&mut told, 300);
+        run_normally(&mut untold, 300);
+        told.clear_faults();
+        for k in 0..50 {
+            let reading = Ok(29.0 + 0.1 * k as f32);
+            assert_eq!(
+                told.tick(30.0, reading, false),
+                untold.tick(30.0, reading, false)
+            );
         }
     }
 

@@ -21,6 +21,7 @@
     )
 )]
 
+pub mod commands;
 pub mod safety;
 pub mod table;
 pub mod telemetry;
@@ -29,9 +30,11 @@ pub mod telemetry;
 pub mod sim;
 #[cfg(any(test, feature = "sim"))]
 pub use sim::{
-    only_run_from_cmdline, runs_from_cmdline, session_from_cmdline, DeliberateCrash, FilRun,
-    Session, CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION,
+    only_run_from_cmdline, runs_from_cmdline, script_from_cmdline, session_from_cmdline,
+    DeliberateCrash, FilRun, Session, CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION, HOLD_S,
 };
+
+pub use commands::{Action, CommandPort, Reply};
 
 pub use safety::{CheckIns, ResetCause, SafeStop};
 pub use table::{BOARD, CALIBRATION_TABLE, CONTROLLER_TABLE};

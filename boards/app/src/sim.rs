@@ -2,6 +2,7 @@
 //! firmware-in-the-loop build (QEMU) and the host check that the task bodies reproduce the
 //! simulator's rig.
 
+use tactile_core::command::Run;
 use tactile_core::profile::{Protocol, DESIGN_PRELOADS_G};
 use tactile_core::tactile::TaxelId;
 use tactile_core::tasks::FirmwareConfig;
@@ -144,6 +145,9 @@ pub enum Session {
     Calibration,
     /// [`EXCITATION_SESSION`] (`session=excitation`).
     Excitation,
+    /// Driven by commands (`session=commands script=PATH`): no runs of its own; each run is
+    /// one a command asked for ([`FilRun::commanded`]).
+    Commands,
 }
 
 impl Session {
@@ -152,6 +156,7 @@ impl Session {
             Session::FirmwareInTheLoop => &FIL_SESSION,
             Session::Calibration => &CALIBRATION_SESSION,
             Session::Excitation => &EXCITATION_SESSION,
+            Session::Commands => &[],
         }
     }
 
@@ -168,9 +173,59 @@ pub fn session_from_cmdline(cmdline: &[u8]) -> Session {
         .find_map(|w| match w {
             "session=calibration" => Some(Session::Calibration),
             "session=excitation" => Some(Session::Excitation),
+            "session=commands" => Some(Session::Commands),
             _ => None,
         })
         .unwrap_or(Session::FirmwareInTheLoop)
+}
+
+/// The command script's path (`script=PATH`) on a semihosting command line.
+pub fn script_from_cmdline(cmdline: &[u8]) -> Option<&str> {
+    cmdline_words(cmdline).find_map(|w| w.strip_prefix("script="))
+}
+
+/// How long a commanded hold lasts at most, s (a `Stop` or the next run ends it sooner).
+pub const HOLD_S: f32 = 3600.0;
+
+impl FilRun {
+    /// The run a command asks for, on the simulated board: the calibration with the probe over
+    /// its taxel of the same finger, a hold as a step that holds.
+    pub fn commanded(run: Option<Run>, hold_g: f32) -> FilRun {
+        let base = FilRun {
+            name: "hold",
+            protocol: Protocol::Step {
+                load_g: hold_g,
+                lead_s: 0.0,
+                on_s: HOLD_S,
+                off_s: 0.0,
+            },
+            fault: None,
+            finger: None,
+            element: None,
+            designed: false,
+        };
+        let Some(run) = run else {
+            return base;
+        };
+        let name = match run {
+            Run::ForceSteps => "force-steps",
+            Run::PseudoRandom { .. } => "pseudo-random",
+            Run::Sines => "sines",
+            Run::StepLoads => "step-loads",
+            Run::LowForce => "low-force",
+            Run::Calibration { .. } => "calibration",
+            Run::Excitation { .. } => "excitation",
+        };
+        FilRun {
+            name,
+            protocol: run.protocol(),
+            finger: match run {
+                Run::Calibration { taxel } => Some((taxel, RigConfig::default().seed)),
+                _ => None,
+            },
+            ..base
+        }
+    }
 }
 
 /// The one run of the session that `run=N` (0-based) names, so that a test can run a long

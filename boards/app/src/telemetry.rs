@@ -66,13 +66,15 @@ pub enum Message<X> {
     Tick(ControlFrame, X),
     Start(RunStart),
     End(RunEnd),
+    /// The answer to a command from the host.
+    Reply(crate::commands::Reply),
 }
 
 impl<X> Numbered for Message<X> {
     fn sequence_slot(&mut self) -> Option<&mut u32> {
         match self {
             Message::Tick(frame, _) => Some(&mut frame.seq),
-            Message::Start(_) | Message::End(_) => None,
+            Message::Start(_) | Message::End(_) | Message::Reply(_) => None,
         }
     }
     fn flag_dropped(&mut self) {

@@ -76,6 +76,9 @@ pub struct Session {
     pub errors: Vec<String>,
     /// Bytes after the last complete frame (a log cut off mid-frame).
     pub trailing_bytes: usize,
+    /// The board's answers to commands, in order: (sequence number, `None` when taken, or
+    /// the reason it was refused as the board wrote it).
+    pub replies: Vec<(u16, Option<String>)>,
 }
 
 impl Session {
@@ -183,6 +186,12 @@ impl Builder {
                     duration_s: f.num("duration_s")?,
                     ..Default::default()
                 });
+            }
+            "CommandAck" => session.replies.push((first.fields().num("seq")?, None)),
+            "CommandRefused" => {
+                let f = first.fields();
+                let reason = f.text("reason")?.to_string();
+                session.replies.push((f.num("seq")?, Some(reason)));
             }
             "RunEnd" => {
                 let f = first.fields();

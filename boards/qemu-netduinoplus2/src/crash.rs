@@ -77,6 +77,27 @@ pub fn cmdline() -> [u8; 256] {
     cmdline
 }
 
+/// Reads the host file `path` into `buf` over semihosting; the bytes read, or `None` if it
+/// cannot be opened or read.
+pub fn read_file(path: &str, buf: &mut [u8]) -> Option<usize> {
+    let mut name = [0u8; 200];
+    let bytes = path.as_bytes();
+    name.get_mut(..bytes.len())?.copy_from_slice(bytes);
+    // NOTE: SYS_OPEN wants a NUL-terminated name and its length without the NUL; mode 1 is
+    // "rb".
+    // SAFETY: the name outlives the call and holds the NUL the host reads up to.
+    let handle = unsafe { cortex_m_semihosting::syscall!(OPEN, name.as_ptr(), 1, bytes.len()) };
+    if handle == usize::MAX || bytes.len() >= name.len() {
+        return None;
+    }
+    // SAFETY: SYS_READ writes at most `len` bytes into the buffer; it returns the bytes not
+    // read.
+    let left = unsafe { cortex_m_semihosting::syscall!(READ, handle, buf.as_mut_ptr(), buf.len()) };
+    // SAFETY: closes the handle opened above.
+    unsafe { cortex_m_semihosting::syscall!(CLOSE, handle) };
+    buf.len().checked_sub(left)
+}
+
 /// Crashes as asked when the control task reaches the requested tick.
 pub fn at_tick(request: Option<DeliberateCrash>, tick: u32) {
     match request {

@@ -71,7 +71,10 @@ mod app {
     use cortex_m::peripheral::{SCB, SYST};
     use heapless::spsc::{Consumer, Queue};
     use tactile_core::estimator::EstimatorKind;
-    use tactile_firmware::{Controller, Message, Outbox, RunEnd, RunStart, Scanner};
+    use tactile_core::io::ControlIo;
+    use tactile_firmware::{
+        Action, CommandPort, Controller, FilRun, Message, Outbox, RunEnd, RunStart, Scanner,
+    };
     use tactile_plant::hardware::SimHardware;
     use tactile_plant::rig::InjectedFault;
 
@@ -86,6 +89,8 @@ mod app {
     const SCAN_STEPS_PER_TICK: usize = 4;
     /// Queue depths: 32 control ticks and 4 taxel frames of slack for the telemetry task.
     const CONTROL_QUEUE: usize = 33;
+    /// Largest command script, bytes.
+    const SCRIPT_BYTES: usize = 4096;
     const TAXEL_QUEUE: usize = 5;
 
     type ControlMsg = Message<SimTruth>;
@@ -117,6 +122,9 @@ mod app {
         taxel_rx: Consumer<'static, TaxelMsg>,
         /// A crash the test asked for (`-append "panic-at-tick=N"`), or none.
         crash: Option<tactile_firmware::DeliberateCrash>,
+        /// The command channel and its script (`session=commands script=PATH`).
+        port: CommandPort,
+        script: session::Script,
     }
 
     #[init(local = [
@@ -124,6 +132,7 @@ mod app {
         taxel_queue: Queue<TaxelMsg, TAXEL_QUEUE> = Queue::new(),
         hw_slot: MaybeUninit<SimHardware> = MaybeUninit::uninit(),
         scanner_slot: MaybeUninit<Scanner> = MaybeUninit::uninit(),
+        script_buf: [u8; SCRIPT_BYTES] = [0; SCRIPT_BYTES],
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         session::paint_stack();
@@ -138,6 +147,9 @@ mod app {
             defmt::warn!("deliberate crash requested: {}", defmt::Debug2Format(&c));
         }
         let (controller, scanner) = session::task_state(0, hw, cx.local.scanner_slot);
+        let script = session::Script::load(&cmdline, cx.local.script_buf);
+        let max_force_g = session::board_config().supervisor.command_max_g;
+        let port = CommandPort::new(max_force_g, tactile_firmware::HOLD_S);
         let (control_tx, control_rx) = cx.local.control_queue.split();
         let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
         let mut syst = cx.core.SYST;
@@ -162,6 +174,8 @@ mod app {
                 taxel_rx,
                 syst,
                 crash,
+                port,
+                script,
             },
         )
     }
@@ -177,8 +191,9 @@ mod app {
     /// The 1 kHz control tick; then the simulated plant's next millisecond (the board's
     /// "physics", which a real board gets for free).
     #[task(binds = SysTick, priority = 3, shared = [hw, cost],
-           local = [controller, control_out, syst, crash, board_tick: u32 = 0, run: usize = 0,
-                    started: bool = false, pending_reset: bool = false, done: bool = false])]
+           local = [controller, control_out, syst, crash, port, script, board_tick: u32 = 0,
+                    run: usize = 0, started: bool = false, pending_reset: bool = false,
+                    done: bool = false, commanded: Option<FilRun> = None, active: bool = false])]
     fn control(mut cx: control::Context) {
         let local = cx.local;
         if *local.done {
@@ -189,10 +204,63 @@ mod app {
         // A requested crash hits at the start of its tick, with the DAC still driving.
         crate::crash::at_tick(*local.crash, tick);
         let controller = &mut *local.controller;
+        let commands = session::commanded();
+        if commands {
+            // This tick's bytes from the down-channel, and what their commands ask.
+            let (mut start, mut stop, mut clear) = (None, false, false);
+            while let Some(bytes) = local.script.due(tick) {
+                let out = &mut *local.control_out;
+                local.port.poll(
+                    bytes,
+                    &tactile_firmware::CONTROLLER_TABLE,
+                    |reply, action| {
+                        out.send(Message::Reply(reply));
+                        match action {
+                            Action::Start(run) => start = Some(FilRun::commanded(Some(run), 0.0)),
+                            Action::Hold { force_g } => {
+                                start = Some(FilRun::commanded(None, force_g))
+                            }
+                            Action::Stop => (start, stop) = (None, true),
+                            Action::ClearFaults => clear = true,
+                            Action::None => {}
+                        }
+                    },
+                );
+            }
+            if clear {
+                controller.clear_faults();
+            }
+            if stop || start.is_some() {
+                if core::mem::take(local.active) {
+                    let end = RunEnd {
+                        end_tick: tick,
+                        ..run_end(local.control_out.dropped(), controller)
+                    };
+                    local.control_out.send(Message::End(end));
+                }
+                if stop {
+                    let zero = session::board_config().actuator.zero_code();
+                    cx.shared.hw.lock(|hw| hw.write_actuator(zero));
+                }
+                if start.is_some() {
+                    *local.commanded = start;
+                    *local.pending_reset = true;
+                }
+            }
+        }
         if core::mem::take(local.pending_reset) {
             // A fresh board and fresh task state for the next protocol.
             let run = *local.run;
-            cx.shared.hw.lock(|hw| session::renew(run, hw, controller));
+            match local.commanded {
+                Some(c) if commands => {
+                    let port = &*local.port;
+                    cx.shared
+                        .hw
+                        .lock(|hw| session::renew_commanded(c, port, hw, controller));
+                    *local.active = true;
+                }
+                _ => cx.shared.hw.lock(|hw| session::renew(run, hw, controller)),
+            }
             // Rebuilding the board took longer than a tick: the new run starts its periods
             // now (the gap belongs to no run), so it is not counted as an overrun.
             SCB::clear_pendst();
@@ -200,8 +268,25 @@ mod app {
             *local.started = false;
             session::RESET_SCANNER.store(true, Ordering::Release);
         }
+        if commands && !*local.active {
+            // No run: the plant goes on, the actuator at its safe output; the session ends
+            // with the script.
+            cx.shared.hw.lock(|hw| hw.advance_period());
+            if local.script.finished() {
+                *local.done = true;
+                SESSION_DONE.store(true, Ordering::Release);
+            }
+            *local.board_tick = tick.wrapping_add(1);
+            let _ = telemetry::spawn();
+            return;
+        }
         if !core::mem::replace(local.started, true) {
-            if let Some(run) = runs().get(*local.run) {
+            let run = if commands {
+                local.commanded.as_ref()
+            } else {
+                runs().get(*local.run)
+            };
+            if let Some(run) = run {
                 local.control_out.send(Message::Start(RunStart {
                     name: run.name,
                     start_tick: tick,
@@ -245,10 +330,14 @@ mod app {
         if controller.finished() {
             local.control_out.send(Message::End(RunEnd {
                 end_tick: *local.board_tick,
-                control_frames_dropped: local.control_out.dropped(),
-                taxel_frames_dropped: TAXEL_DROPS.load(Ordering::Relaxed),
-                overruns: controller.overruns(),
+                ..run_end(local.control_out.dropped(), controller)
             }));
+            if commands {
+                *local.active = false;
+                let zero = session::board_config().actuator.zero_code();
+                cx.shared.hw.lock(|hw| hw.write_actuator(zero));
+                return;
+            }
             *local.run += 1;
             if *local.run < runs().len() {
                 // Swapped at the next tick, once this tick's scan has run on this board.
@@ -268,6 +357,16 @@ mod app {
         // The deadline: SysTick pending again means the next tick is already due.
         if SCB::is_pendst_pending() {
             controller.record_overrun();
+        }
+    }
+
+    /// The counts a run's end reports (its end tick filled in by the caller where it differs).
+    fn run_end(control_frames_dropped: u32, controller: &Controller) -> RunEnd {
+        RunEnd {
+            end_tick: 0,
+            control_frames_dropped,
+            taxel_frames_dropped: TAXEL_DROPS.load(Ordering::Relaxed),
+            overruns: controller.overruns(),
         }
     }
 
@@ -358,6 +457,7 @@ mod app {
                     Message::Tick(frame, truth) => defmt::info!("{} {}", frame, truth),
                     Message::Start(s) => defmt::info!("{}", s),
                     Message::End(e) => defmt::info!("{}", e),
+                    Message::Reply(r) => defmt::info!("{}", r),
                 }
             }
             if let Some((frame, estimate)) = cx.local.taxel_rx.dequeue() {

@@ -12,17 +12,23 @@ use tactile_plant::rig::RigConfig;
 
 use tactile_firmware::FilRun;
 
-/// Set at start-up to the session the command line asks for (0: firmware in the loop,
-/// 1: calibration, 2: excitation).
+/// Set at start-up to the session the command line asks for (its place in [`SESSIONS`]).
 static SESSION: AtomicU8 = AtomicU8::new(0);
 /// Set at start-up to the one run the command line asks for (`run=N`); `usize::MAX`: all.
 static ONLY: AtomicUsize = AtomicUsize::new(usize::MAX);
 
-const SESSIONS: [tactile_firmware::Session; 3] = [
+const SESSIONS: [tactile_firmware::Session; 4] = [
     tactile_firmware::Session::FirmwareInTheLoop,
     tactile_firmware::Session::Calibration,
     tactile_firmware::Session::Excitation,
+    tactile_firmware::Session::Commands,
 ];
+
+/// Whether the command line chose the command-driven session.
+pub fn commanded() -> bool {
+    SESSIONS.get(usize::from(SESSION.load(Ordering::Acquire)))
+        == Some(&tactile_firmware::Session::Commands)
+}
 
 /// Chooses the session (and, with `run=N`, one run of it) from the semihosting command line
 /// (call first in `init`).
@@ -53,6 +59,11 @@ pub static RESET_SCANNER: AtomicBool = AtomicBool::new(false);
 /// simulator runs, with that run's injected fault on the board.
 fn rig(run: usize) -> RigConfig {
     runs().get(run).map_or_else(RigConfig::default, |r| r.rig())
+}
+
+/// The board's configuration (the session's first run's, or the default rig's).
+pub fn board_config() -> tactile_core::tasks::FirmwareConfig {
+    rig(0).firmware
 }
 
 /// The board of the session's first run, as the simulator's rig builds it.
@@ -88,12 +99,48 @@ pub fn task_state(
 /// control task's stack frame does not hold a whole board).
 #[inline(never)]
 pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
-    let config = rig(run);
-    let fw = config.firmware;
     let protocol = runs()
         .get(run)
         .map_or(Protocol::FORCE_STEPS_MEMO, |r| r.protocol);
-    *hw = SimHardware::new(&config);
+    renew_with(&rig(run), protocol, hw, controller);
+}
+
+/// Replaces the board and the controller in place for a run a command asked for, with the
+/// force law and the array estimator the commands chose.
+#[inline(never)]
+pub fn renew_commanded(
+    run: &FilRun,
+    port: &tactile_firmware::CommandPort,
+    hw: &mut SimHardware,
+    controller: &mut Controller,
+) {
+    let mut config = run.rig();
+    config.firmware = port.firmware(config.firmware, &tactile_firmware::CONTROLLER_TABLE);
+    let estimator = config
+        .firmware
+        .array_estimator
+        .and_then(|k| {
+            tactile_core::estimator::EstimatorKind::ALL
+                .iter()
+                .position(|e| *e == k)
+        })
+        .map_or(u8::MAX, |i| i as u8);
+    SCAN_ESTIMATOR.store(estimator, Ordering::Release);
+    renew_with(&config, run.protocol, hw, controller);
+}
+
+/// The array estimator a commanded run chose (`u8::MAX`: each taxel's own), for the scan
+/// task's reset.
+static SCAN_ESTIMATOR: AtomicU8 = AtomicU8::new(u8::MAX);
+
+fn renew_with(
+    config: &RigConfig,
+    protocol: Protocol,
+    hw: &mut SimHardware,
+    controller: &mut Controller,
+) {
+    let fw = config.firmware;
+    *hw = SimHardware::new(config);
     let probe = hw.calibration().get(fw.probe.index()).copied();
     match probe.and_then(|cal| Controller::new(&fw, protocol, cal).ok()) {
         Some(c) => *controller = c,
@@ -106,7 +153,61 @@ pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
 /// it).
 #[inline(never)]
 pub fn reset_scanner(scanner: &mut Scanner, calibration: [TaxelCalibration; TAXELS]) -> bool {
-    scanner.reset(&rig(0).firmware, calibration).is_ok()
+    let mut config = rig(0).firmware;
+    let chosen = SCAN_ESTIMATOR.load(Ordering::Acquire);
+    if let Some(kind) = tactile_core::estimator::EstimatorKind::ALL.get(usize::from(chosen)) {
+        config.array_estimator = Some(*kind);
+    }
+    scanner.reset(&config, calibration).is_ok()
+}
+
+/// The command script of `session=commands`: entries of (board tick: u32 LE, length: u16 LE,
+/// the bytes that arrive on the down-channel at that tick), in increasing tick.
+pub struct Script {
+    bytes: &'static [u8],
+    at: usize,
+}
+
+impl Script {
+    /// The script file the command line names (`script=PATH`), read into `buf`; empty when
+    /// there is none.
+    pub fn load(cmdline: &[u8], buf: &'static mut [u8]) -> Script {
+        let n = tactile_firmware::script_from_cmdline(cmdline)
+            .and_then(|path| crate::crash::read_file(path, buf))
+            .unwrap_or(0);
+        let bytes: &'static [u8] = buf;
+        Script {
+            bytes: bytes.get(..n).unwrap_or(&[]),
+            at: 0,
+        }
+    }
+
+    /// The next entry's bytes if it is due at `tick` (call until `None`).
+    pub fn due(&mut self, tick: u32) -> Option<&'static [u8]> {
+        let rest = self.bytes.get(self.at..)?;
+        let entry = || {
+            let due = u32::from_le_bytes(rest.get(..4)?.try_into().ok()?);
+            let len = usize::from(u16::from_le_bytes(rest.get(4..6)?.try_into().ok()?));
+            Some((due, rest.get(6..6 + len)?))
+        };
+        match entry() {
+            Some((due, _)) if due > tick => None,
+            Some((_, data)) => {
+                self.at += 6 + data.len();
+                Some(data)
+            }
+            // A cut-off entry: the script ends there.
+            None => {
+                self.at = self.bytes.len();
+                None
+            }
+        }
+    }
+
+    /// Every entry taken.
+    pub fn finished(&self) -> bool {
+        self.at >= self.bytes.len()
+    }
 }
 
 /// The constant configuration was refused: nothing sensible to run.

@@ -295,6 +295,8 @@ mod app {
                     Message::Tick(frame, ()) => defmt::info!("{}", frame),
                     Message::Start(s) => defmt::info!("{}", s),
                     Message::End(e) => defmt::info!("{}", e),
+                    // NOTE: no down-channel on this board yet, so no replies to format.
+                    Message::Reply(_) => {}
                 }
             }
             if let Some((frame, estimate)) = cx.local.taxel_rx.dequeue() {

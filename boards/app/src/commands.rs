@@ -1,0 +1,319 @@
+//! The board's end of the command channel (issue 14): bytes from the host's down-channel
+//! (RTT on a board, a script under QEMU) through the core's [`Decoder`], each command checked
+//! against the board's [`Limits`] and answered with a [`Reply`] carrying its sequence number.
+//! What a command asks of the tasks (start a run, stop, clear faults) comes back as an
+//! [`Action`]; the settings (the force law, the array's estimator, a loaded controller table)
+//! stay here and shape the next run's configuration ([`CommandPort::firmware`]). Nothing here
+//! blocks: a poll takes the bytes that have arrived and returns.
+
+use tactile_core::command::{
+    Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind, CHUNK_BYTES,
+};
+use tactile_core::estimator::EstimatorKind;
+use tactile_core::tasks::FirmwareConfig;
+use tactile_core::tracking::{TrackingConfig, TABLE_BYTES};
+
+/// A command taken (`Ok`) or refused with the reason; its sequence number either way.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reply {
+    pub seq: u16,
+    pub result: Result<(), Refusal>,
+}
+
+/// On the wire as `CommandAck { seq }` or `CommandRefused { seq, reason }`.
+#[cfg(feature = "defmt")]
+impl defmt::Format for Reply {
+    fn format(&self, f: defmt::Formatter) {
+        match self.result {
+            Ok(()) => defmt::write!(f, "CommandAck {{ seq: {=u16} }}", self.seq),
+            Err(reason) => defmt::write!(
+                f,
+                "CommandRefused {{ seq: {=u16}, reason: {} }}",
+                self.seq,
+                reason
+            ),
+        }
+    }
+}
+
+/// What a taken command asks of the tasks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    /// Nothing beyond the setting it changed.
+    None,
+    /// Start this run now (ending the one in progress).
+    Start(Run),
+    /// Hold this force until told otherwise (ending the run in progress).
+    Hold {
+        force_g: f32,
+    },
+    /// End the run in progress; the actuator to its safe output.
+    Stop,
+    ClearFaults,
+}
+
+/// The command channel's state on the board.
+#[derive(Clone, Debug)]
+pub struct CommandPort {
+    decoder: Decoder,
+    limits: Limits,
+    controller: ControllerChoice,
+    estimator: Option<EstimatorKind>,
+    /// The controller table being loaded, and the one loaded (checked) last.
+    loading: [u8; TABLE_BYTES],
+    loaded: Option<TrackingConfig>,
+}
+
+impl CommandPort {
+    /// A port checking commands against `limits` (its `table_bytes` is this port's buffer).
+    pub fn new(max_force_g: f32, max_duration_s: f32) -> CommandPort {
+        CommandPort {
+            decoder: Decoder::new(),
+            limits: Limits {
+                max_force_g,
+                max_duration_s,
+                table_bytes: TABLE_BYTES,
+            },
+            controller: ControllerChoice::A1,
+            estimator: None,
+            loading: [0; TABLE_BYTES],
+            loaded: None,
+        }
+    }
+
+    /// Frames dropped by the decoder (failed checks, noise).
+    pub fn dropped(&self) -> u32 {
+        self.decoder.dropped()
+    }
+
+    /// Takes the bytes of one poll of the down-channel (the stream pauses after them) and
+    /// hands each command's reply and action to `out`, in order.
+    pub fn poll(&mut self, bytes: &[u8], compiled: &[u8], mut out: impl FnMut(Reply, Action)) {
+        for &b in bytes {
+            self.decoder.push(b);
+            while let Some(r) = self.decoder.next_frame() {
+                let (result, action) = self.apply(r.command, compiled);
+                out(Reply { seq: r.seq, result }, action);
+            }
+        }
+        self.decoder.idle();
+        while let Some(r) = self.decoder.next_frame() {
+            let (result, action) = self.apply(r.command, compiled);
+            out(Reply { seq: r.seq, result }, action);
+        }
+    }
+
+    /// One command: checked, then applied (a refused one changes nothing). `compiled` is the
+    /// controller table the build carries.
+    fn apply(
+        &mut self,
+        command: Result<Command, Refusal>,
+        compiled: &[u8],
+    ) -> (Result<(), Refusal>, Action) {
+        let command = match command.and_then(|c| c.check(&self.limits).map(|_| c)) {
+            Ok(c) => c,
+            Err(e) => return (Err(e), Action::None),
+        };
+        let action = match command {
+            Command::Run(run) => Action::Start(run),
+            Command::Hold { force_g } => Action::Hold { force_g },
+            Command::Stop => Action::Stop,
+            Command::ClearFaults => Action::ClearFaults,
+            Command::Controller(choice) => {
+                if choice == ControllerChoice::Designed && self.tracking(compiled).is_none() {
+                    return (Err(Refusal::NoControllerTable), Action::None);
+                }
+                self.controller = choice;
+                Action::None
+            }
+            Command::Estimator(kind) => {
+                self.estimator = Some(kind);
+                Action::None
+            }
+            Command::TableChunk {
+                table: TableKind::Controller,
+                offset,
+                len,
+                data,
+            } => {
+                let at = usize::from(offset);
+                let n = usize::from(len).min(CHUNK_BYTES);
+                if let Some(dst) = self.loading.get_mut(at..at + n) {
+                    dst.copy_from_slice(data.get(..n).unwrap_or(&[]));
+                }
+                Action::None
+            }
+            Command::LoadTable {
+                table: TableKind::Controller,
+                len,
+            } => match self
+                .loading
+                .get(..usize::from(len))
+                .and_then(|b| TrackingConfig::decode(b).ok())
+            {
+                Some(config) => {
+                    self.loaded = Some(config);
+                    Action::None
+                }
+                None => return (Err(Refusal::TableRefused), Action::None),
+            },
+            // NOTE: the calibration table is linked as `&'static` bytes into the tasks'
+            // configuration; loading one at run time is not on the boards yet.
+            Command::TableChunk {
+                table: TableKind::Calibration,
+                ..
+            }
+            | Command::LoadTable {
+                table: TableKind::Calibration,
+                ..
+            } => {
+                return (
+                    Err(Refusal::Unsupported {
+                        param: Param::Table,
+                    }),
+                    Action::None,
+                )
+            }
+        };
+        (Ok(()), action)
+    }
+
+    /// The designed controller's configuration: the table loaded last, else the build's.
+    pub fn tracking(&self, compiled: &[u8]) -> Option<TrackingConfig> {
+        self.loaded
+            .or_else(|| TrackingConfig::decode(compiled).ok())
+    }
+
+    /// The configuration the next run starts with: `base` with the chosen force law and the
+    /// chosen array estimator.
+    pub fn firmware(&self, base: FirmwareConfig, compiled: &[u8]) -> FirmwareConfig {
+        FirmwareConfig {
+            tracking: match self.controller {
+                ControllerChoice::A1 => None,
+                ControllerChoice::Designed => self.tracking(compiled),
+            },
+            array_estimator: self.estimator.or(base.array_estimator),
+            ..base
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tactile_core::command::MAX_FRAME_BYTES;
+
+    fn bytes(commands: &[(u16, Command)]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for (seq, c) in commands {
+            let mut f = [0u8; MAX_FRAME_BYTES];
+            let n = c.encode(*seq, &mut f);
+            out.extend_from_slice(&f[..n]);
+        }
+        out
+    }
+
+    fn poll(port: &mut CommandPort, commands: &[(u16, Command)]) -> Vec<(Reply, Action)> {
+        let mut got = Vec::new();
+        let compiled = crate::CONTROLLER_TABLE;
+        port.poll(&bytes(commands), &compiled, |r, a| got.push((r, a)));
+        got
+    }
+
+    #[test]
+    fn commands_are_answered_in_order_and_refusals_change_nothing() {
+        let mut port = CommandPort::new(120.0, 600.0);
+        let got = poll(
+            &mut port,
+            &[
+                (1, Command::Hold { force_g: 30.0 }),
+                (2, Command::Hold { force_g: 500.0 }),
+                (3, Command::Controller(ControllerChoice::Designed)),
+                (4, Command::Estimator(EstimatorKind::Elastic)),
+                (5, Command::Stop),
+            ],
+        );
+        assert_eq!(got.len(), 5);
+        assert_eq!(
+            got[0],
+            (
+                Reply {
+                    seq: 1,
+                    result: Ok(())
+                },
+                Action::Hold { force_g: 30.0 }
+            )
+        );
+        assert_eq!(
+            got[1].0.result,
+            Err(Refusal::OutOfRange {
+                param: Param::ForceG
+            })
+        );
+        assert_eq!(got[1].1, Action::None);
+        assert_eq!(got[4].1, Action::Stop);
+        let fw = port.firmware(crate::BOARD, &crate::CONTROLLER_TABLE);
+        assert!(fw.tracking.is_some());
+        assert_eq!(fw.array_estimator, Some(EstimatorKind::Elastic));
+    }
+
+    #[test]
+    fn a_controller_table_is_loaded_in_chunks_and_checked() {
+        let mut port = CommandPort::new(120.0, 600.0);
+        // No table compiled in: the designed controller is refused until one is loaded.
+        let none: [u8; 0] = [];
+        let mut replies = Vec::new();
+        port.poll(
+            &bytes(&[(1, Command::Controller(ControllerChoice::Designed))]),
+            &none,
+            |r, _| replies.push(r),
+        );
+        assert_eq!(replies[0].result, Err(Refusal::NoControllerTable));
+        let table = crate::CONTROLLER_TABLE;
+        let mut commands = Vec::new();
+        for (i, chunk) in table.chunks(CHUNK_BYTES).enumerate() {
+            let mut data = [0u8; CHUNK_BYTES];
+            data[..chunk.len()].copy_from_slice(chunk);
+            commands.push((
+                10 + i as u16,
+                Command::TableChunk {
+                    table: TableKind::Controller,
+                    offset: (i * CHUNK_BYTES) as u16,
+                    len: chunk.len() as u8,
+                    data,
+                },
+            ));
+        }
+        // A damaged table first: refused, nothing loaded.
+        let mut damaged = commands.clone();
+        if let Command::TableChunk { data, .. } = &mut damaged[1].1 {
+            data[7] ^= 1;
+        }
+        damaged.push((
+            50,
+            Command::LoadTable {
+                table: TableKind::Controller,
+                len: table.len() as u16,
+            },
+        ));
+        let mut replies = Vec::new();
+        port.poll(&bytes(&damaged), &none, |r, _| replies.push(r));
+        assert_eq!(replies.last().unwrap().result, Err(Refusal::TableRefused));
+        assert!(port.tracking(&none).is_none());
+        commands.push((
+            60,
+            Command::LoadTable {
+                table: TableKind::Controller,
+                len: table.len() as u16,
+            },
+        ));
+        commands.push((61, Command::Controller(ControllerChoice::Designed)));
+        let mut replies = Vec::new();
+        port.poll(&bytes(&commands), &none, |r, _| replies.push(r));
+        assert!(replies.iter().all(|r| r.result.is_ok()), "{replies:?}");
+        assert_eq!(
+            port.firmware(crate::BOARD, &none).tracking,
+            TrackingConfig::decode(&table).ok()
+        );
+    }
+}
