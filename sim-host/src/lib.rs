@@ -5,6 +5,7 @@
 //! so the firmware-in-the-loop build runs the same physics.
 
 pub mod analysis;
+pub mod board;
 pub mod calibrate;
 pub mod cli;
 pub mod design;

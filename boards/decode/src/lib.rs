@@ -16,6 +16,7 @@ use tactile_firmware::ArrayEstimate;
 use tactile_plant::rig::TickRecord;
 
 pub mod text;
+pub mod transport;
 
 use text::Fields;
 
@@ -91,63 +92,166 @@ impl Session {
 /// write them) with the defmt table of `elf`. `log_path` and `elf_path` only name the sources
 /// in errors.
 pub fn decode(elf: &[u8], elf_path: &Path, log: &[u8], log_path: &Path) -> Result<Session, Error> {
+    let table = table(elf, elf_path)?;
+    let mut live = Live::new(&table, log_path);
+    live.push(log)?;
+    Ok(live.finish())
+}
+
+/// Follows a board's session over `transport` to the end of its stream, decoding as the bytes
+/// arrive and calling `progress` with the decoder after each piece.
+pub fn follow<'t>(
+    transport: &mut dyn transport::Transport,
+    mut live: Live<'t>,
+    mut progress: impl FnMut(&Live<'t>),
+) -> Result<Session, String> {
+    while let Some(bytes) = transport.receive().map_err(|e| e.to_string())? {
+        if !bytes.is_empty() {
+            live.push(&bytes).map_err(|e| e.to_string())?;
+            progress(&live);
+        }
+    }
+    Ok(live.finish())
+}
+
+/// The defmt table of a firmware ELF (`elf_path` only names it in errors).
+pub fn table(elf: &[u8], elf_path: &Path) -> Result<Table, Error> {
     let elf_err = |message: String| Error {
         file: elf_path.to_path_buf(),
         frame: None,
         message,
     };
-    let table = Table::parse(elf)
+    Table::parse(elf)
         .map_err(|e| elf_err(format!("not a firmware ELF with a defmt table: {e}")))?
-        .ok_or_else(|| elf_err("the ELF has no .defmt section".into()))?;
-    let mut stream = table.new_stream_decoder();
-    let mut session = Session::default();
-    let mut builder = Builder::default();
-    let mut index = 0usize;
-    let mut rest = log;
-    // rzCOBS frames end in 0x00; a frame body never contains one.
-    while let Some(end) = rest.iter().position(|&b| b == 0) {
-        let (body, tail) = rest.split_at(end + 1);
-        rest = tail;
-        if body.len() == 1 {
-            continue; // a run of delimiters
+        .ok_or_else(|| elf_err("the ELF has no .defmt section".into()))
+}
+
+/// A defmt stream decoded as it arrives (a board's RTT up-channel, QEMU's output): bytes in
+/// with [`Live::push`] in any pieces, the session so far in [`Live::session`], the whole of it
+/// from [`Live::finish`]. [`decode`] is one push of a whole log.
+pub struct Live<'t> {
+    stream: Box<dyn defmt_decoder::StreamDecoder + 't>,
+    source: PathBuf,
+    session: Session,
+    builder: Builder,
+    index: usize,
+    pending: Vec<u8>,
+}
+
+impl<'t> Live<'t> {
+    /// A decoder of the stream `source` names (in errors) with the defmt table `table`.
+    pub fn new(table: &'t Table, source: &Path) -> Live<'t> {
+        Live {
+            stream: table.new_stream_decoder(),
+            source: source.to_path_buf(),
+            session: Session::default(),
+            builder: Builder::default(),
+            index: 0,
+            pending: Vec::new(),
         }
-        let at = |message: String| Error {
-            file: log_path.to_path_buf(),
-            frame: Some(index),
-            message,
-        };
-        stream.received(body);
-        let text = match stream.decode() {
-            Ok(frame) => {
-                let level = frame.level();
-                // The decoder's formatting unwraps on format strings it cannot parse (only a
-                // damaged ELF has those): contain it and report the frame.
-                let text = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    frame.display_message().to_string()
-                }))
-                .map_err(|_| at("the ELF's format string for this frame does not parse".into()))?;
-                if matches!(level, Some(defmt_parser::Level::Error)) {
-                    session.errors.push(text.clone());
-                }
-                text
-            }
-            Err(DecodeError::Malformed) => {
-                return Err(at(
-                    "malformed defmt frame (corrupt log, or a log from another ELF)".into(),
-                ))
-            }
-            Err(DecodeError::UnexpectedEof) => {
-                return Err(at("defmt frame ends early".into()));
-            }
-        };
-        builder
-            .message(&text, &mut session)
-            .map_err(|m| at(format!("{m} in: {}", shorten(&text))))?;
-        index += 1;
     }
-    session.trailing_bytes = rest.len();
-    builder.finish(&mut session);
-    Ok(session)
+
+    /// Takes the next bytes of the stream and decodes the frames they complete.
+    pub fn push(&mut self, bytes: &[u8]) -> Result<(), Error> {
+        self.pending.extend_from_slice(bytes);
+        let mut used = 0;
+        // rzCOBS frames end in 0x00; a frame body never contains one.
+        while let Some(end) = self.pending[used..].iter().position(|&b| b == 0) {
+            let body = &self.pending[used..used + end + 1];
+            used += end + 1;
+            if body.len() == 1 {
+                continue; // a run of delimiters
+            }
+            let at = |message: String| Error {
+                file: self.source.clone(),
+                frame: Some(self.index),
+                message,
+            };
+            self.stream.received(body);
+            let text = match self.stream.decode() {
+                Ok(frame) => {
+                    let level = frame.level();
+                    // The decoder's formatting unwraps on format strings it cannot parse (only a
+                    // damaged ELF has those): contain it and report the frame.
+                    let text = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        frame.display_message().to_string()
+                    }))
+                    .map_err(|_| {
+                        at("the ELF's format string for this frame does not parse".into())
+                    })?;
+                    if matches!(level, Some(defmt_parser::Level::Error)) {
+                        self.session.errors.push(text.clone());
+                    }
+                    text
+                }
+                Err(DecodeError::Malformed) => {
+                    return Err(at(
+                        "malformed defmt frame (corrupt log, or a log from another ELF)".into(),
+                    ))
+                }
+                Err(DecodeError::UnexpectedEof) => {
+                    return Err(at("defmt frame ends early".into()));
+                }
+            };
+            self.builder
+                .message(&text, &mut self.session)
+                .map_err(|m| at(format!("{m} in: {}", shorten(&text))))?;
+            self.index += 1;
+        }
+        self.pending.drain(..used);
+        Ok(())
+    }
+
+    /// The session so far (the run in progress is not in `runs` until it ends).
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// The run in progress, if any.
+    pub fn current(&self) -> Option<&Run> {
+        self.builder.current.as_ref()
+    }
+
+    /// The run in progress and the share of it done (by its ticks and its length).
+    pub fn progress(&self) -> Option<(&str, f64)> {
+        let run = self.current()?;
+        let last = run.ticks.last().map_or(run.start_tick, |t| t.frame.tick);
+        let done_s = f64::from(last.wrapping_sub(run.start_tick)) * TICK_S;
+        Some((
+            &run.name,
+            (done_s / f64::from(run.duration_s).max(TICK_S)).clamp(0.0, 1.0),
+        ))
+    }
+
+    /// One line on the latest control tick: force, its error from the command, faults, and
+    /// frames lost (missing from the stream, or dropped on the board).
+    pub fn summary(&self) -> String {
+        let lost = self.session.control_seq.missing() as usize + self.session.flagged_drops;
+        match self.current().and_then(|r| r.ticks.last()) {
+            Some(t) => {
+                let f = &t.frame;
+                let faults: Vec<&str> = f.faults.names().collect();
+                format!(
+                    "force {:6.2} g  error {:+6.2} g  faults {}  lost {lost}",
+                    f.sensed_g,
+                    f.sensed_g - f.command_g,
+                    if faults.is_empty() {
+                        "none".to_string()
+                    } else {
+                        faults.join(",")
+                    }
+                )
+            }
+            None => format!("no run in progress  lost {lost}"),
+        }
+    }
+
+    /// The whole session (a run the stream cut off included).
+    pub fn finish(mut self) -> Session {
+        self.session.trailing_bytes = self.pending.len();
+        self.builder.finish(&mut self.session);
+        self.session
+    }
 }
 
 fn shorten(text: &str) -> String {

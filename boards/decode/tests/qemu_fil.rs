@@ -913,3 +913,97 @@ fn crc_16(bytes: &[u8]) -> u16 {
     }
     crc
 }
+
+/// `tactile board`'s path (issue 14): the QEMU firmware through the transport, its stream
+/// decoded live in the pieces it arrives in, is the session a batch decode of the same bytes
+/// gives, and so is a replay of those bytes in 7-byte pieces; the commands `tactile board run`
+/// sends are taken, and the run they asked for is the host rig's to the bit.
+#[test]
+#[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
+fn the_board_session_decodes_live_as_in_batch() {
+    use sim_host::board::{script, Action, BoardProtocol};
+    use tactile_decode::transport::{Qemu, Replay, Transport};
+    use tactile_decode::{follow, Live};
+    let Some((elf, dir)) = firmware_for("board session test") else {
+        return;
+    };
+    /// A transport that keeps what it passes on.
+    struct Tee<T> {
+        inner: T,
+        bytes: Vec<u8>,
+    }
+    impl<T: Transport> Transport for Tee<T> {
+        fn receive(&mut self) -> std::io::Result<Option<Vec<u8>>> {
+            let got = self.inner.receive()?;
+            if let Some(b) = &got {
+                self.bytes.extend(b);
+            }
+            Ok(got)
+        }
+        fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+            self.inner.send(bytes)
+        }
+    }
+    let action = Action::Run {
+        protocol: BoardProtocol::PseudoRandom,
+        duration_s: 2.0,
+        load_g: 50.0,
+        taxel: tactile_core::tactile::TaxelId::new(3, 2).expect("a taxel"),
+        designed: false,
+    };
+    let elf_bytes = std::fs::read(&elf).expect("elf");
+    let table = tactile_decode::table(&elf_bytes, &elf).expect("defmt table");
+    let qemu = Qemu::start(&elf, &script(&action), &dir.join("board.bin")).expect("qemu starts");
+    let mut tee = Tee {
+        inner: qemu,
+        bytes: Vec::new(),
+    };
+    let mut pieces = 0;
+    let live = follow(&mut tee, Live::new(&table, Path::new("qemu")), |_| {
+        pieces += 1
+    })
+    .expect("a session");
+    let log = Path::new("board.defmt");
+    let batch = tactile_decode::decode(&elf_bytes, &elf, &tee.bytes, log).expect("decoded");
+    let same = |a: &tactile_decode::Session, b: &tactile_decode::Session| {
+        assert_eq!(a.runs.len(), b.runs.len());
+        for (x, y) in a.runs.iter().zip(&b.runs) {
+            assert_eq!(x.name, y.name);
+            assert!(x.ticks == y.ticks, "{}: the control ticks differ", x.name);
+            // By their text: an estimate may be NaN (no calibration), never equal to itself.
+            assert!(
+                format!("{:?}", x.frames) == format!("{:?}", y.frames),
+                "{}: the taxel frames differ",
+                x.name
+            );
+            assert_eq!(x.end, y.end);
+        }
+        assert_eq!(
+            (&a.replies, &a.notes, &a.errors, a.trailing_bytes),
+            (&b.replies, &b.notes, &b.errors, b.trailing_bytes)
+        );
+        assert_eq!((a.control_seq, a.taxel_seq), (b.control_seq, b.taxel_seq));
+    };
+    same(&live, &batch);
+    let replayed = follow(
+        &mut Replay::new(tee.bytes.clone(), 7),
+        Live::new(&table, log),
+        |_| {},
+    )
+    .expect("replayed");
+    same(&replayed, &batch);
+    eprintln!(
+        "board session: {} bytes in {pieces} pieces decoded live",
+        tee.bytes.len()
+    );
+    assert_eq!(batch.replies, [(1, None), (2, None)]);
+    assert_eq!(batch.runs.len(), 1);
+    let spec = tactile_firmware::FilRun::commanded(
+        Some(tactile_core::command::Run::PseudoRandom {
+            seed: 1989,
+            duration_s: 2.0,
+        }),
+        0.0,
+    );
+    is_the_rigs_to_the_bit(&batch.runs[0], &spec);
+}

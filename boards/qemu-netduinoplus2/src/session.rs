@@ -58,7 +58,10 @@ pub static RESET_SCANNER: AtomicBool = AtomicBool::new(false);
 /// The simulator's rig configuration for run `run`: the firmware runs exactly what the host
 /// simulator runs, with that run's injected fault on the board.
 fn rig(run: usize) -> RigConfig {
-    runs().get(run).map_or_else(RigConfig::default, |r| r.rig())
+    // No runs of its own (the command session): the board as a commanded run builds it.
+    runs()
+        .get(run)
+        .map_or_else(|| FilRun::commanded(None, 0.0).rig(), |r| r.rig())
 }
 
 /// The board's configuration (the session's first run's, or the default rig's).

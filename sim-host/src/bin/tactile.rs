@@ -38,6 +38,36 @@ struct Cli {
     command: Command,
 }
 
+/// What `tactile board` asks of the board.
+#[derive(Subcommand)]
+enum BoardCommand {
+    /// Run a protocol and record it.
+    Run {
+        #[arg(value_enum)]
+        protocol: sim_host::board::BoardProtocol,
+        /// Length of pseudo-random, s.
+        #[arg(long, default_value_t = 10.0)]
+        duration: f32,
+        /// The excitation's preload, g.
+        #[arg(long, default_value_t = 50.0)]
+        load: f32,
+        /// The calibration's taxel under the probe, ROW,COL.
+        #[arg(long, default_value = "3,2", value_parser = taxel_arg)]
+        taxel: TaxelId,
+        /// Under the designed force controller (the build's table) instead of A1.
+        #[arg(long)]
+        designed: bool,
+    },
+    /// Hold a force, then stop.
+    Hold {
+        force_g: f32,
+        #[arg(long, default_value_t = 5.0)]
+        seconds: f32,
+    },
+    /// Decode what the board streams (with --replay LOG).
+    Stream,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// List the scenarios and the effects that can be switched on.
@@ -157,6 +187,24 @@ enum Command {
         /// `boards/controller/table.bin` is the QEMU build's).
         #[arg(long)]
         table: Option<PathBuf>,
+    },
+    /// Drive a board from the host: commands down, its defmt stream up, decoded as it arrives
+    /// into records (`OUT/NAME.csv`), with a progress bar and a live line (force, error,
+    /// faults, frames lost). The board is the QEMU firmware (`cargo fw-qemu` builds it).
+    Board {
+        /// The firmware ELF: its defmt table, and what QEMU runs.
+        #[arg(
+            long,
+            default_value = "target/thumbv7em-none-eabihf/release/tactile-qemu"
+        )]
+        elf: PathBuf,
+        /// Decode a saved log of the firmware instead of running it.
+        #[arg(long)]
+        replay: Option<PathBuf>,
+        #[arg(long, default_value = "out/board")]
+        out: PathBuf,
+        #[command(subcommand)]
+        action: BoardCommand,
     },
     /// Reproduce the memo's Tables I–IV on the simulator, beside the memo's numbers.
     Tables {
@@ -525,6 +573,34 @@ fn run(command: Command) -> Result<(), Error> {
             out,
         } => {
             let text = sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref())?;
+            out!("{text}");
+        }
+        Command::Board {
+            elf,
+            replay,
+            out,
+            action,
+        } => {
+            let action = match action {
+                BoardCommand::Run {
+                    protocol,
+                    duration,
+                    load,
+                    taxel,
+                    designed,
+                } => sim_host::board::Action::Run {
+                    protocol,
+                    duration_s: duration,
+                    load_g: load,
+                    taxel,
+                    designed,
+                },
+                BoardCommand::Hold { force_g, seconds } => {
+                    sim_host::board::Action::Hold { force_g, seconds }
+                }
+                BoardCommand::Stream => sim_host::board::Action::Stream,
+            };
+            let text = sim_host::board::run(&elf, replay.as_deref(), &action, &out)?;
             out!("{text}");
         }
         Command::Tables { out, seed } => {
