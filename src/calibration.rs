@@ -112,7 +112,12 @@ pub const LARGE_OFFSET_PCT: f64 = 0.05;
 /// RAM for these only: the F407's static RAM budget).
 pub const MAX_LOOP_TAXELS: usize = 8;
 /// The largest table: every taxel of the array.
-pub const MAX_TABLE_BYTES: usize = HEADER_BYTES + TAXELS * RECORD_BYTES + CRC_BYTES;
+pub const MAX_TABLE_BYTES: usize = table_bytes(TAXELS);
+
+/// Bytes of a table of `taxels` records.
+pub const fn table_bytes(taxels: usize) -> usize {
+    HEADER_BYTES + taxels * RECORD_BYTES + CRC_BYTES
+}
 
 /// One taxel's dynamic calibration.
 #[derive(Clone, Debug, PartialEq)]

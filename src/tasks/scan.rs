@@ -133,8 +133,19 @@ impl Scanner {
         config: &FirmwareConfig,
         calibration: [TaxelCalibration; TAXELS],
     ) -> Result<(), ConfigError> {
+        self.reset_with_table(config, calibration, config.calibration)
+    }
+
+    /// [`Self::reset`] with the calibration table `table` in place of the configuration's (one
+    /// loaded at run time; checked here as the built-in one is).
+    pub fn reset_with_table(
+        &mut self,
+        config: &FirmwareConfig,
+        calibration: [TaxelCalibration; TAXELS],
+        table: &[u8],
+    ) -> Result<(), ConfigError> {
         let frame_s = f64::from(config.scan.frame_period_s());
-        let (view, mut status) = match TableView::check(config.calibration) {
+        let (view, mut status) = match TableView::check(table) {
             Ok(v) => (
                 Some(v),
                 CalibrationStatus {

@@ -2,10 +2,13 @@
 //! (RTT on a board, a script under QEMU) through the core's [`Decoder`], each command checked
 //! against the board's [`Limits`] and answered with a [`Reply`] carrying its sequence number.
 //! What a command asks of the tasks (start a run, stop, clear faults) comes back as an
-//! [`Action`]; the settings (the force law, the array's estimator, a loaded controller table)
-//! stay here and shape the next run's configuration ([`CommandPort::firmware`]). Nothing here
-//! blocks: a poll takes the bytes that have arrived and returns.
+//! [`Action`]; the settings (the force law, the array's estimator, a loaded controller table,
+//! a loaded calibration table) stay here and shape the next run ([`CommandPort::firmware`],
+//! [`CommandPort::calibration_table`]). Nothing here blocks: a poll takes the bytes that have
+//! arrived and returns. `CAL` is the room for a calibration table (0: none can be loaded, as on
+//! a board whose RAM is spoken for).
 
+use tactile_core::calibration::TableView as CalibrationTable;
 use tactile_core::command::{
     Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind, CHUNK_BYTES,
 };
@@ -54,7 +57,7 @@ pub enum Action {
 
 /// The command channel's state on the board.
 #[derive(Clone, Debug)]
-pub struct CommandPort {
+pub struct CommandPort<const CAL: usize> {
     decoder: Decoder,
     limits: Limits,
     controller: ControllerChoice,
@@ -62,23 +65,36 @@ pub struct CommandPort {
     /// The controller table being loaded, and the one loaded (checked) last.
     loading: [u8; TABLE_BYTES],
     loaded: Option<TrackingConfig>,
+    /// The calibration table: its bytes, and the length of the one loaded (checked) last. A
+    /// chunk unloads it (the next run then uses the build's) until the new one is loaded: one
+    /// buffer, where RAM is short.
+    cal: [u8; CAL],
+    cal_len: usize,
 }
 
-impl CommandPort {
-    /// A port checking commands against `limits` (its `table_bytes` is this port's buffer).
-    pub fn new(max_force_g: f32, max_duration_s: f32) -> CommandPort {
+impl<const CAL: usize> CommandPort<CAL> {
+    /// A port checking forces against `max_force_g` and open-ended runs against
+    /// `max_duration_s`.
+    pub fn new(max_force_g: f32, max_duration_s: f32) -> Self {
         CommandPort {
             decoder: Decoder::new(),
             limits: Limits {
                 max_force_g,
                 max_duration_s,
-                table_bytes: TABLE_BYTES,
+                table_bytes: TABLE_BYTES.max(CAL),
             },
             controller: ControllerChoice::A1,
             estimator: None,
             loading: [0; TABLE_BYTES],
             loaded: None,
+            cal: [0; CAL],
+            cal_len: 0,
         }
+    }
+
+    /// The calibration table loaded last (checked), if any.
+    pub fn calibration_table(&self) -> Option<&[u8]> {
+        self.cal.get(..self.cal_len).filter(|t| !t.is_empty())
     }
 
     /// Frames dropped by the decoder (failed checks, noise).
@@ -131,15 +147,23 @@ impl CommandPort {
                 Action::None
             }
             Command::TableChunk {
-                table: TableKind::Controller,
+                table,
                 offset,
                 len,
                 data,
             } => {
                 let at = usize::from(offset);
                 let n = usize::from(len).min(CHUNK_BYTES);
-                if let Some(dst) = self.loading.get_mut(at..at + n) {
-                    dst.copy_from_slice(data.get(..n).unwrap_or(&[]));
+                let buffer: &mut [u8] = match table {
+                    TableKind::Controller => &mut self.loading,
+                    TableKind::Calibration => {
+                        self.cal_len = 0;
+                        &mut self.cal
+                    }
+                };
+                match buffer.get_mut(at..at + n) {
+                    Some(dst) => dst.copy_from_slice(data.get(..n).unwrap_or(&[])),
+                    None => return (Err(room(table)), Action::None),
                 }
                 Action::None
             }
@@ -157,22 +181,19 @@ impl CommandPort {
                 }
                 None => return (Err(Refusal::TableRefused), Action::None),
             },
-            // NOTE: the calibration table is linked as `&'static` bytes into the tasks'
-            // configuration; loading one at run time is not on the boards yet.
-            Command::TableChunk {
+            Command::LoadTable {
                 table: TableKind::Calibration,
-                ..
-            }
-            | Command::LoadTable {
-                table: TableKind::Calibration,
-                ..
+                len,
             } => {
-                return (
-                    Err(Refusal::Unsupported {
-                        param: Param::Table,
-                    }),
-                    Action::None,
-                )
+                let len = usize::from(len);
+                let Some(bytes) = self.cal.get(..len) else {
+                    return (Err(room(TableKind::Calibration)), Action::None);
+                };
+                if CalibrationTable::check(bytes).is_err() {
+                    return (Err(Refusal::TableRefused), Action::None);
+                }
+                self.cal_len = len;
+                Action::None
             }
         };
         (Ok(()), action)
@@ -198,6 +219,18 @@ impl CommandPort {
     }
 }
 
+/// Why a table does not fit: no room for one at all on this board, or not this long.
+fn room(table: TableKind) -> Refusal {
+    match table {
+        TableKind::Calibration => Refusal::Unsupported {
+            param: Param::Table,
+        },
+        TableKind::Controller => Refusal::OutOfRange {
+            param: Param::Offset,
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -213,7 +246,7 @@ mod tests {
         out
     }
 
-    fn poll(port: &mut CommandPort, commands: &[(u16, Command)]) -> Vec<(Reply, Action)> {
+    fn poll(port: &mut CommandPort<0>, commands: &[(u16, Command)]) -> Vec<(Reply, Action)> {
         let mut got = Vec::new();
         let compiled = crate::CONTROLLER_TABLE;
         port.poll(&bytes(commands), &compiled, |r, a| got.push((r, a)));
@@ -222,7 +255,7 @@ mod tests {
 
     #[test]
     fn commands_are_answered_in_order_and_refusals_change_nothing() {
-        let mut port = CommandPort::new(120.0, 600.0);
+        let mut port = CommandPort::<0>::new(120.0, 600.0);
         let got = poll(
             &mut port,
             &[
@@ -259,7 +292,7 @@ mod tests {
 
     #[test]
     fn a_controller_table_is_loaded_in_chunks_and_checked() {
-        let mut port = CommandPort::new(120.0, 600.0);
+        let mut port = CommandPort::<0>::new(120.0, 600.0);
         // No table compiled in: the designed controller is refused until one is loaded.
         let none: [u8; 0] = [];
         let mut replies = Vec::new();
@@ -314,6 +347,64 @@ mod tests {
         assert_eq!(
             port.firmware(crate::BOARD, &none).tracking,
             TrackingConfig::decode(&table).ok()
+        );
+    }
+
+    /// A calibration table in chunks: checked as at start-up, then given to the next run; a
+    /// damaged one refused and nothing loaded; a board without room says so.
+    #[test]
+    fn a_calibration_table_is_loaded_in_chunks_and_checked() {
+        use tactile_core::calibration::table_bytes;
+        let table = crate::CALIBRATION_TABLE;
+        let chunks = |damage: bool| -> Vec<(u16, Command)> {
+            let mut out: Vec<(u16, Command)> = table
+                .chunks(CHUNK_BYTES)
+                .enumerate()
+                .map(|(i, chunk)| {
+                    let mut data = [0u8; CHUNK_BYTES];
+                    data[..chunk.len()].copy_from_slice(chunk);
+                    (
+                        i as u16,
+                        Command::TableChunk {
+                            table: TableKind::Calibration,
+                            offset: (i * CHUNK_BYTES) as u16,
+                            len: chunk.len() as u8,
+                            data,
+                        },
+                    )
+                })
+                .collect();
+            if damage {
+                if let Command::TableChunk { data, .. } = &mut out[2].1 {
+                    data[5] ^= 0x20;
+                }
+            }
+            out.push((
+                500,
+                Command::LoadTable {
+                    table: TableKind::Calibration,
+                    len: table.len() as u16,
+                },
+            ));
+            out
+        };
+        let mut port = CommandPort::<{ table_bytes(8) }>::new(120.0, 600.0);
+        let mut replies = Vec::new();
+        port.poll(&bytes(&chunks(true)), &[], |r, _| replies.push(r));
+        assert_eq!(replies.last().unwrap().result, Err(Refusal::TableRefused));
+        assert_eq!(port.calibration_table(), None);
+        let mut replies = Vec::new();
+        port.poll(&bytes(&chunks(false)), &[], |r, _| replies.push(r));
+        assert!(replies.iter().all(|r| r.result.is_ok()), "{replies:?}");
+        assert_eq!(port.calibration_table(), Some(&table[..]));
+        let mut none = CommandPort::<0>::new(120.0, 600.0);
+        let mut replies = Vec::new();
+        none.poll(&bytes(&chunks(false)[..1]), &[], |r, _| replies.push(r));
+        assert_eq!(
+            replies[0].result,
+            Err(Refusal::Unsupported {
+                param: Param::Table
+            })
         );
     }
 }

@@ -124,7 +124,7 @@ pub const EXCITATION_SESSION: [FilRun; 6] = {
 
 /// The words of a semihosting command line (the ELF's path, then `-append`'s words), up to its
 /// NUL; none if it is not UTF-8.
-fn cmdline_words(cmdline: &[u8]) -> impl Iterator<Item = &str> {
+pub fn cmdline_words(cmdline: &[u8]) -> impl Iterator<Item = &str> {
     let end = cmdline
         .iter()
         .position(|&b| b == 0)

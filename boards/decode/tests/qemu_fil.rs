@@ -873,7 +873,7 @@ fn a_session_driven_by_commands() {
             (4, refused("OutOfRange { param: ForceG }")),
             (5, None),
             (6, None),
-            (7, refused("Unsupported { param: Table }")),
+            (7, refused("TableRefused")),
             (8, None),
             (9, None),
             (10, refused("OutOfRange { param: PreloadG }")),
@@ -1006,4 +1006,100 @@ fn the_board_session_decodes_live_as_in_batch() {
         0.0,
     );
     is_the_rigs_to_the_bit(&batch.runs[0], &spec);
+}
+
+/// Issue 14's calibration table loaded at run time: a board with a blank calibration sector
+/// (`calibration=none`) runs on the nominal models; the build's table sent in chunks and loaded
+/// by command, the next run's array estimates are those of a board that carries the table, to
+/// the bit, and grams away from the nominal ones.
+#[test]
+#[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
+fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
+    use tactile_core::command::{Command, Run, TableKind, CHUNK_BYTES, MAX_FRAME_BYTES};
+    let Some((elf, dir)) = firmware_for("calibration load test") else {
+        return;
+    };
+    let frame = |seq: u16, c: Command| {
+        let mut f = [0u8; MAX_FRAME_BYTES];
+        let n = c.encode(seq, &mut f);
+        f[..n].to_vec()
+    };
+    let run = Command::Run(Run::PseudoRandom {
+        seed: 1989,
+        duration_s: 2.0,
+    });
+    let table = tactile_firmware::CALIBRATION_TABLE;
+    let mut script: Vec<(u32, Vec<u8>)> = vec![(0, frame(1, run))];
+    for (i, chunk) in table.chunks(CHUNK_BYTES).enumerate() {
+        let mut data = [0u8; CHUNK_BYTES];
+        data[..chunk.len()].copy_from_slice(chunk);
+        let c = Command::TableChunk {
+            table: TableKind::Calibration,
+            offset: (i * CHUNK_BYTES) as u16,
+            len: chunk.len() as u8,
+            data,
+        };
+        script.push((2100 + i as u32, frame(10 + i as u16, c)));
+    }
+    let load = Command::LoadTable {
+        table: TableKind::Calibration,
+        len: table.len() as u16,
+    };
+    script.push((2200, frame(100, load)));
+    script.push((2300, frame(101, run)));
+    let session = |name: &str, words: &str, script: &[(u32, Vec<u8>)]| {
+        let path = dir.join(format!("{name}.bin"));
+        let mut bytes = Vec::new();
+        for (tick, b) in script {
+            bytes.extend(tick.to_le_bytes());
+            bytes.extend((b.len() as u16).to_le_bytes());
+            bytes.extend(b);
+        }
+        std::fs::write(&path, &bytes).expect("script written");
+        let log = dir.join(format!("{name}.defmt"));
+        let append = format!("session=commands script={} {words}", path.display());
+        assert!(
+            run_qemu(&elf, &log, &append),
+            "the firmware failed (`{append}`)"
+        );
+        decode_log(&elf, &log)
+    };
+    let blank = session("calibration-load", "calibration=none", &script);
+    let built_in = session("calibration-built-in", "", &script[..1]);
+    assert!(blank.errors.is_empty() && built_in.errors.is_empty());
+    assert!(
+        blank.replies.iter().all(|r| r.1.is_none()),
+        "{:?}",
+        blank.replies
+    );
+    assert_eq!(blank.runs.len(), 2);
+    let estimates = |run: &tactile_decode::Run| -> Vec<f32> {
+        run.frames
+            .iter()
+            .map(|(_, e)| e.expect("an array estimate").total_force_g)
+            .collect()
+    };
+    let (nominal, loaded, reference) = (
+        estimates(&blank.runs[0]),
+        estimates(&blank.runs[1]),
+        estimates(&built_in.runs[0]),
+    );
+    assert_eq!(format!("{loaded:?}"), format!("{reference:?}"));
+    let gaps: Vec<f64> = nominal
+        .iter()
+        .zip(&reference)
+        .map(|(a, b)| f64::from((a - b).abs()))
+        .collect();
+    let worst = gaps.iter().copied().fold(0.0, f64::max);
+    eprintln!(
+        "total force of the array, nominal models vs the loaded table: {:.2} g apart on average, {worst:.2} g at most, over {} frames",
+        gaps.iter().sum::<f64>() / gaps.len() as f64,
+        gaps.len()
+    );
+    // The calibrated taxels are off the probe's: the table moves the array's total, by 30
+    // times what it moved the probe's own estimate (0.01 g: no record for it in the table).
+    assert!(
+        worst > 0.3,
+        "the table changed the estimates by {worst} g at most"
+    );
 }

@@ -73,7 +73,7 @@ mod app {
     use tactile_core::estimator::EstimatorKind;
     use tactile_core::io::ControlIo;
     use tactile_firmware::{
-        Action, CommandPort, Controller, FilRun, Message, Outbox, RunEnd, RunStart, Scanner,
+        Action, Controller, FilRun, Message, Outbox, RunEnd, RunStart, Scanner,
     };
     use tactile_plant::hardware::SimHardware;
     use tactile_plant::rig::InjectedFault;
@@ -109,6 +109,9 @@ mod app {
         /// The simulated board, built in place in a static (it is 18 KB).
         hw: &'static mut SimHardware,
         cost: Cost,
+        /// The command channel (`session=commands`): the control task takes the commands, the
+        /// scan task a calibration table loaded by command when a run starts.
+        port: session::Port,
     }
 
     #[local]
@@ -122,8 +125,7 @@ mod app {
         taxel_rx: Consumer<'static, TaxelMsg>,
         /// A crash the test asked for (`-append "panic-at-tick=N"`), or none.
         crash: Option<tactile_firmware::DeliberateCrash>,
-        /// The command channel and its script (`session=commands script=PATH`).
-        port: CommandPort,
+        /// The command script (`session=commands script=PATH`).
         script: session::Script,
     }
 
@@ -149,7 +151,7 @@ mod app {
         let (controller, scanner) = session::task_state(0, hw, cx.local.scanner_slot);
         let script = session::Script::load(&cmdline, cx.local.script_buf);
         let max_force_g = session::board_config().supervisor.command_max_g;
-        let port = CommandPort::new(max_force_g, tactile_firmware::HOLD_S);
+        let port = session::Port::new(max_force_g, tactile_firmware::HOLD_S);
         let (control_tx, control_rx) = cx.local.control_queue.split();
         let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
         let mut syst = cx.core.SYST;
@@ -164,6 +166,7 @@ mod app {
             Shared {
                 hw,
                 cost: Cost::default(),
+                port,
             },
             Local {
                 controller,
@@ -174,7 +177,6 @@ mod app {
                 taxel_rx,
                 syst,
                 crash,
-                port,
                 script,
             },
         )
@@ -190,8 +192,8 @@ mod app {
 
     /// The 1 kHz control tick; then the simulated plant's next millisecond (the board's
     /// "physics", which a real board gets for free).
-    #[task(binds = SysTick, priority = 3, shared = [hw, cost],
-           local = [controller, control_out, syst, crash, port, script, board_tick: u32 = 0,
+    #[task(binds = SysTick, priority = 3, shared = [hw, cost, port],
+           local = [controller, control_out, syst, crash, script, board_tick: u32 = 0,
                     run: usize = 0, started: bool = false, pending_reset: bool = false,
                     done: bool = false, commanded: Option<FilRun> = None, active: bool = false])]
     fn control(mut cx: control::Context) {
@@ -210,22 +212,26 @@ mod app {
             let (mut start, mut stop, mut clear) = (None, false, false);
             while let Some(bytes) = local.script.due(tick) {
                 let out = &mut *local.control_out;
-                local.port.poll(
-                    bytes,
-                    &tactile_firmware::CONTROLLER_TABLE,
-                    |reply, action| {
-                        out.send(Message::Reply(reply));
-                        match action {
-                            Action::Start(run) => start = Some(FilRun::commanded(Some(run), 0.0)),
-                            Action::Hold { force_g } => {
-                                start = Some(FilRun::commanded(None, force_g))
+                cx.shared.port.lock(|port| {
+                    port.poll(
+                        bytes,
+                        &tactile_firmware::CONTROLLER_TABLE,
+                        |reply, action| {
+                            out.send(Message::Reply(reply));
+                            match action {
+                                Action::Start(run) => {
+                                    start = Some(FilRun::commanded(Some(run), 0.0))
+                                }
+                                Action::Hold { force_g } => {
+                                    start = Some(FilRun::commanded(None, force_g))
+                                }
+                                Action::Stop => (start, stop) = (None, true),
+                                Action::ClearFaults => clear = true,
+                                Action::None => {}
                             }
-                            Action::Stop => (start, stop) = (None, true),
-                            Action::ClearFaults => clear = true,
-                            Action::None => {}
-                        }
-                    },
-                );
+                        },
+                    )
+                });
             }
             if clear {
                 controller.clear_faults();
@@ -253,10 +259,8 @@ mod app {
             let run = *local.run;
             match local.commanded {
                 Some(c) if commands => {
-                    let port = &*local.port;
-                    cx.shared
-                        .hw
-                        .lock(|hw| session::renew_commanded(c, port, hw, controller));
+                    (&mut cx.shared.hw, &mut cx.shared.port)
+                        .lock(|hw, port| session::renew_commanded(c, port, hw, controller));
                     *local.active = true;
                 }
                 _ => cx.shared.hw.lock(|hw| session::renew(run, hw, controller)),
@@ -379,14 +383,25 @@ mod app {
         }
     }
 
-    #[task(priority = 2, shared = [hw, cost], local = [scanner, taxel_out, started: bool = false,
-           bench: Option<tactile_core::estimator::TaxelEstimators> = None])]
+    #[task(priority = 2, shared = [hw, cost, port], local = [scanner, taxel_out,
+           started: bool = false, bench: Option<tactile_core::estimator::TaxelEstimators> = None,
+           loaded: [u8; session::LOADED_TABLE_BYTES] = [0; session::LOADED_TABLE_BYTES]])]
     async fn scan(mut cx: scan::Context, tick: u32) {
         let local = cx.local;
         if session::RESET_SCANNER.swap(false, Ordering::AcqRel) {
-            // A new run: fresh per-taxel state, calibrated on the new board.
+            // A new run: fresh per-taxel state, calibrated on the new board, with a table
+            // loaded by command if there is one (copied out: the rebuild must not hold the
+            // port the control task takes commands through).
             let calibration = cx.shared.hw.lock(|hw| *hw.calibration());
-            if !session::reset_scanner(local.scanner, calibration) {
+            let buf = &mut *local.loaded;
+            let n = cx.shared.port.lock(|port| {
+                let table = port.calibration_table().unwrap_or(&[]);
+                buf.get_mut(..table.len())
+                    .map(|dst| dst.copy_from_slice(table))
+                    .map_or(0, |_| table.len())
+            });
+            let loaded = buf.get(..n).filter(|t| !t.is_empty());
+            if !session::reset_scanner(local.scanner, calibration, loaded) {
                 defmt::error!("the scanner's configuration was refused");
             }
             *local.started = false;

@@ -38,6 +38,8 @@ pub fn choose(cmdline: &[u8]) {
     SESSION.store(index as u8, Ordering::Release);
     let only = tactile_firmware::only_run_from_cmdline(cmdline).unwrap_or(usize::MAX);
     ONLY.store(only, Ordering::Release);
+    let blank = tactile_firmware::words_of_cmdline(cmdline).any(|w| w == "calibration=none");
+    NO_TABLE.store(blank, Ordering::Release);
 }
 
 /// The session's runs (shared with the QEMU test, which replays them on the host simulator):
@@ -59,10 +61,27 @@ pub static RESET_SCANNER: AtomicBool = AtomicBool::new(false);
 /// simulator runs, with that run's injected fault on the board.
 fn rig(run: usize) -> RigConfig {
     // No runs of its own (the command session): the board as a commanded run builds it.
-    runs()
-        .get(run)
-        .map_or_else(|| FilRun::commanded(None, 0.0).rig(), |r| r.rig())
+    board_rig(runs().get(run).unwrap_or(&FilRun::commanded(None, 0.0)))
 }
+
+/// A run's rig, without the build's calibration table when the command line says
+/// `calibration=none` (a board whose calibration sector is blank).
+fn board_rig(run: &FilRun) -> RigConfig {
+    let mut config = run.rig();
+    if NO_TABLE.load(Ordering::Acquire) {
+        config.firmware.calibration = &[];
+    }
+    config
+}
+
+/// Set at start-up by `calibration=none`.
+static NO_TABLE: AtomicBool = AtomicBool::new(false);
+
+/// Room for a calibration table loaded by command: eight taxels.
+pub const LOADED_TABLE_BYTES: usize = tactile_core::calibration::table_bytes(8);
+
+/// The command channel of this board.
+pub type Port = tactile_firmware::CommandPort<LOADED_TABLE_BYTES>;
 
 /// The board's configuration (the session's first run's, or the default rig's).
 pub fn board_config() -> tactile_core::tasks::FirmwareConfig {
@@ -92,7 +111,7 @@ pub fn task_state(
     let controller = probe.and_then(|cal| Controller::new(&fw, protocol, cal).ok());
     let scan_config = rig(0).firmware;
     let scanner = slot.write(Scanner::blank(&scan_config, calibration));
-    match (controller, reset_scanner(scanner, calibration)) {
+    match (controller, reset_scanner(scanner, calibration, None)) {
         (Some(controller), true) => (controller, scanner),
         _ => fail(),
     }
@@ -113,11 +132,11 @@ pub fn renew(run: usize, hw: &mut SimHardware, controller: &mut Controller) {
 #[inline(never)]
 pub fn renew_commanded(
     run: &FilRun,
-    port: &tactile_firmware::CommandPort,
+    port: &Port,
     hw: &mut SimHardware,
     controller: &mut Controller,
 ) {
-    let mut config = run.rig();
+    let mut config = board_rig(run);
     config.firmware = port.firmware(config.firmware, &tactile_firmware::CONTROLLER_TABLE);
     let estimator = config
         .firmware
@@ -155,13 +174,20 @@ fn renew_with(
 /// scan task's stack). The scan configuration is the same in every run (faults do not change
 /// it).
 #[inline(never)]
-pub fn reset_scanner(scanner: &mut Scanner, calibration: [TaxelCalibration; TAXELS]) -> bool {
+pub fn reset_scanner(
+    scanner: &mut Scanner,
+    calibration: [TaxelCalibration; TAXELS],
+    loaded: Option<&[u8]>,
+) -> bool {
     let mut config = rig(0).firmware;
     let chosen = SCAN_ESTIMATOR.load(Ordering::Acquire);
     if let Some(kind) = tactile_core::estimator::EstimatorKind::ALL.get(usize::from(chosen)) {
         config.array_estimator = Some(*kind);
     }
-    scanner.reset(&config, calibration).is_ok()
+    let table = loaded.unwrap_or(config.calibration);
+    scanner
+        .reset_with_table(&config, calibration, table)
+        .is_ok()
 }
 
 /// The command script of `session=commands`: entries of (board tick: u32 LE, length: u16 LE,
