@@ -70,7 +70,13 @@ pub struct CommandPort<const CAL: usize> {
     /// buffer, where RAM is short.
     cal: [u8; CAL],
     cal_len: usize,
+    /// Ticks since the last byte.
+    quiet: u16,
 }
+
+/// Ticks without a byte after which a frame still incomplete is given up, 20 ms: a host writes
+/// a frame in one go, and a frame split by the ring buffer's wrap arrives within a tick or two.
+pub const QUIET_TICKS: u16 = 20;
 
 impl<const CAL: usize> CommandPort<CAL> {
     /// A port checking forces against `max_force_g` and open-ended runs against
@@ -89,6 +95,7 @@ impl<const CAL: usize> CommandPort<CAL> {
             loaded: None,
             cal: [0; CAL],
             cal_len: 0,
+            quiet: 0,
         }
     }
 
@@ -102,9 +109,19 @@ impl<const CAL: usize> CommandPort<CAL> {
         self.decoder.dropped()
     }
 
-    /// Takes the bytes of one poll of the down-channel (the stream pauses after them) and
-    /// hands each command's reply and action to `out`, in order.
+    /// Takes one tick's bytes from the down-channel (none, most ticks) and hands each command's
+    /// reply and action to `out`, in order. After [`QUIET_TICKS`] ticks without a byte, a frame
+    /// still incomplete is dropped (a false start in noise, or a host that stopped mid-frame),
+    /// so the frames behind it are read.
     pub fn poll(&mut self, bytes: &[u8], compiled: &[u8], mut out: impl FnMut(Reply, Action)) {
+        if bytes.is_empty() {
+            self.quiet = self.quiet.saturating_add(1);
+            if self.quiet == QUIET_TICKS {
+                self.decoder.idle();
+            }
+        } else {
+            self.quiet = 0;
+        }
         for &b in bytes {
             self.decoder.push(b);
             while let Some(r) = self.decoder.next_frame() {
@@ -112,7 +129,6 @@ impl<const CAL: usize> CommandPort<CAL> {
                 out(Reply { seq: r.seq, result }, action);
             }
         }
-        self.decoder.idle();
         while let Some(r) = self.decoder.next_frame() {
             let (result, action) = self.apply(r.command, compiled);
             out(Reply { seq: r.seq, result }, action);
@@ -251,6 +267,42 @@ mod tests {
         let compiled = crate::CONTROLLER_TABLE;
         port.poll(&bytes(commands), &compiled, |r, a| got.push((r, a)));
         got
+    }
+
+    /// A frame split across ticks is read whole; a false start is given up after the quiet
+    /// ticks and the frame behind it read.
+    #[test]
+    fn frames_across_ticks_and_false_starts() {
+        let mut port = CommandPort::<0>::new(120.0, 600.0);
+        let frame = bytes(&[(7, Command::Stop)]);
+        let mut got = Vec::new();
+        port.poll(&frame[..3], &[], |r, _| got.push(r));
+        port.poll(&[], &[], |r, _| got.push(r));
+        port.poll(&frame[3..], &[], |r, _| got.push(r));
+        assert_eq!(
+            got,
+            [Reply {
+                seq: 7,
+                result: Ok(())
+            }]
+        );
+        // A sync byte and a long length, then a whole frame: held until the line is quiet.
+        let mut noisy = vec![tactile_core::command::SYNC, 60];
+        noisy.extend(bytes(&[(8, Command::ClearFaults)]));
+        let mut got = Vec::new();
+        port.poll(&noisy, &[], |r, _| got.push(r));
+        for _ in 0..QUIET_TICKS - 1 {
+            port.poll(&[], &[], |r, _| got.push(r));
+        }
+        assert!(got.is_empty());
+        port.poll(&[], &[], |r, _| got.push(r));
+        assert_eq!(
+            got,
+            [Reply {
+                seq: 8,
+                result: Ok(())
+            }]
+        );
     }
 
     #[test]

@@ -35,7 +35,7 @@ pub use sim::{
     CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION, HOLD_S,
 };
 
-pub use commands::{Action, CommandPort, Reply};
+pub use commands::{Action, CommandPort, Reply, QUIET_TICKS};
 
 pub use safety::{CheckIns, ResetCause, SafeStop};
 pub use table::{BOARD, CALIBRATION_TABLE, CONTROLLER_TABLE};

@@ -210,7 +210,10 @@ mod app {
         if commands {
             // This tick's bytes from the down-channel, and what their commands ask.
             let (mut start, mut stop, mut clear) = (None, false, false);
-            while let Some(bytes) = local.script.due(tick) {
+            // Every entry due now, then the tick's (empty) poll that counts quiet ticks.
+            loop {
+                let due = local.script.due(tick);
+                let bytes = due.unwrap_or(&[]);
                 let out = &mut *local.control_out;
                 cx.shared.port.lock(|port| {
                     port.poll(
@@ -232,6 +235,9 @@ mod app {
                         },
                     )
                 });
+                if due.is_none() {
+                    break;
+                }
             }
             if clear {
                 controller.clear_faults();
