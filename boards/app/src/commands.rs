@@ -74,6 +74,20 @@ pub struct CommandPort<const CAL: usize> {
     quiet: u16,
 }
 
+/// How long a commanded hold lasts at most, s (a `Stop` or the next run ends it sooner), and
+/// the longest open-ended run a command may ask for.
+pub const HOLD_S: f32 = 3600.0;
+
+/// The protocol of a commanded hold: `force_g` from now on.
+pub fn hold(force_g: f32) -> tactile_core::profile::Protocol {
+    tactile_core::profile::Protocol::Step {
+        load_g: force_g,
+        lead_s: 0.0,
+        on_s: HOLD_S,
+        off_s: 0.0,
+    }
+}
+
 /// Ticks without a byte after which a frame still incomplete is given up, 20 ms: a host writes
 /// a frame in one go, and a frame split by the ring buffer's wrap arrives within a tick or two.
 pub const QUIET_TICKS: u16 = 20;

@@ -32,10 +32,10 @@ pub mod sim;
 pub use sim::{
     cmdline_words as words_of_cmdline, only_run_from_cmdline, runs_from_cmdline,
     script_from_cmdline, session_from_cmdline, DeliberateCrash, FilRun, Session,
-    CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION, HOLD_S,
+    CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION,
 };
 
-pub use commands::{Action, CommandPort, Reply, QUIET_TICKS};
+pub use commands::{hold, Action, CommandPort, Reply, HOLD_S, QUIET_TICKS};
 
 pub use safety::{CheckIns, ResetCause, SafeStop};
 pub use table::{BOARD, CALIBRATION_TABLE, CONTROLLER_TABLE};

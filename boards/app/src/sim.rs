@@ -184,21 +184,13 @@ pub fn script_from_cmdline(cmdline: &[u8]) -> Option<&str> {
     cmdline_words(cmdline).find_map(|w| w.strip_prefix("script="))
 }
 
-/// How long a commanded hold lasts at most, s (a `Stop` or the next run ends it sooner).
-pub const HOLD_S: f32 = 3600.0;
-
 impl FilRun {
     /// The run a command asks for, on the simulated board: the calibration with the probe over
     /// its taxel of the same finger, a hold as a step that holds.
     pub fn commanded(run: Option<Run>, hold_g: f32) -> FilRun {
         let base = FilRun {
             name: "hold",
-            protocol: Protocol::Step {
-                load_g: hold_g,
-                lead_s: 0.0,
-                on_s: HOLD_S,
-                off_s: 0.0,
-            },
+            protocol: crate::commands::hold(hold_g),
             fault: None,
             finger: None,
             element: None,
