@@ -362,6 +362,13 @@ impl Command {
         }
     }
 
+    /// The command's frame with sequence number `seq`.
+    pub fn frame(&self, seq: u16) -> Frame {
+        let mut bytes = [0u8; MAX_FRAME_BYTES];
+        let len = self.encode(seq, &mut bytes);
+        Frame { bytes, len }
+    }
+
     /// Writes the command's frame with sequence number `seq` into `out` (at least
     /// [`MAX_FRAME_BYTES`]); returns its length (0 if `out` is too short).
     pub fn encode(&self, seq: u16, out: &mut [u8]) -> usize {
@@ -447,6 +454,19 @@ impl Command {
                 (OP_LOAD, 3)
             }
         }
+    }
+}
+
+/// A command's frame, as [`Command::frame`] writes it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Frame {
+    bytes: [u8; MAX_FRAME_BYTES],
+    len: usize,
+}
+
+impl Frame {
+    pub fn as_bytes(&self) -> &[u8] {
+        self.bytes.get(..self.len).unwrap_or(&[])
     }
 }
 
@@ -575,9 +595,7 @@ mod tests {
     use super::*;
 
     fn frame(c: &Command, seq: u16) -> Vec<u8> {
-        let mut out = [0u8; MAX_FRAME_BYTES];
-        let n = c.encode(seq, &mut out);
-        out[..n].to_vec()
+        c.frame(seq).as_bytes().to_vec()
     }
 
     fn decode_all(bytes: &[u8]) -> (Vec<Received>, u32) {

@@ -4,8 +4,7 @@
 use proptest::prelude::*;
 use tactile_core::calibration::EstimatorKind;
 use tactile_core::command::{
-    Command, ControllerChoice, Decoder, Received, Run, TableKind, CHUNK_BYTES, MAX_FRAME_BYTES,
-    SYNC,
+    Command, ControllerChoice, Decoder, Received, Run, TableKind, CHUNK_BYTES, SYNC,
 };
 use tactile_core::tactile::TaxelId;
 
@@ -51,9 +50,7 @@ fn any_command() -> impl Strategy<Value = Command> {
 }
 
 fn frame(c: &Command, seq: u16) -> Vec<u8> {
-    let mut out = [0u8; MAX_FRAME_BYTES];
-    let n = c.encode(seq, &mut out);
-    out[..n].to_vec()
+    c.frame(seq).as_bytes().to_vec()
 }
 
 /// Everything the decoder reads from `bytes`, with a pause at the end.

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use tactile_core::command::{Command, ControllerChoice, Run, MAX_FRAME_BYTES};
+use tactile_core::command::{Command, ControllerChoice, Run};
 use tactile_core::tactile::TaxelId;
 use tactile_decode::transport::{Qemu, Replay, Transport};
 
@@ -45,11 +45,7 @@ pub enum Action {
 
 /// The commands for `action`, each with the board tick it is sent at.
 pub fn script(action: &Action) -> Vec<(u32, Vec<u8>)> {
-    let frame = |seq: u16, c: Command| {
-        let mut f = [0u8; MAX_FRAME_BYTES];
-        let n = c.encode(seq, &mut f);
-        f[..n].to_vec()
-    };
+    let frame = |seq: u16, c: Command| c.frame(seq).as_bytes().to_vec();
     match *action {
         Action::Run {
             protocol,

@@ -264,16 +264,31 @@ fn room(table: TableKind) -> Refusal {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tactile_core::command::MAX_FRAME_BYTES;
 
     fn bytes(commands: &[(u16, Command)]) -> Vec<u8> {
-        let mut out = Vec::new();
-        for (seq, c) in commands {
-            let mut f = [0u8; MAX_FRAME_BYTES];
-            let n = c.encode(*seq, &mut f);
-            out.extend_from_slice(&f[..n]);
-        }
-        out
+        commands
+            .iter()
+            .flat_map(|(seq, c)| c.frame(*seq).as_bytes().to_vec())
+            .collect()
+    }
+
+    /// `table` as the chunks that load it, numbered from `seq`.
+    fn chunks(table: &[u8], kind: TableKind, seq: u16) -> Vec<(u16, Command)> {
+        table
+            .chunks(CHUNK_BYTES)
+            .enumerate()
+            .map(|(i, chunk)| {
+                let mut data = [0u8; CHUNK_BYTES];
+                data[..chunk.len()].copy_from_slice(chunk);
+                let c = Command::TableChunk {
+                    table: kind,
+                    offset: (i * CHUNK_BYTES) as u16,
+                    len: chunk.len() as u8,
+                    data,
+                };
+                (seq + i as u16, c)
+            })
+            .collect()
     }
 
     fn poll(port: &mut CommandPort<0>, commands: &[(u16, Command)]) -> Vec<(Reply, Action)> {
@@ -369,20 +384,7 @@ mod tests {
         );
         assert_eq!(replies[0].result, Err(Refusal::NoControllerTable));
         let table = crate::CONTROLLER_TABLE;
-        let mut commands = Vec::new();
-        for (i, chunk) in table.chunks(CHUNK_BYTES).enumerate() {
-            let mut data = [0u8; CHUNK_BYTES];
-            data[..chunk.len()].copy_from_slice(chunk);
-            commands.push((
-                10 + i as u16,
-                Command::TableChunk {
-                    table: TableKind::Controller,
-                    offset: (i * CHUNK_BYTES) as u16,
-                    len: chunk.len() as u8,
-                    data,
-                },
-            ));
-        }
+        let mut commands = chunks(&table, TableKind::Controller, 10);
         // A damaged table first: refused, nothing loaded.
         let mut damaged = commands.clone();
         if let Command::TableChunk { data, .. } = &mut damaged[1].1 {
@@ -423,23 +425,7 @@ mod tests {
         use tactile_core::calibration::table_bytes;
         let table = crate::CALIBRATION_TABLE;
         let chunks = |damage: bool| -> Vec<(u16, Command)> {
-            let mut out: Vec<(u16, Command)> = table
-                .chunks(CHUNK_BYTES)
-                .enumerate()
-                .map(|(i, chunk)| {
-                    let mut data = [0u8; CHUNK_BYTES];
-                    data[..chunk.len()].copy_from_slice(chunk);
-                    (
-                        i as u16,
-                        Command::TableChunk {
-                            table: TableKind::Calibration,
-                            offset: (i * CHUNK_BYTES) as u16,
-                            len: chunk.len() as u8,
-                            data,
-                        },
-                    )
-                })
-                .collect();
+            let mut out = chunks(&table, TableKind::Calibration, 0);
             if damage {
                 if let Command::TableChunk { data, .. } = &mut out[2].1 {
                     data[5] ^= 0x20;

@@ -62,31 +62,46 @@ pub struct Qemu {
     done: bool,
 }
 
+/// The QEMU command that runs `elf` on the netduinoplus2 model: deterministic instruction
+/// counting (`-icount shift=0`: one instruction per virtual nanosecond; `sleep=off`: WFI jumps
+/// to the next interrupt), semihosting on, the defmt bytes on stdout.
+pub fn qemu_command(elf: &Path) -> Command {
+    let mut command = Command::new("qemu-system-arm");
+    command
+        .args([
+            "-machine",
+            "netduinoplus2",
+            "-nographic",
+            "-monitor",
+            "none",
+        ])
+        .args(["-serial", "none", "-icount", "shift=0,align=off,sleep=off"])
+        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+        .arg(elf);
+    command
+}
+
+/// A command script as the QEMU firmware reads it (`session=commands script=PATH`): entries of
+/// (board tick: u32 LE, length: u16 LE, the bytes due at that tick).
+pub fn script_bytes(script: &[(u32, Vec<u8>)]) -> io::Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    for (tick, b) in script {
+        let len = u16::try_from(b.len()).map_err(|_| {
+            io::Error::new(io::ErrorKind::InvalidInput, "a script entry over 64 KiB")
+        })?;
+        bytes.extend(tick.to_le_bytes());
+        bytes.extend(len.to_le_bytes());
+        bytes.extend(b);
+    }
+    Ok(bytes)
+}
+
 impl Qemu {
     /// Starts `elf` under QEMU's netduinoplus2 with `script` (board tick, command bytes), which
     /// it writes to `script_path`.
     pub fn start(elf: &Path, script: &[(u32, Vec<u8>)], script_path: &Path) -> io::Result<Qemu> {
-        let mut bytes = Vec::new();
-        for (tick, b) in script {
-            let len = u16::try_from(b.len()).map_err(|_| {
-                io::Error::new(io::ErrorKind::InvalidInput, "a script entry over 64 KiB")
-            })?;
-            bytes.extend(tick.to_le_bytes());
-            bytes.extend(len.to_le_bytes());
-            bytes.extend(b);
-        }
-        std::fs::write(script_path, &bytes)?;
-        let mut child = Command::new("qemu-system-arm")
-            .args([
-                "-machine",
-                "netduinoplus2",
-                "-nographic",
-                "-monitor",
-                "none",
-            ])
-            .args(["-serial", "none", "-icount", "shift=0,align=off,sleep=off"])
-            .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
-            .arg(elf)
+        std::fs::write(script_path, script_bytes(script)?)?;
+        let mut child = qemu_command(elf)
             .arg("-append")
             .arg(format!("session=commands script={}", script_path.display()))
             .stdout(Stdio::piped())

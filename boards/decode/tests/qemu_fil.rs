@@ -44,21 +44,7 @@ fn run_qemu(elf: &Path, log: &Path, append: &str) -> bool {
 
 fn run_qemu_for(elf: &Path, log: &Path, append: &str, timeout: Duration) -> bool {
     let out = std::fs::File::create(log).expect("log file");
-    let mut command = Command::new(QEMU);
-    command
-        .args([
-            "-machine",
-            "netduinoplus2",
-            "-nographic",
-            "-monitor",
-            "none",
-            "-serial",
-            "none",
-        ])
-        .args(["-icount", "shift=0,align=off,sleep=off"])
-        .args(["-semihosting-config", "enable=on,target=native"])
-        .arg("-kernel")
-        .arg(elf);
+    let mut command = tactile_decode::transport::qemu_command(elf);
     if !append.is_empty() {
         command.args(["-append", append]);
     }
@@ -783,16 +769,12 @@ fn the_controller_is_designed_from_the_firmwares_excitation() {
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn a_session_driven_by_commands() {
-    use tactile_core::command::{Command, ControllerChoice, Run, TableKind, MAX_FRAME_BYTES};
+    use tactile_core::command::{Command, ControllerChoice, Run, TableKind};
     use tactile_core::estimator::EstimatorKind;
     let Some((elf, dir)) = firmware_for("command session test") else {
         return;
     };
-    let frame = |seq: u16, c: Command| {
-        let mut f = [0u8; MAX_FRAME_BYTES];
-        let n = c.encode(seq, &mut f);
-        f[..n].to_vec()
-    };
+    let frame = |seq: u16, c: Command| c.frame(seq).as_bytes().to_vec();
     let pseudo_random = Run::PseudoRandom {
         seed: 1989,
         duration_s: 2.0,
@@ -848,12 +830,7 @@ fn a_session_driven_by_commands() {
         (5100, unknown),
     ];
     let path = dir.join("commands.bin");
-    let mut bytes = Vec::new();
-    for (tick, b) in &script {
-        bytes.extend(tick.to_le_bytes());
-        bytes.extend((b.len() as u16).to_le_bytes());
-        bytes.extend(b);
-    }
+    let bytes = tactile_decode::transport::script_bytes(&script).expect("a script");
     std::fs::write(&path, &bytes).expect("script written");
     let log = dir.join("commands.defmt");
     let append = format!("session=commands script={}", path.display());
@@ -1015,15 +992,11 @@ fn the_board_session_decodes_live_as_in_batch() {
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
-    use tactile_core::command::{Command, Run, TableKind, CHUNK_BYTES, MAX_FRAME_BYTES};
+    use tactile_core::command::{Command, Run, TableKind, CHUNK_BYTES};
     let Some((elf, dir)) = firmware_for("calibration load test") else {
         return;
     };
-    let frame = |seq: u16, c: Command| {
-        let mut f = [0u8; MAX_FRAME_BYTES];
-        let n = c.encode(seq, &mut f);
-        f[..n].to_vec()
-    };
+    let frame = |seq: u16, c: Command| c.frame(seq).as_bytes().to_vec();
     let run = Command::Run(Run::PseudoRandom {
         seed: 1989,
         duration_s: 2.0,
@@ -1049,12 +1022,7 @@ fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
     script.push((2300, frame(101, run)));
     let session = |name: &str, words: &str, script: &[(u32, Vec<u8>)]| {
         let path = dir.join(format!("{name}.bin"));
-        let mut bytes = Vec::new();
-        for (tick, b) in script {
-            bytes.extend(tick.to_le_bytes());
-            bytes.extend((b.len() as u16).to_le_bytes());
-            bytes.extend(b);
-        }
+        let bytes = tactile_decode::transport::script_bytes(script).expect("a script");
         std::fs::write(&path, &bytes).expect("script written");
         let log = dir.join(format!("{name}.defmt"));
         let append = format!("session=commands script={} {words}", path.display());
