@@ -91,6 +91,37 @@ fn firmware_for(what: &str) -> Option<(std::path::PathBuf, std::path::PathBuf)> 
     Some((elf, dir))
 }
 
+/// Each of a session's `runs` runs in its own QEMU (`session=NAME run=N`), side by side (the
+/// emulator uses one core, and each run starts from a fresh board, as within one session),
+/// decoded.
+fn each_run(
+    elf: &Path,
+    dir: &Path,
+    session: &str,
+    runs: usize,
+    timeout: Duration,
+) -> Vec<tactile_decode::Session> {
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..runs)
+            .map(|k| {
+                scope.spawn(move || {
+                    let log = dir.join(format!("{session}-{k}.defmt"));
+                    let append = format!("session={session} run={k}");
+                    assert!(
+                        run_qemu_for(elf, &log, &append, timeout),
+                        "the firmware exited with a failure (`{append}`)"
+                    );
+                    decode_log(elf, &log)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a QEMU run"))
+            .collect()
+    })
+}
+
 fn decode_log(elf: &Path, log: &Path) -> tactile_decode::Session {
     tactile_decode::decode(
         &std::fs::read(elf).expect("elf"),
@@ -529,28 +560,13 @@ fn calibration_on_the_firmware_end_to_end() {
     let Some((elf, dir)) = firmware_for("calibration test") else {
         return;
     };
-    // One QEMU per run (`run=N`), side by side: the emulator uses one core, and each run
-    // starts from a fresh board, as it does within one session.
-    let sessions: Vec<tactile_decode::Session> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..CALIBRATION_SESSION.len())
-            .map(|k| {
-                let (elf, dir) = (&elf, &dir);
-                scope.spawn(move || {
-                    let log = dir.join(format!("calibration-{k}.defmt"));
-                    let append = format!("session=calibration run={k}");
-                    assert!(
-                        run_qemu_for(elf, &log, &append, CALIBRATION_TIMEOUT),
-                        "the firmware exited with a failure (`{append}`)"
-                    );
-                    decode_log(elf, &log)
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("a QEMU run"))
-            .collect()
-    });
+    let sessions = each_run(
+        &elf,
+        &dir,
+        "calibration",
+        CALIBRATION_SESSION.len(),
+        CALIBRATION_TIMEOUT,
+    );
     for session in &sessions {
         assert!(session.errors.is_empty(), "{:?}", session.errors);
         assert_eq!(session.control_seq.missing(), 0);
@@ -680,26 +696,13 @@ fn the_controller_is_designed_from_the_firmwares_excitation() {
     let Some((elf, dir)) = firmware_for("identification test") else {
         return;
     };
-    let sessions: Vec<tactile_decode::Session> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..EXCITATION_SESSION.len())
-            .map(|k| {
-                let (elf, dir) = (&elf, &dir);
-                scope.spawn(move || {
-                    let log = dir.join(format!("excitation-{k}.defmt"));
-                    let append = format!("session=excitation run={k}");
-                    assert!(
-                        run_qemu(elf, &log, &append),
-                        "the firmware exited with a failure (`{append}`)"
-                    );
-                    decode_log(elf, &log)
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("a QEMU run"))
-            .collect()
-    });
+    let sessions = each_run(
+        &elf,
+        &dir,
+        "excitation",
+        EXCITATION_SESSION.len(),
+        QEMU_TIMEOUT,
+    );
     let rig = RigConfig {
         scan_array: false,
         ..Default::default()
