@@ -957,8 +957,11 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     if state.groups.len() > 1 {
         let mut i = 0;
         while i < state.groups.len() && state.groups.len() > 1 {
-            // A delay replaced the baseline's columns: it is not taken out again.
-            if state.groups[i].0 == Effect::TimeDelay {
+            // A delay replaced the baseline's columns: it is not taken out again. The effects
+            // after a drift were judged with it as each block's nuisance: they presuppose it.
+            if state.groups[i].0 == Effect::TimeDelay
+                || (state.groups[i].0 == Effect::BaselineDrift && i + 1 < state.groups.len())
+            {
                 i += 1;
                 continue;
             }

@@ -248,12 +248,22 @@ fn two_effects_at_once_are_both_named() {
     let interference = |amplitude, hz| SynthEffect::Interference { amplitude, hz };
     // (seed, rate Hz, length s, the effects, their names)
     type Case = (u64, f64, f64, [SynthEffect; 2], [&'static str; 2]);
-    let cases: [Case; 6] = [
+    let cases: [Case; 7] = [
         (
             21,
             200.0,
             180.0,
             [SynthEffect::Hysteresis(0.05), SynthEffect::Drift(0.04)],
+            ["hysteresis", "baseline_drift"],
+        ),
+        // Seed 92 (never run while the design was made): the drift was named, the plays
+        // accepted with it as each block's nuisance, then the drift dropped by a removal check
+        // that judged it without one.
+        (
+            92,
+            100.0,
+            240.0,
+            [SynthEffect::Hysteresis(0.08), SynthEffect::Drift(0.06)],
             ["hysteresis", "baseline_drift"],
         ),
         (
