@@ -601,8 +601,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         let taken = |e: Effect, st: &State| st.groups.iter().any(|g| g.0 == e);
         // Once a drift is in the model, later effects are judged on each held-out block
         // less its own offset and slope (`Pool::set_local_nuisance`).
-        if taken(Effect::BaselineDrift, &state) {
-            work.pool.set_local_nuisance(true);
+        if taken(Effect::BaselineDrift, &state) && work.pool.set_local_nuisance(true) {
             state.scored = work.pool.score(&state.cols);
         }
         if !slow.is_empty() && !taken(Effect::SlowRelaxation, &state) {
@@ -974,8 +973,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             // Under the same judge as when it was added.
             let local = state.groups[i].0 != Effect::BaselineDrift
                 && state.groups.iter().any(|g| g.0 == Effect::BaselineDrift);
-            work.pool.set_local_nuisance(local);
-            state.scored = work.pool.score(&state.cols);
+            if work.pool.set_local_nuisance(local) {
+                state.scored = work.pool.score(&state.cols);
+            }
             let sc = work.pool.score(&without);
             let d = fold_gains(
                 &sc.fold_mse,
@@ -1007,8 +1007,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     }
 
     // The report's held-out errors are plain cross-validation.
-    work.pool.set_local_nuisance(false);
-    state.scored = work.pool.score(&state.cols);
+    if work.pool.set_local_nuisance(false) {
+        state.scored = work.pool.score(&state.cols);
+    }
 
     // The candidates' columns are no longer needed: free them before the report's copies.
     for c in slow.iter().chain(plays.iter().flatten()).chain(&drift) {

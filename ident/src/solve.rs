@@ -100,13 +100,12 @@ impl Pool {
             let v = pool.y[i];
             v * v
         });
-        pool.local_y = pool.local_sums(|i| pool.y[i]);
-        pool.local_gram = pool
-            .local_sums(|_| 1.0)
+        pool.local_y = pool
+            .local_sums(|i| pool.y[i])
             .iter()
-            .zip(pool.local_sums(|i| pool.tau(i)))
-            .map(|(a, b)| [a[0], a[1], b[1]])
+            .map(|s| [s[0], s[1]])
             .collect();
+        pool.local_gram = pool.local_sums(|_| 1.0);
         pool
     }
 
@@ -115,33 +114,23 @@ impl Pool {
     /// turns inside a held-out block from the blocks around it, and any force-driven term that
     /// happens to follow the force's slow course wins there; with the block's own offset and
     /// slope taken out, a later effect is judged on what the drift cannot be. Only models
-    /// that are compared with each other may be scored under one setting.
-    pub fn set_local_nuisance(&mut self, on: bool) {
-        self.local = on;
+    /// that are compared with each other may be scored under one setting. Returns whether the
+    /// setting changed (scores taken before it are then no longer comparable).
+    pub fn set_local_nuisance(&mut self, on: bool) -> bool {
+        core::mem::replace(&mut self.local, on) != on
     }
 
-    /// The time across sample `i`'s fold, from −1 to 1.
-    fn tau(&self, i: usize) -> f64 {
-        let &(a, b) = self
-            .folds
-            .ranges
-            .iter()
-            .find(|r| i >= r.0 && i < r.1)
-            .unwrap_or(&(0, 1));
-        let half = ((b - a).max(2) - 1) as f64 / 2.0;
-        (i - a) as f64 / half - 1.0
-    }
-
-    /// Per fold: (Σ w·f, Σ w·τ·f).
-    fn local_sums(&self, f: impl Fn(usize) -> f64) -> Vec<[f64; 2]> {
+    /// Per fold: (Σ w·f, Σ w·τ·f, Σ w·τ²·f), τ the time across the fold from −1 to 1.
+    fn local_sums(&self, f: impl Fn(usize) -> f64) -> Vec<[f64; 3]> {
         self.folds
             .ranges
             .iter()
             .map(|&(a, b)| {
                 let half = ((b - a).max(2) - 1) as f64 / 2.0;
-                (a..b).fold([0.0, 0.0], |s, i| {
+                (a..b).fold([0.0; 3], |s, i| {
                     let v = f64::from(self.weight[i]) * f(i);
-                    [s[0] + v, s[1] + v * ((i - a) as f64 / half - 1.0)]
+                    let tau = (i - a) as f64 / half - 1.0;
+                    [s[0] + v, s[1] + v * tau, s[2] + v * tau * tau]
                 })
             })
             .collect()
@@ -364,7 +353,11 @@ impl Pool {
             return v.clone();
         }
         let ca = self.read(a, built);
-        let v = self.local_sums(|i| f64::from(ca[i]));
+        let v: Vec<[f64; 2]> = self
+            .local_sums(|i| f64::from(ca[i]))
+            .iter()
+            .map(|s| [s[0], s[1]])
+            .collect();
         self.local_x.insert(a, v.clone());
         v
     }
