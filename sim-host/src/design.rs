@@ -187,10 +187,20 @@ pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
     let holds: Vec<(f64, f64)> = excited.iter().map(|e| e.hold).collect();
     let (static_gain, stiction_g) =
         crate::identify::static_line(&holds).ok_or(DesignError::NoModel { load_g: f32::NAN })?;
+    // One fit per preload, side by side (each is a few hundred milliseconds).
+    let fits: Vec<Option<ApplicatorModel>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = excited
+            .iter()
+            .map(|e| scope.spawn(|| crate::identify::fit_model(&e.response)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().ok().flatten())
+            .collect()
+    });
     let mut models = Vec::with_capacity(excited.len());
-    for e in excited {
-        let model = crate::identify::fit_model(&e.response)
-            .ok_or(DesignError::NoModel { load_g: e.load_g })?;
+    for (e, model) in excited.iter().zip(fits) {
+        let model = model.ok_or(DesignError::NoModel { load_g: e.load_g })?;
         models.push(LoadModel {
             load_g: e.load_g,
             model,
