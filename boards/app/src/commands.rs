@@ -138,11 +138,13 @@ impl<const CAL: usize> CommandPort<CAL> {
         }
         for &b in bytes {
             self.decoder.push(b);
-            while let Some(r) = self.decoder.next_frame() {
-                let (result, action) = self.apply(r.command, compiled);
-                out(Reply { seq: r.seq, result }, action);
-            }
+            self.drain(compiled, &mut out);
         }
+        self.drain(compiled, &mut out);
+    }
+
+    /// Every complete frame the decoder holds, applied and answered.
+    fn drain(&mut self, compiled: &[u8], out: &mut impl FnMut(Reply, Action)) {
         while let Some(r) = self.decoder.next_frame() {
             let (result, action) = self.apply(r.command, compiled);
             out(Reply { seq: r.seq, result }, action);

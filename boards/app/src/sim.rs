@@ -185,20 +185,22 @@ pub fn script_from_cmdline(cmdline: &[u8]) -> Option<&str> {
 }
 
 impl FilRun {
-    /// The run a command asks for, on the simulated board: the calibration with the probe over
-    /// its taxel of the same finger, a hold as a step that holds.
-    pub fn commanded(run: Option<Run>, hold_g: f32) -> FilRun {
-        let base = FilRun {
+    /// A commanded hold of `force_g` on the simulated board (the build's board, as a command
+    /// session starts it).
+    pub fn hold(force_g: f32) -> FilRun {
+        FilRun {
             name: "hold",
-            protocol: crate::commands::hold(hold_g),
+            protocol: crate::commands::hold(force_g),
             fault: None,
             finger: None,
             element: None,
             designed: false,
-        };
-        let Some(run) = run else {
-            return base;
-        };
+        }
+    }
+
+    /// The run a command asks for, on the simulated board: the calibration with the probe over
+    /// its taxel of the same finger.
+    pub fn commanded(run: Run) -> FilRun {
         let name = match run {
             Run::ForceSteps => "force-steps",
             Run::PseudoRandom { .. } => "pseudo-random",
@@ -215,7 +217,7 @@ impl FilRun {
                 Run::Calibration { taxel } => Some((taxel, RigConfig::default().seed)),
                 _ => None,
             },
-            ..base
+            ..FilRun::hold(0.0)
         }
     }
 }

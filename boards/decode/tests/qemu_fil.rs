@@ -874,7 +874,7 @@ fn a_session_driven_by_commands() {
     let mean = last.iter().sum::<f64>() / last.len() as f64;
     assert!((mean - 30.0).abs() < 0.5, "the hold at {mean:.2} g");
     // The run asked for by command is the host rig's, to the bit.
-    let spec = tactile_firmware::FilRun::commanded(Some(pseudo_random), 0.0);
+    let spec = tactile_firmware::FilRun::commanded(pseudo_random);
     is_the_rigs_to_the_bit(&session.runs[1], &spec);
 }
 
@@ -978,13 +978,10 @@ fn the_board_session_decodes_live_as_in_batch() {
     );
     assert_eq!(batch.replies, [(1, None), (2, None)]);
     assert_eq!(batch.runs.len(), 1);
-    let spec = tactile_firmware::FilRun::commanded(
-        Some(tactile_core::command::Run::PseudoRandom {
-            seed: 1989,
-            duration_s: 2.0,
-        }),
-        0.0,
-    );
+    let spec = tactile_firmware::FilRun::commanded(tactile_core::command::Run::PseudoRandom {
+        seed: 1989,
+        duration_s: 2.0,
+    });
     is_the_rigs_to_the_bit(&batch.runs[0], &spec);
 }
 

@@ -222,12 +222,8 @@ mod app {
                         |reply, action| {
                             out.send(Message::Reply(reply));
                             match action {
-                                Action::Start(run) => {
-                                    start = Some(FilRun::commanded(Some(run), 0.0))
-                                }
-                                Action::Hold { force_g } => {
-                                    start = Some(FilRun::commanded(None, force_g))
-                                }
+                                Action::Start(run) => start = Some(FilRun::commanded(run)),
+                                Action::Hold { force_g } => start = Some(FilRun::hold(force_g)),
                                 Action::Stop => (start, stop) = (None, true),
                                 Action::ClearFaults => clear = true,
                                 Action::None => {}

@@ -61,7 +61,7 @@ pub static RESET_SCANNER: AtomicBool = AtomicBool::new(false);
 /// simulator runs, with that run's injected fault on the board.
 fn rig(run: usize) -> RigConfig {
     // No runs of its own (the command session): the board as a commanded run builds it.
-    board_rig(runs().get(run).unwrap_or(&FilRun::commanded(None, 0.0)))
+    board_rig(runs().get(run).unwrap_or(&FilRun::hold(0.0)))
 }
 
 /// A run's rig, without the build's calibration table when the command line says
