@@ -127,8 +127,8 @@ pub fn table(elf: &[u8], elf_path: &Path) -> Result<Table, Error> {
 }
 
 /// A defmt stream decoded as it arrives (a board's RTT up-channel, QEMU's output): bytes in
-/// with [`Live::push`] in any pieces, the session so far in [`Live::session`], the whole of it
-/// from [`Live::finish`]. [`decode`] is one push of a whole log.
+/// with [`Live::push`] in any pieces, the run in progress in [`Live::current`] (with
+/// [`Live::progress`] and [`Live::summary`]), the whole session from [`Live::finish`]. [`decode`] is one push of a whole log.
 pub struct Live<'t> {
     stream: Box<dyn defmt_decoder::StreamDecoder + 't>,
     source: PathBuf,
@@ -200,11 +200,6 @@ impl<'t> Live<'t> {
         }
         self.pending.drain(..used);
         Ok(())
-    }
-
-    /// The session so far (the run in progress is not in `runs` until it ends).
-    pub fn session(&self) -> &Session {
-        &self.session
     }
 
     /// The run in progress, if any.

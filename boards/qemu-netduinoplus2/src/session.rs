@@ -24,10 +24,17 @@ const SESSIONS: [tactile_firmware::Session; 4] = [
     tactile_firmware::Session::Commands,
 ];
 
+/// The session the command line chose.
+fn session() -> tactile_firmware::Session {
+    SESSIONS
+        .get(usize::from(SESSION.load(Ordering::Acquire)))
+        .copied()
+        .unwrap_or(tactile_firmware::Session::FirmwareInTheLoop)
+}
+
 /// Whether the command line chose the command-driven session.
 pub fn commanded() -> bool {
-    SESSIONS.get(usize::from(SESSION.load(Ordering::Acquire)))
-        == Some(&tactile_firmware::Session::Commands)
+    session() == tactile_firmware::Session::Commands
 }
 
 /// Chooses the session (and, with `run=N`, one run of it) from the semihosting command line
@@ -46,12 +53,8 @@ pub fn choose(cmdline: &[u8]) {
 /// the firmware-in-the-loop session, the calibration or the excitation session, or one run of
 /// one of them.
 pub fn runs() -> &'static [FilRun] {
-    let session = SESSIONS
-        .get(usize::from(SESSION.load(Ordering::Acquire)))
-        .copied()
-        .unwrap_or(tactile_firmware::Session::FirmwareInTheLoop);
     let only = ONLY.load(Ordering::Acquire);
-    session.runs_of((only != usize::MAX).then_some(only))
+    session().runs_of((only != usize::MAX).then_some(only))
 }
 
 /// Set by `control` when it replaced the board: the scan task starts a fresh scanner.
