@@ -94,6 +94,53 @@ fn a_wandering_drift_is_found() {
     }
 }
 
+/// A drift that wanders (it settles and swings with a period of 60–200 s) so that no basis
+/// fitted on the other blocks carries it into a 36–60 s held-out block: on seeds 76 and 85
+/// every candidate lost held out and the records were left `unexplained`, though a slow
+/// function of time held 76–91 % of the residual. Judged on each block less its own offset
+/// and slope when nothing else explains the record. The third is a drift of another form than
+/// the generator's (a smoothed random walk added to a clean finger), named before and after.
+#[test]
+fn a_drift_that_no_basis_carries_across_a_block_is_named() {
+    for (seed, rate, length, a) in [(76, 200.0, 180.0, 0.02), (85, 50.0, 300.0, 0.06)] {
+        let d = diag(seed, rate, length, &[SynthEffect::Drift(a)]);
+        check(&d, "baseline_drift");
+        assert_eq!(d.effects, ["baseline_drift"], "{}", d.summary);
+    }
+    let g = generate(&Spec {
+        seed: 31,
+        rate_hz: 100.0,
+        duration_s: 240.0,
+        effects: vec![],
+    });
+    let swing = g.strain_pct.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    // A random walk (a fixed xorshift, steps ±1 every 0.5 s), smoothed over 10 s: a
+    // wandering zero of 3–6 % of the strain's swing with no low-order shape.
+    let (mut state, mut walk, mut level) = (0x9e37_79b9_u32, Vec::new(), 0.0);
+    for i in 0..g.strain_pct.len() {
+        if i % 50 == 0 {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            level += if state & 1 == 0 { 1.0 } else { -1.0 };
+        }
+        walk.push(level);
+    }
+    let mut smooth = 0.0;
+    let strain: Vec<f64> = g
+        .strain_pct
+        .iter()
+        .zip(&walk)
+        .map(|(e, w)| {
+            smooth += (w - smooth) * (g.dt_s / 10.0);
+            e + 0.006 * swing * smooth
+        })
+        .collect();
+    let d = diagnose(&Series::new(g.dt_s, g.force_g, strain, vec![]).unwrap());
+    check(&d, "baseline_drift");
+    assert_eq!(d.effects, ["baseline_drift"], "{}", d.summary);
+}
+
 /// A drift that turns inside a held-out block: the drift basis cannot interpolate it from the
 /// blocks around it, and a force-driven term that follows the force's slow course won there
 /// (seeds 66, 80, 87: drift then hysteresis or a sagging gain; seed 46: then stiffening), until
