@@ -60,14 +60,14 @@ impl EstimatorKind {
 
 /// CRC-32 (IEEE, as zlib and Ethernet compute it), bit by bit: a lookup table would cost
 /// the firmware 1–16 KB of flash to check a 700-byte table once at start-up.
-pub(crate) fn crc32(bytes: &[u8]) -> u32 {
+pub fn crc32(bytes: &[u8]) -> u32 {
     const CRC: crc::Crc<u32, crc::NoTable> =
         crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
     CRC.checksum(bytes)
 }
 
 /// `N` bytes of `bytes` from `at` (zeros past the end: callers have checked the length).
-pub(crate) fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
+pub fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
     bytes
         .get(at..at + N)
         .and_then(|b| b.try_into().ok())

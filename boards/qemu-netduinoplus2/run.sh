@@ -5,7 +5,9 @@
 # Usage: boards/qemu-netduinoplus2/run.sh [OUT] [WORDS…]   (default out/qemu)
 # WORDS go to the firmware's command line: session=calibration (the calibration protocol over
 # two taxels, for `tactile calibrate`), session=excitation (the applicator's excitation at six
-# preloads, for `tactile design --records OUT/excitation-*.csv`), run=N (one run of the session).
+# preloads, for `tactile design --records OUT/excitation-*.csv`), run=N (one run of the session),
+# applicator=FILE.toml (the simulated plant of an applicator file, `applicators/*.toml`,
+# checked and converted by `tactile applicator`; the memo's otherwise).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=${1:-out/qemu}
@@ -14,6 +16,17 @@ target=${CARGO_TARGET_DIR:-target}
 mkdir -p "$out"
 cargo fw-qemu
 cargo build --release -p tactile-decode
+words=()
+for w in "$@"; do
+    case "$w" in
+    applicator=*.toml)
+        cargo build --release -q -p sim-host --bin tactile
+        "$target/release/tactile" applicator "${w#applicator=}" --out "$out/applicator.bin"
+        w="applicator=$out/applicator.bin" ;;
+    esac
+    words+=("$w")
+done
+set -- "${words[@]+"${words[@]}"}"
 elf="$target/thumbv7em-none-eabihf/release/tactile-qemu"
 # -icount shift=0: one instruction per virtual nanosecond, no host timing in the run;
 # sleep=off: WFI jumps virtual time to the next interrupt. Output: raw defmt on stdout.

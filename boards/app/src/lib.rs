@@ -30,8 +30,8 @@ pub mod telemetry;
 pub mod sim;
 #[cfg(any(test, feature = "sim"))]
 pub use sim::{
-    cmdline_words as words_of_cmdline, only_run_from_cmdline, runs_from_cmdline,
-    script_from_cmdline, session_from_cmdline, DeliberateCrash, FilRun, Session,
+    applicator_from_cmdline, cmdline_words as words_of_cmdline, only_run_from_cmdline,
+    runs_from_cmdline, script_from_cmdline, session_from_cmdline, DeliberateCrash, FilRun, Session,
     CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION,
 };
 

@@ -184,6 +184,12 @@ pub fn script_from_cmdline(cmdline: &[u8]) -> Option<&str> {
     cmdline_words(cmdline).find_map(|w| w.strip_prefix("script="))
 }
 
+/// The applicator file's path (`applicator=PATH`, the form `tactile applicator` writes) on a
+/// semihosting command line.
+pub fn applicator_from_cmdline(cmdline: &[u8]) -> Option<&str> {
+    cmdline_words(cmdline).find_map(|w| w.strip_prefix("applicator="))
+}
+
 impl FilRun {
     /// A commanded hold of `force_g` on the simulated board (the build's board, as a command
     /// session starts it).

@@ -235,11 +235,16 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
 /// The host rig, same protocol, fault, controller and seed: every command, control output,
 /// DAC code and fault bit identical to the bit, and the same forces.
 fn is_the_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun) {
+    is_this_rigs_to_the_bit(run, spec, spec.rig());
+}
+
+/// [`is_the_rigs_to_the_bit`] against the host rig built from `rig`.
+fn is_this_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun, rig: RigConfig) {
     let name = spec.name;
     let ticks = &run.ticks;
     let records = run.tick_records();
     let dac = |t: &tactile_decode::Tick| t.frame.dac_code;
-    let host = run_protocol(name, spec.protocol, spec.rig(), false, |_| {}).expect("host rig");
+    let host = run_protocol(name, spec.protocol, rig, false, |_| {}).expect("host rig");
     assert_eq!(ticks.len(), host.ticks.len(), "{name}");
     for (k, (fw, rig)) in ticks.iter().zip(&host.ticks).enumerate() {
         let f = &fw.frame;
@@ -268,6 +273,70 @@ fn is_the_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun) {
         ticks.len()
     );
     assert!(truth == 0.0 && sensed == 0.0, "{name}: traces differ");
+}
+
+/// The plant of an applicator file, read by the QEMU firmware as by the simulator (issue 13,
+/// item 4): the heavy rig's force steps under A1 (`run=0 applicator=FILE`) are the host rig's
+/// with the same file to the bit, and not the memo rig's; a damaged file is refused with the
+/// reason and the firmware exits with a failure before it runs anything.
+#[test]
+#[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
+fn the_firmware_runs_the_plant_of_an_applicator_file() {
+    let Some((elf, dir)) = firmware_for("applicator-file test") else {
+        return;
+    };
+    let file = workspace().join("applicators/heavy-motor-soft-beam.toml");
+    let heavy = sim_host::error::read_applicator(&file).unwrap_or_else(|e| panic!("{e}"));
+    let bin = dir.join("heavy-motor-soft-beam.bin");
+    std::fs::write(&bin, heavy.encode()).expect("applicator written");
+    let log = dir.join("applicator.defmt");
+    let append = format!("run=0 applicator={}", bin.display());
+    assert!(run_qemu(&elf, &log, &append), "`{append}` failed");
+    let session = decode_log(&elf, &log);
+    assert!(session.errors.is_empty(), "{:?}", session.errors);
+    let (run, spec) = (&session.runs[0], &FIL_SESSION[0]);
+    is_this_rigs_to_the_bit(
+        run,
+        spec,
+        RigConfig {
+            applicator: heavy,
+            ..spec.rig()
+        },
+    );
+    let memo = run_protocol(spec.name, spec.protocol, spec.rig(), false, |_| {}).expect("memo");
+    let differ = run
+        .ticks
+        .iter()
+        .zip(&memo.ticks)
+        .filter(|(f, m)| f.frame.dac_code != m.dac_code)
+        .count();
+    eprintln!(
+        "heavy rig: {differ} of {} DAC codes differ from the memo rig's",
+        run.ticks.len()
+    );
+    // (Measured: 4 675 of 10 500.)
+    assert!(differ > run.ticks.len() / 4);
+
+    let mut damaged = heavy.encode();
+    damaged[8 + 8 * 3] ^= 0x10;
+    let bad = dir.join("damaged.bin");
+    std::fs::write(&bad, damaged).expect("damaged written");
+    let log = dir.join("applicator-damaged.defmt");
+    let append = format!("run=0 applicator={}", bad.display());
+    assert!(!run_qemu(&elf, &log, &append), "`{append}` ran");
+    let session = decode_log(&elf, &log);
+    assert!(
+        session.runs.is_empty(),
+        "a run started on a damaged applicator"
+    );
+    assert!(
+        session
+            .errors
+            .iter()
+            .any(|e| e.contains("refused") && e.contains("CRC")),
+        "{:?}",
+        session.errors
+    );
 }
 
 #[test]

@@ -1,12 +1,14 @@
 //! What the QEMU firmware runs: the protocols, a fresh simulated board and fresh task state per
 //! run, the simulator truth that rides with each control frame, and the instruction counts.
 
+use core::cell::Cell;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU8, AtomicUsize, Ordering};
 
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{TaxelCalibration, TAXELS};
 use tactile_firmware::{Controller, Scanner};
+use tactile_plant::applicator::{ApplicatorParams, APPLICATOR_BYTES};
 use tactile_plant::hardware::SimHardware;
 use tactile_plant::rig::RigConfig;
 
@@ -47,7 +49,33 @@ pub fn choose(cmdline: &[u8]) {
     ONLY.store(only, Ordering::Release);
     let blank = tactile_firmware::words_of_cmdline(cmdline).any(|w| w == "calibration=none");
     NO_TABLE.store(blank, Ordering::Release);
+    if let Some(path) = tactile_firmware::applicator_from_cmdline(cmdline) {
+        let mut buf = [0u8; APPLICATOR_BYTES + 1];
+        let Some(n) = crate::crash::read_file(path, &mut buf) else {
+            defmt::error!("applicator file {=str}: cannot be read", path);
+            exit_failure();
+        };
+        match ApplicatorParams::decode(buf.get(..n).unwrap_or(&[])) {
+            Ok(params) => {
+                defmt::info!("applicator from {=str}", path);
+                cortex_m::interrupt::free(|cs| APPLICATOR.borrow(cs).set(Some(params)));
+            }
+            Err(e) => {
+                defmt::error!(
+                    "applicator file {=str} refused: {}",
+                    path,
+                    defmt::Display2Format(&e)
+                );
+                exit_failure();
+            }
+        }
+    }
 }
+
+/// Set at start-up by `applicator=PATH`: the plant every run's board is built with (the
+/// memo's, the simulator's default, otherwise).
+static APPLICATOR: cortex_m::interrupt::Mutex<Cell<Option<ApplicatorParams>>> =
+    cortex_m::interrupt::Mutex::new(Cell::new(None));
 
 /// The session's runs (shared with the QEMU test, which replays them on the host simulator):
 /// the firmware-in-the-loop session, the calibration or the excitation session, or one run of
@@ -73,6 +101,9 @@ fn board_rig(run: &FilRun) -> RigConfig {
     let mut config = run.rig();
     if NO_TABLE.load(Ordering::Acquire) {
         config.firmware.calibration = &[];
+    }
+    if let Some(params) = cortex_m::interrupt::free(|cs| APPLICATOR.borrow(cs).get()) {
+        config.applicator = params;
     }
     config
 }
@@ -245,6 +276,10 @@ impl Script {
 /// The constant configuration was refused: nothing sensible to run.
 fn fail() -> ! {
     defmt::error!("configuration refused by the core library");
+    exit_failure()
+}
+
+fn exit_failure() -> ! {
     cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
     loop {
         cortex_m::asm::wfi();

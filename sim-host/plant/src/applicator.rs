@@ -114,7 +114,93 @@ impl ApplicatorParams {
     fn motor_mass_kg(&self) -> f64 {
         self.motor_inertia_kg_m2 / (self.arm_m * self.arm_m)
     }
+
+    /// The fields in the file's order.
+    fn fields(&self) -> [f64; APPLICATOR_FIELDS] {
+        [
+            self.amplifier_a_per_v,
+            self.amplifier_pole_hz,
+            self.torque_constant_nm_per_a,
+            self.motor_inertia_kg_m2,
+            self.arm_m,
+            self.static_friction_nm,
+            self.viscous_nm_s_per_rad,
+            self.beam_stiffness_n_per_m,
+            self.tip_mass_kg,
+            self.beam_damping_ratio,
+            self.indentation_mm_per_100pct,
+            self.contact_loss_factor,
+        ]
+    }
+
+    /// The applicator in the form the firmware-in-the-loop build reads at start-up
+    /// (`boards/qemu-netduinoplus2/run.sh OUT applicator=FILE.toml` writes it with `tactile
+    /// applicator`): [`APPLICATOR_MAGIC`], [`APPLICATOR_VERSION`] (u16), two zero bytes, the
+    /// fields as f64 in the file's order, then the CRC-32 (IEEE) of everything before it; all
+    /// little-endian.
+    pub fn encode(&self) -> [u8; APPLICATOR_BYTES] {
+        let mut out = [0u8; APPLICATOR_BYTES];
+        out[..4].copy_from_slice(&APPLICATOR_MAGIC);
+        out[4..6].copy_from_slice(&APPLICATOR_VERSION.to_le_bytes());
+        for (k, v) in self.fields().iter().enumerate() {
+            out[8 + 8 * k..16 + 8 * k].copy_from_slice(&v.to_le_bytes());
+        }
+        let body = APPLICATOR_BYTES - 4;
+        let crc = tactile_core::calibration::crc32(&out[..body]);
+        out[body..].copy_from_slice(&crc.to_le_bytes());
+        out
+    }
+
+    /// Reads [`Self::encode`]'s bytes, checked as a table is: length, magic, version, CRC,
+    /// then [`Self::validate`].
+    pub fn decode(bytes: &[u8]) -> Result<ApplicatorParams, ApplicatorError> {
+        use tactile_core::calibration::bytes_at;
+        let all = bytes
+            .get(..APPLICATOR_BYTES)
+            .ok_or(ApplicatorError::TooShort {
+                bytes: bytes.len(),
+                needed: APPLICATOR_BYTES,
+            })?;
+        if all.get(..4) != Some(&APPLICATOR_MAGIC[..]) {
+            return Err(ApplicatorError::BadMagic);
+        }
+        let version = u16::from_le_bytes(bytes_at(all, 4));
+        if version != APPLICATOR_VERSION {
+            return Err(ApplicatorError::UnsupportedVersion { found: version });
+        }
+        let body = APPLICATOR_BYTES - 4;
+        let stored = u32::from_le_bytes(bytes_at(all, body));
+        let computed = tactile_core::calibration::crc32(all.get(..body).unwrap_or(&[]));
+        if stored != computed {
+            return Err(ApplicatorError::Checksum { stored, computed });
+        }
+        let f = |k: usize| f64::from_le_bytes(bytes_at(all, 8 + 8 * k));
+        let params = ApplicatorParams {
+            amplifier_a_per_v: f(0),
+            amplifier_pole_hz: f(1),
+            torque_constant_nm_per_a: f(2),
+            motor_inertia_kg_m2: f(3),
+            arm_m: f(4),
+            static_friction_nm: f(5),
+            viscous_nm_s_per_rad: f(6),
+            beam_stiffness_n_per_m: f(7),
+            tip_mass_kg: f(8),
+            beam_damping_ratio: f(9),
+            indentation_mm_per_100pct: f(10),
+            contact_loss_factor: f(11),
+        };
+        params.validate()?;
+        Ok(params)
+    }
 }
+
+/// Fields of an applicator.
+const APPLICATOR_FIELDS: usize = 12;
+/// The first bytes of [`ApplicatorParams::encode`]'s form.
+pub const APPLICATOR_MAGIC: [u8; 4] = *b"TAPP";
+pub const APPLICATOR_VERSION: u16 = 1;
+/// Bytes of [`ApplicatorParams::encode`]'s form.
+pub const APPLICATOR_BYTES: usize = 8 + 8 * APPLICATOR_FIELDS + 4;
 
 /// Why an applicator's parameters describe no rig.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
@@ -123,6 +209,14 @@ pub enum ApplicatorError {
     NotPositive { name: &'static str, value: f64 },
     #[error("{name} = {value}: must be a finite number, zero or more")]
     Negative { name: &'static str, value: f64 },
+    #[error("{bytes} bytes: an applicator's form has {needed}")]
+    TooShort { bytes: usize, needed: usize },
+    #[error("not an applicator (its first bytes are not \"TAPP\")")]
+    BadMagic,
+    #[error("applicator form version {found}; this build reads version 1")]
+    UnsupportedVersion { found: u16 },
+    #[error("damaged: CRC {stored:#010x} stored, {computed:#010x} computed")]
+    Checksum { stored: u32, computed: u32 },
 }
 
 /// The applicator's state (tip-referred motor coordinates).
@@ -319,6 +413,50 @@ pub fn step_lumped(l: &Lumped, s: &mut ApplicatorState, contact: &Contact, drive
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_applicators_form_reads_back_and_refuses_damage() {
+        let heavy = ApplicatorParams {
+            motor_inertia_kg_m2: 2.0 * ApplicatorParams::MEMO.motor_inertia_kg_m2,
+            beam_stiffness_n_per_m: 1234.5,
+            ..ApplicatorParams::MEMO
+        };
+        for p in [ApplicatorParams::MEMO, heavy] {
+            assert_eq!(ApplicatorParams::decode(&p.encode()), Ok(p));
+        }
+        let bytes = heavy.encode();
+        let mut flipped = bytes;
+        flipped[8 + 8 * 7] ^= 0x01;
+        assert!(matches!(
+            ApplicatorParams::decode(&flipped),
+            Err(ApplicatorError::Checksum { .. })
+        ));
+        assert_eq!(
+            ApplicatorParams::decode(&bytes[..50]),
+            Err(ApplicatorError::TooShort {
+                bytes: 50,
+                needed: APPLICATOR_BYTES
+            })
+        );
+        let mut foreign = bytes;
+        foreign[..4].copy_from_slice(b"TCAL");
+        assert_eq!(
+            ApplicatorParams::decode(&foreign),
+            Err(ApplicatorError::BadMagic)
+        );
+        // A rig that cannot exist, its CRC right: refused by the same check as the file.
+        let impossible = ApplicatorParams {
+            tip_mass_kg: -1.0,
+            ..ApplicatorParams::MEMO
+        };
+        assert_eq!(
+            ApplicatorParams::decode(&impossible.encode()),
+            Err(ApplicatorError::NotPositive {
+                name: "tip_mass_kg",
+                value: -1.0
+            })
+        );
+    }
 
     #[test]
     fn memo_force_per_volt_is_19_2_g() {

@@ -166,6 +166,15 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Check an applicator file and write the form the QEMU firmware reads at start-up
+    /// (`boards/qemu-netduinoplus2/run.sh OUT applicator=FILE.toml` does this for you).
+    Applicator {
+        /// The applicator, a TOML file (`applicators/*.toml`).
+        file: PathBuf,
+        /// Write its checked binary form here.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Design the force controller for the simulated rig (issue 13): the excitation at six
     /// preloads, a model at each, the static gain and stiction from the holds, then the
     /// feed-forward's schedule and the feedback's gains from the margins. A1 stays the
@@ -382,6 +391,17 @@ fn run(command: Command) -> Result<(), Error> {
             for f in o.files {
                 outln!("  wrote {}", f.display());
             }
+        }
+        Command::Applicator { file, out } => {
+            let params = sim_host::error::read_applicator(&file)?;
+            let bytes = params.encode();
+            std::fs::write(&out, bytes).map_err(Error::io(&out))?;
+            outln!(
+                "{}: checked; wrote {} ({} bytes)",
+                file.display(),
+                out.display(),
+                bytes.len()
+            );
         }
         Command::Identify { file, json } => {
             let rec = tactile_record::read_record(&file)?;
