@@ -113,6 +113,12 @@ pub struct TrackingConfig {
     /// The motor's Coulomb friction at the probe, g: added in the direction the force is
     /// moving (the motor moves with it), reached at [`FRICTION_RATE_G_PER_S`].
     pub friction_g: f32,
+    /// Friction held once the reference stops, g, in the direction it last moved: a motor
+    /// that stuck short of a step's end sits anywhere within its stiction band, and the
+    /// integral alone, which still carries the last hold's friction (of the other sign after
+    /// a reversal), took 30–60 ms to free it. Faded in as the reference's rate falls below
+    /// half of [`FRICTION_RATE_G_PER_S`], so a sine, which never rests, gets none.
+    pub held_friction_g: f32,
     /// Proportional gain, drive g per g of error.
     pub kp: f32,
     /// Integral gain, drive g per g·s of error.
@@ -170,6 +176,7 @@ impl TrackingConfig {
         }; TRACKING_POINTS],
         points: 1,
         friction_g: 0.0,
+        held_friction_g: 0.0,
         kp: 0.0,
         ki_per_s: 20.0,
         delay_ticks: 2,
@@ -204,6 +211,7 @@ impl TrackingConfig {
         non_negative(self.ki_per_s, "ki_per_s")?;
         non_negative(self.integral_limit_g, "integral_limit_g")?;
         non_negative(self.friction_g, "friction_g")?;
+        non_negative(self.held_friction_g, "held_friction_g")?;
         non_negative(self.approach_hold_g, "approach_hold_g")?;
         positive(self.approach_push_g, "approach_push_g")?;
         non_negative(-self.approach_brake_g, "approach_brake_g")?;
@@ -278,11 +286,12 @@ impl TrackingConfig {
 /// The controller table's header (what the firmware checks at start-up, as it checks the
 /// calibration table): `TCTL`, version, then the delay in ticks and the schedule's length.
 pub const TABLE_MAGIC: [u8; 4] = *b"TCTL";
-pub const TABLE_VERSION: u16 = 3;
+pub const TABLE_VERSION: u16 = 4;
 const TABLE_HEADER_BYTES: usize = 8;
 /// dt, reference, kp, ki, friction, integral bound, drive range, the feedback's biquad, the
-/// touch-down's hold, push, brake and contact; then per point load, c₀…c₃, feedback share.
-const TABLE_SCALARS: usize = 17;
+/// touch-down's hold, push, brake and contact, the held friction; then per point load,
+/// c₀…c₃, feedback share.
+const TABLE_SCALARS: usize = 18;
 /// The biquad that passes the error unchanged.
 pub const FEEDBACK_PASS: [f32; 5] = [1.0, 0.0, 0.0, 0.0, 0.0];
 const POINT_FLOATS: usize = 6;
@@ -324,6 +333,7 @@ impl TrackingConfig {
             self.approach_push_g,
             self.approach_brake_g,
             self.contact_g,
+            self.held_friction_g,
         ];
         let points = self
             .schedule
@@ -391,6 +401,7 @@ impl TrackingConfig {
             approach_push_g: f(14),
             approach_brake_g: f(15),
             contact_g: f(16),
+            held_friction_g: f(17),
             schedule: core::array::from_fn(point),
             points: all.get(7).copied().unwrap_or(0),
             delay_ticks: all.get(6).copied().unwrap_or(0),
@@ -463,6 +474,8 @@ pub struct Tracking {
     /// The most the command may be while it ramps up from rest, g, and whether it is.
     ramp_g: f32,
     ramping: bool,
+    /// The direction the reference last moved (−1, 0 before any move, 1).
+    moved: f32,
 }
 
 /// What one tick of the controller decided, besides the drive.
@@ -490,6 +503,7 @@ impl Tracking {
             history: [0.0; HISTORY],
             head: 0,
             integral_g: 0.0,
+            moved: 0.0,
             filter_state: [0.0; 2],
             landed: false,
             approach_tick: 0,
@@ -544,6 +558,7 @@ impl Tracking {
             self.last_command_g = force_g;
             self.history = [force_g; HISTORY];
             self.filter_state = [0.0; 2];
+            self.moved = 0.0;
         }
     }
 
@@ -604,7 +619,13 @@ impl Tracking {
         let third = self.reference.third(&self.x, command_g);
         let (k, share) = c.series_at(self.x[0]);
         let (kp, ki) = (share * c.kp, share * c.ki_per_s);
-        let friction = c.friction_g * crate::limit(self.x[1] / FRICTION_RATE_G_PER_S, -1.0, 1.0);
+        let rate = self.x[1] / FRICTION_RATE_G_PER_S;
+        if rate.abs() >= 0.5 {
+            self.moved = rate.signum();
+        }
+        let still = (1.0 - 2.0 * rate.abs()).max(0.0);
+        let friction =
+            c.friction_g * crate::limit(rate, -1.0, 1.0) + c.held_friction_g * still * self.moved;
         let feed_forward =
             k[0] * self.x[0] + k[1] * self.x[1] + k[2] * self.x[2] + k[3] * third + friction;
         // The reference `delay_ticks` ago (the slot about to be overwritten is HISTORY ago).
@@ -875,6 +896,46 @@ mod tests {
     }
 
     #[test]
+    fn the_friction_is_held_in_the_direction_the_reference_last_moved() {
+        // A unit plant, no feedback: the drive is the feed-forward, the reference plus the
+        // friction terms.
+        let cfg = TrackingConfig {
+            ki_per_s: 0.0,
+            held_friction_g: 0.5,
+            ..TrackingConfig::UNIT_PLANT
+        };
+        let mut t = Tracking::new(cfg).unwrap();
+        let hold = |t: &mut Tracking, command_g: f32| {
+            let mut drive = 0.0;
+            for _ in 0..200 {
+                drive = t.update(command_g, drive, true).force_g;
+            }
+            drive
+        };
+        // Up to 10 g, then down to 5 g: held +0.5 g, then −0.5 g, once the reference rests.
+        assert!((hold(&mut t, 10.0) - 10.5).abs() < 1e-3);
+        assert!((hold(&mut t, 5.0) - 4.5).abs() < 1e-3);
+        // A sine never rests: 5 g at 20 Hz about 10 g gets none of it (the reference's rate
+        // passes half of FRICTION_RATE_G_PER_S only near its turns, and briefly).
+        let mut plain = Tracking::new(TrackingConfig {
+            held_friction_g: 0.0,
+            ..cfg
+        })
+        .unwrap();
+        hold(&mut plain, 5.0);
+        let mut worst = 0.0f32;
+        for k in 0..1000 {
+            let command_g = 10.0 + 5.0 * libm::sinf(2.0 * core::f32::consts::PI * 0.02 * k as f32);
+            let a = t.update(command_g, 0.0, true).force_g;
+            let b = plain.update(command_g, 0.0, true).force_g;
+            if k > 100 {
+                worst = worst.max((a - b).abs());
+            }
+        }
+        assert!(worst < 0.05, "{worst}");
+    }
+
+    #[test]
     fn the_table_round_trips_and_a_damaged_one_is_refused_with_the_reason() {
         let mut cfg = TrackingConfig::UNIT_PLANT;
         cfg.points = 2;
@@ -883,10 +944,11 @@ mod tests {
             c: [1.1, 2e-3, 1e-5, 1e-8],
             feedback: 0.5,
         };
+        cfg.held_friction_g = 0.3;
         let bytes = cfg.encode().unwrap();
         assert_eq!(TrackingConfig::decode(&bytes), Ok(cfg));
-        // 8 + 4·(17 + 9·6) + 4 bytes.
-        assert_eq!(bytes.len(), 296);
+        // 8 + 4·(18 + 9·6) + 4 bytes.
+        assert_eq!(bytes.len(), 300);
         let mut bad = bytes;
         bad[20] ^= 1;
         assert!(matches!(

@@ -750,6 +750,7 @@ pub fn design(
         schedule,
         points: models.len().min(TRACKING_POINTS) as u8,
         friction_g,
+        held_friction_g: (HELD_FRICTION_SHARE * f64::from(stiction_g)) as f32,
         kp: feedback.kp as f32,
         ki_per_s: feedback.ki_per_s as f32,
         delay_ticks: 2,
@@ -788,6 +789,14 @@ pub fn design(
 /// 30 Hz (−57 dB) but overshoots the touch-downs least (0.7–1.7 g); a quarter keeps it to 30 Hz;
 /// a half overshoots the 2 g touch-down by 3.4 g.
 pub const FRICTION_SHARE: f64 = 0.25;
+
+/// The share of the identified stiction held, once the reference stops, in the direction it
+/// last moved (`TrackingConfig::held_friction_g`). Measured on the three rigs of
+/// `applicators/` (`ONLY=1 cargo run --release -p sim-host --example design_controller
+/// applicators/FILE.toml`), every step after the first into ±1 g, worst: none 53 / 78 / 82 ms
+/// (memo, heavy, light), a half 31 / 25 / 45 ms, three quarters 38 ms on the memo's rig, a
+/// whole 36 ms; the closed loop's magnitude the same to 0.03 dB.
+pub const HELD_FRICTION_SHARE: f64 = 0.5;
 
 /// The overshoot a touch-down's momentum is sized for, g (the bound is 1 g).
 pub const TOUCH_OVERSHOOT_G: f64 = 0.5;

@@ -157,9 +157,9 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     assert!(20.0 * (a1_30 / designed_30).log10() > 5.0);
 
     // Force steps: every step after the first (from rest) into ±1 g within 30 ms but one
-    // (measured 17–19 ms, and 53 ms down from 100 g to 90 g; A1 takes up to 69 ms), that one
-    // within 70 ms; overshoot within 1.1 g (measured ≤ 0.75 g, the last step down to 10 g;
-    // A1's up to 4.4 g).
+    // (measured 18–25 ms, and 31 ms down from 100 g to 90 g, 53 ms before the friction held
+    // at rest; A1 takes up to 69 ms), that one within 40 ms; overshoot within the target's
+    // 1 g (measured ≤ 0.60 g, the last step down to 10 g; A1's up to 4.4 g).
     let o = ScenarioOptions::default();
     let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
         .unwrap()
@@ -170,13 +170,13 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
         settle.iter().rev().nth(1).is_some_and(|t| *t <= 0.030),
         "{settle:?}"
     );
-    assert!(settle.last().is_some_and(|t| *t <= 0.070), "{settle:?}");
+    assert!(settle.last().is_some_and(|t| *t <= 0.040), "{settle:?}");
     for (level, over) in metrics::step_overshoots_g(&steps).into_iter().skip(1) {
-        assert!(over <= 1.1, "{level} g: overshoot {over} g");
+        assert!(over <= 1.0, "{level} g: overshoot {over} g");
     }
 
     // Touch-down after a rest (low-force): 8, 6, 4, 2 g overshoot by at most the target's 1 g
-    // (measured 0.05–0.14 g; 0.7–2.5 g before the touch-down and its ramp), where A1
+    // (measured 0.05–0.09 g; 0.7–2.5 g before the touch-down and its ramp), where A1
     // overshoots 6 g by about 20 g.
     let touch = |c: &RigConfig| {
         let ticks = run_named("low-force", &o, c.clone(), |_| {}).unwrap().ticks;
@@ -227,10 +227,11 @@ fn the_procedure_works_unchanged_on_other_applicators() {
     // with twice the stiction on a stiffer beam. The holds give the static gain (1: the drive's
     // grams are the motor's force at the probe) and the stiction the file has (10 or 20 g·cm
     // on a 9 cm arm: 1.11 or 2.22 g); every force step after the first settles into ±1 g
-    // within 100 ms and overshoots by at most 2 g, and half of them settle within 30 ms
-    // (measured: heavy rig 17–22 ms but 78 ms for the second step, 1.71 g over — 1.91 g
-    // before the first step touched down — the light rig 17–21 ms up and 61–82 ms for the
-    // steps its twice-the-stiction holds; the target is 30 ms and 1 g for every step).
+    // within 60 ms and overshoots by at most the target's 1 g, and all but two within the
+    // target's 30 ms (measured: heavy rig 18–25 ms, 0.94 g over at most; the light rig
+    // 18–20 ms but 28, 32 and 45 ms, 0.30 g over at most. Before the friction held at rest:
+    // the heavy rig's second step 78 ms and 1.71 g over, the light rig's stiction-held steps
+    // 61–82 ms).
     for ((file, mut cfg), stiction_g) in rigs().into_iter().zip([1.11, 1.11, 2.22]) {
         let r = design::design_for_rig(&cfg).expect("design");
         let id = &r.identified;
@@ -251,12 +252,12 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         let settle = metrics::settling_after_first_s(&steps);
         eprintln!("{file}: settling after the first step {settle:?}");
         assert!(
-            settle.last().is_some_and(|t| *t <= 0.100),
+            settle.last().is_some_and(|t| *t <= 0.060),
             "{file}: {settle:?}"
         );
-        assert!(settle[settle.len() / 2] <= 0.030, "{file}: {settle:?}");
+        assert!(settle[settle.len() - 3] <= 0.030, "{file}: {settle:?}");
         for (level, over) in metrics::step_overshoots_g(&steps).into_iter().skip(1) {
-            assert!(over <= 2.0, "{file}, {level} g: overshoot {over} g");
+            assert!(over <= 1.0, "{file}, {level} g: overshoot {over} g");
         }
     }
 }

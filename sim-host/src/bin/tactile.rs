@@ -485,11 +485,12 @@ fn run(command: Command) -> Result<(), Error> {
                 );
             }
             outln!(
-                "feedback kp {:.3}, ki {:.1}/s through {}; stiction compensated {:.2} g; reference model {} Hz",
+                "feedback kp {:.3}, ki {:.1}/s through {}; stiction compensated {:.2} g moving, {:.2} g held; reference model {} Hz",
                 d.feedback.kp,
                 d.feedback.ki_per_s,
                 d.feedback.filter,
                 d.config.friction_g,
+                d.config.held_friction_g,
                 d.config.reference_hz
             );
             outln!(
