@@ -1012,6 +1012,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         }
         state.cols.retain(|c| !t.remove.contains(c));
         state.cols.extend(&t.add);
+        for c in &t.add {
+            work.pool.store(*c);
+        }
         if t.effect == Effect::TimeDelay {
             state.delay_s = t.delay_s;
         }

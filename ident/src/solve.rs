@@ -236,6 +236,15 @@ impl Pool {
         }
     }
 
+    /// Stores a computed regressor's values (one the model keeps: every later score reads
+    /// it, and building it each time cost more than its memory).
+    pub fn store(&mut self, j: usize) {
+        if let Some(Column::Computed(recipe)) = self.cols.get(j) {
+            let v = recipe();
+            self.cols[j] = Column::Stored(v);
+        }
+    }
+
     /// Frees a regressor's memory (its index stays taken).
     pub fn drop_column(&mut self, j: usize) {
         if let Some(c) = self.cols.get_mut(j) {
@@ -290,11 +299,7 @@ impl Pool {
                 self.folds
                     .ranges
                     .iter()
-                    .map(|&(s, e)| {
-                        span(&mut xa, a, s, e);
-                        span(&mut xb, b, s, e);
-                        dot3(&xa, &xb, &w[s..e])
-                    })
+                    .map(|&(s, e)| dot3(view(&mut xa, a, s, e), view(&mut xb, b, s, e), &w[s..e]))
                     .collect()
             }
             // A half-cosine against a stored column: rotated along each fold, not built.
@@ -500,6 +505,21 @@ fn dot_cosine(x: &[f32], w: &[f32], n: usize, k: usize, start: usize) -> f64 {
         .map(|((a, b), l)| f64::from(a * b) * l.1)
         .sum();
     acc.iter().sum::<f64>() + tail
+}
+
+/// Samples `s..e` of a raw column: its own slice if it is not delayed, else [`span`] into `buf`.
+fn view<'a>(
+    buf: &'a mut Vec<f32>,
+    raw @ (v, whole, frac): (&'a [f32], usize, f32),
+    s: usize,
+    e: usize,
+) -> &'a [f32] {
+    if whole == 0 && frac == 0.0 {
+        &v[s..e]
+    } else {
+        span(buf, raw, s, e);
+        buf
+    }
 }
 
 /// Samples `s..e` of a raw column (`v` delayed by `whole + frac` samples, held at its first
