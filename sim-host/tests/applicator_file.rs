@@ -80,3 +80,44 @@ fn a_bad_file_is_refused_with_where_and_why() {
     let e = refused(&memo.replace("tip_mass_kg = 0.00261", "tip_mass_kg = nan"));
     assert!(e.contains("tip_mass_kg = NaN"), "{e}");
 }
+
+#[test]
+fn tactile_applicator_writes_the_firmwares_form_or_refuses_with_the_reason() {
+    let dir = std::env::temp_dir().join(format!("applicator-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let tactile = env!("CARGO_BIN_EXE_tactile");
+    let out = dir.join("memo.bin");
+    let status = std::process::Command::new(tactile)
+        .args([
+            "applicator",
+            folder().join("memo.toml").to_str().unwrap(),
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(status.status.success(), "{status:?}");
+    let back = ApplicatorParams::decode(&std::fs::read(&out).unwrap()).unwrap();
+    assert_eq!(back, read_applicator(&folder().join("memo.toml")).unwrap());
+    // A rig that cannot exist: exit 1, the file and the field named, nothing written.
+    let bad = dir.join("bad.toml");
+    let memo = std::fs::read_to_string(folder().join("memo.toml")).unwrap();
+    std::fs::write(
+        &bad,
+        memo.replace("tip_mass_kg = 0.00261", "tip_mass_kg = -1.0"),
+    )
+    .unwrap();
+    let none = dir.join("bad.bin");
+    let refused = std::process::Command::new(tactile)
+        .args(["applicator", bad.to_str().unwrap(), "--out"])
+        .arg(&none)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("bad.toml") && stderr.contains("tip_mass_kg"),
+        "{stderr}"
+    );
+    assert!(!none.exists());
+}
