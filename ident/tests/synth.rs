@@ -106,6 +106,8 @@ fn a_drift_that_no_basis_carries_across_a_block_is_named() {
         let d = diag(seed, rate, length, &[SynthEffect::Drift(a)]);
         check(&d, "baseline_drift");
         assert_eq!(d.effects, ["baseline_drift"], "{}", d.summary);
+        // Its held-out error after is the blocks' less their own lines, and the JSON says so.
+        assert!(d.after_per_block_line, "{}", d.summary);
     }
     let g = generate(&Spec {
         seed: 31,
