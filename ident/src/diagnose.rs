@@ -155,26 +155,34 @@ pub struct Candidate {
     pub fold_rms_pct: Vec<f64>,
 }
 
-/// What a round's tries are judged by, for the report.
-struct Judged<'a> {
-    sc: &'a Scored,
-    /// The per-fold gains of the paired test, and its p-value.
-    fold_gains: &'a [f64],
+/// A try against the model as it stands: what it is accepted by, and reported with.
+struct Judged {
+    /// The per-fold gains of the paired test (log ratios, the try's folds less the force
+    /// noise it passes beyond the model's), and the t-test's p-value on them.
+    fold_gains: Vec<f64>,
     p_value: f64,
+    /// The held-out mean square it takes off, and what the model holds out above the floor.
     gain: f64,
     excess: f64,
     ljung_box_ratio: f64,
+    /// Its residual's coloured power.
+    colored: f64,
 }
 
 impl Candidate {
-    fn judged(effect: Effect, variant: String, round: usize, j: &Judged, secant: f64) -> Self {
+    fn judged(
+        (effect, variant, round): (Effect, String, usize),
+        sc: &Scored,
+        j: &Judged,
+        secant: f64,
+    ) -> Self {
         Candidate {
             effect: effect.name().into(),
             variant,
             round,
-            held_out_rms_g: j.sc.cv_mse.sqrt() * secant,
-            held_out_rms_pct: j.sc.cv_mse.sqrt(),
-            fit_rms_g: j.sc.fit_mse.sqrt() * secant,
+            held_out_rms_g: sc.cv_mse.sqrt() * secant,
+            held_out_rms_pct: sc.cv_mse.sqrt(),
+            fit_rms_g: sc.fit_mse.sqrt() * secant,
             ljung_box_ratio: j.ljung_box_ratio,
             p_value: j.p_value,
             folds_better: j.fold_gains.iter().filter(|v| **v > 0.0).count(),
@@ -184,7 +192,7 @@ impl Candidate {
                 0.0
             },
             accepted: false,
-            fold_rms_pct: j.sc.fold_mse.iter().map(|v| v.sqrt()).collect(),
+            fold_rms_pct: sc.fold_mse.iter().map(|v| v.sqrt()).collect(),
         }
     }
 }
@@ -881,18 +889,25 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         let mut winner: Option<(usize, f64)> = None;
         let cur_colored = work.whiteness(&state.cols, &state.scored.beta).1;
         let cur_energy = energy_of(&work, &state.scored);
+        let judge = |work: &Work, sc: &Scored| {
+            let fold_gains =
+                fold_gains(&state.scored.fold_mse, &noise_matched(work, sc, cur_energy));
+            let (ljung_box_ratio, colored) = work.whiteness(&sc.columns, &sc.beta);
+            Judged {
+                p_value: stats::paired_p_value(&fold_gains),
+                fold_gains,
+                gain: state.scored.cv_mse - sc.cv_mse,
+                excess: (state.scored.cv_mse - floor).max(0.0),
+                ljung_box_ratio,
+                colored,
+            }
+        };
         let mut round_candidates = Vec::new();
         let mut passed = Vec::new();
         for (i, (t, sc)) in best.iter().enumerate() {
-            let (effect, variant) = (&t.effect, &t.variant);
-            let d = fold_gains(
-                &state.scored.fold_mse,
-                &noise_matched(&work, sc, cur_energy),
-            );
-            let p = stats::paired_p_value(&d);
-            let gain = state.scored.cv_mse - sc.cv_mse;
-            let excess = (state.scored.cv_mse - floor).max(0.0);
-            let (lb, colored) = work.whiteness(&sc.columns, &sc.beta);
+            let judged = judge(&work, sc);
+            let (p, gain, excess, colored) =
+                (judged.p_value, judged.gain, judged.excess, judged.colored);
             // A further effect must clear a stricter bar: each round is another look.
             let strict = if round > 1 { 5.0 } else { 1.0 };
             let pass = p < settings.alpha / strict
@@ -905,18 +920,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             if pass && winner.is_none_or(|w| gain > w.1) {
                 winner = Some((i, gain));
             }
-            let judged = Judged {
-                sc,
-                fold_gains: &d,
-                p_value: p,
-                gain,
-                excess,
-                ljung_box_ratio: lb,
-            };
             round_candidates.push(Candidate::judged(
-                *effect,
-                variant.clone(),
-                round,
+                (t.effect, t.variant.clone(), round),
+                sc,
                 &judged,
                 secant,
             ));
@@ -993,32 +999,25 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .min_by(|a, b| a.1.cv_mse.total_cmp(&b.1.cv_mse));
             work.pool.set_local_nuisance(false);
             if let Some((k, sc)) = by_block {
-                let d = fold_gains(
-                    &state.scored.fold_mse,
-                    &noise_matched(&work, &sc, cur_energy),
-                );
-                let p = paired(&d);
-                let gain = state.scored.cv_mse - sc.cv_mse;
-                let excess = (state.scored.cv_mse - floor).max(0.0);
-                let (lb, colored) = work.whiteness(&sc.columns, &sc.beta);
+                let mut judged = judge(&work, &sc);
+                // The t-test or the signed-rank test, as effects are compared head to head.
+                judged.p_value = paired(&judged.fold_gains);
+                let (gain, excess) = (judged.gain, judged.excess);
                 // Half the excess at least: the blocks' own lines take a little of any slow
                 // misfit, a drift most of the residual.
-                let pass = p < settings.alpha
+                let pass = judged.p_value < settings.alpha
                     && gain >= settings.coloured_excess_share * excess
                     && gain >= settings.min_floor_share * floor
-                    && colored < cur_colored;
-                let judged = Judged {
-                    sc: &sc,
-                    fold_gains: &d,
-                    p_value: p,
-                    gain,
-                    excess,
-                    ljung_box_ratio: lb,
-                };
+                    && judged.colored < cur_colored;
                 round_candidates.push(Candidate::judged(
-                    Effect::BaselineDrift,
-                    format!("{k} half-cosines, each held-out block less its own offset and slope"),
-                    round,
+                    (
+                        Effect::BaselineDrift,
+                        format!(
+                            "{k} half-cosines, each held-out block less its own offset and slope"
+                        ),
+                        round,
+                    ),
+                    &sc,
                     &judged,
                     secant,
                 ));
