@@ -222,6 +222,27 @@ fn table_kind(b: u8) -> Result<TableKind, Refusal> {
 }
 
 impl Command {
+    /// The chunks that carry `table` (its bytes in [`CHUNK_BYTES`] pieces, in order; a
+    /// [`Command::LoadTable`] of its length then checks and loads it). Offsets wrap past
+    /// 64 KiB, which no table reaches: the port refuses a load over its buffer.
+    pub fn table_chunks(kind: TableKind, table: &[u8]) -> impl Iterator<Item = Command> + '_ {
+        table
+            .chunks(CHUNK_BYTES)
+            .enumerate()
+            .map(move |(i, chunk)| {
+                let mut data = [0u8; CHUNK_BYTES];
+                if let Some(head) = data.get_mut(..chunk.len()) {
+                    head.copy_from_slice(chunk);
+                }
+                Command::TableChunk {
+                    table: kind,
+                    offset: (i * CHUNK_BYTES) as u16,
+                    len: chunk.len() as u8,
+                    data,
+                }
+            })
+    }
+
     /// Parses a command from its opcode and arguments (format only; [`Command::check`] checks
     /// the values against a board's limits).
     pub fn parse(op: u8, a: &[u8]) -> Result<Command, Refusal> {
@@ -657,6 +678,33 @@ mod tests {
                 len: 716,
             },
         ]
+    }
+
+    #[test]
+    fn a_table_in_chunks_reassembles_to_itself() {
+        let table: [u8; 150] = core::array::from_fn(|i| (i * 7) as u8);
+        let mut back = [0u8; 150];
+        let mut count = 0;
+        for c in Command::table_chunks(TableKind::Controller, &table) {
+            let Command::TableChunk {
+                table: kind,
+                offset,
+                len,
+                data,
+            } = c
+            else {
+                panic!("{c:?}");
+            };
+            assert_eq!(kind, TableKind::Controller);
+            let (at, len) = (usize::from(offset), usize::from(len));
+            back[at..at + len].copy_from_slice(&data[..len]);
+            // Past its length a chunk is zeros (what its frame carries is only `len` bytes).
+            assert!(data[len..].iter().all(|b| *b == 0));
+            count += 1;
+        }
+        // 64 + 64 + 22 bytes.
+        assert_eq!(count, 3);
+        assert_eq!(back, table);
     }
 
     #[test]

@@ -276,20 +276,9 @@ mod tests {
 
     /// `table` as the chunks that load it, numbered from `seq`.
     fn chunks(table: &[u8], kind: TableKind, seq: u16) -> Vec<(u16, Command)> {
-        table
-            .chunks(CHUNK_BYTES)
+        Command::table_chunks(kind, table)
             .enumerate()
-            .map(|(i, chunk)| {
-                let mut data = [0u8; CHUNK_BYTES];
-                data[..chunk.len()].copy_from_slice(chunk);
-                let c = Command::TableChunk {
-                    table: kind,
-                    offset: (i * CHUNK_BYTES) as u16,
-                    len: chunk.len() as u8,
-                    data,
-                };
-                (seq + i as u16, c)
-            })
+            .map(|(i, c)| (seq + i as u16, c))
             .collect()
     }
 

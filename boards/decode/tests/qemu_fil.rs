@@ -1061,7 +1061,7 @@ fn the_board_session_decodes_live_as_in_batch() {
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
-    use tactile_core::command::{Command, Run, TableKind, CHUNK_BYTES};
+    use tactile_core::command::{Command, Run, TableKind};
     let Some((elf, dir)) = firmware_for("calibration load test") else {
         return;
     };
@@ -1072,15 +1072,7 @@ fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
     });
     let table = tactile_firmware::CALIBRATION_TABLE;
     let mut script: Vec<(u32, Vec<u8>)> = vec![(0, frame(1, run))];
-    for (i, chunk) in table.chunks(CHUNK_BYTES).enumerate() {
-        let mut data = [0u8; CHUNK_BYTES];
-        data[..chunk.len()].copy_from_slice(chunk);
-        let c = Command::TableChunk {
-            table: TableKind::Calibration,
-            offset: (i * CHUNK_BYTES) as u16,
-            len: chunk.len() as u8,
-            data,
-        };
+    for (i, c) in Command::table_chunks(TableKind::Calibration, &table).enumerate() {
         script.push((2100 + i as u32, frame(10 + i as u16, c)));
     }
     let load = Command::LoadTable {
