@@ -66,6 +66,62 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     CRC.checksum(bytes)
 }
 
+/// Why a sealed form (a calibration or controller table, an applicator's form: 4 magic bytes,
+/// a little-endian u16 version, their contents, then the CRC-32 of everything before it) was
+/// refused; each form's own error names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SealError {
+    TooShort { bytes: usize, needed: usize },
+    BadMagic,
+    UnsupportedVersion { found: u16 },
+    Checksum { stored: u32, computed: u32 },
+}
+
+/// Checks a sealed form's magic and version.
+pub fn check_head(bytes: &[u8], magic: [u8; 4], version: u16) -> Result<(), SealError> {
+    let head = bytes.get(..6).ok_or(SealError::TooShort {
+        bytes: bytes.len(),
+        needed: 6,
+    })?;
+    if head.get(..4) != Some(&magic[..]) {
+        return Err(SealError::BadMagic);
+    }
+    let found = u16::from_le_bytes(bytes_at(head, 4));
+    if found != version {
+        return Err(SealError::UnsupportedVersion { found });
+    }
+    Ok(())
+}
+
+/// Checks the CRC-32 in the last 4 of a sealed form's `len` bytes; the bytes before it.
+pub fn check_crc(bytes: &[u8], len: usize) -> Result<&[u8], SealError> {
+    let all = bytes.get(..len).ok_or(SealError::TooShort {
+        bytes: bytes.len(),
+        needed: len,
+    })?;
+    let (contents, stored) = all.split_at(len.saturating_sub(4));
+    let stored = u32::from_le_bytes(bytes_at(stored, 0));
+    let computed = crc32(contents);
+    if stored != computed {
+        return Err(SealError::Checksum { stored, computed });
+    }
+    Ok(contents)
+}
+
+/// Seals `out`, a form whose contents are written: the magic and version in its first 6 bytes,
+/// the CRC-32 of all before them in its last 4.
+pub fn seal(out: &mut [u8], magic: [u8; 4], version: u16) {
+    let version = version.to_le_bytes();
+    for (slot, b) in out.iter_mut().zip(magic.iter().chain(&version)) {
+        *slot = *b;
+    }
+    let body = out.len().saturating_sub(4);
+    let crc = crc32(out.get(..body).unwrap_or(&[]));
+    if let Some(slot) = out.get_mut(body..) {
+        slot.copy_from_slice(&crc.to_le_bytes());
+    }
+}
+
 /// `N` bytes of `bytes` from `at` (zeros past the end: callers have checked the length).
 pub fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
     bytes
@@ -296,6 +352,17 @@ pub fn secant_schedule(
         .collect()
 }
 
+impl From<SealError> for TableError {
+    fn from(e: SealError) -> Self {
+        match e {
+            SealError::TooShort { bytes, needed } => TableError::TooShort { bytes, needed },
+            SealError::BadMagic => TableError::BadMagic,
+            SealError::UnsupportedVersion { found } => TableError::UnsupportedVersion { found },
+            SealError::Checksum { stored, computed } => TableError::Checksum { stored, computed },
+        }
+    }
+}
+
 /// Why a table was refused (the firmware then runs the nominal models and says so).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -353,13 +420,8 @@ impl CalibrationTable {
             .get_mut(..needed)
             .ok_or(TableError::BufferTooSmall { needed })?;
         let (header, rest) = buf.split_at_mut(HEADER_BYTES);
-        let (version, count) = (
-            VERSION.to_le_bytes(),
-            (self.taxels.len() as u16).to_le_bytes(),
-        );
-        let head = MAGIC.iter().chain(&version).chain(&count);
-        for (slot, b) in header.iter_mut().zip(head) {
-            *slot = *b;
+        if let Some(slot) = header.get_mut(6..8) {
+            slot.copy_from_slice(&(self.taxels.len() as u16).to_le_bytes());
         }
         for (index, (record, model)) in rest
             .chunks_exact_mut(RECORD_BYTES)
@@ -388,11 +450,7 @@ impl CalibrationTable {
                 slot.copy_from_slice(&v.to_le_bytes());
             }
         }
-        let body = needed - CRC_BYTES;
-        let crc = crc32(buf.get(..body).unwrap_or(&[]));
-        if let Some(slot) = buf.get_mut(body..needed) {
-            slot.copy_from_slice(&crc.to_le_bytes());
-        }
+        seal(buf, MAGIC, VERSION);
         Ok(needed)
     }
 
@@ -428,27 +486,13 @@ impl<'a> TableView<'a> {
             needed,
         };
         let header = bytes.get(..HEADER_BYTES).ok_or(too_short(HEADER_BYTES))?;
-        if header.get(..4) != Some(&MAGIC[..]) {
-            return Err(TableError::BadMagic);
-        }
-        let u16_at = |i: usize| u16::from_le_bytes(bytes_at(header, i));
-        let version = u16_at(4);
-        if version != VERSION {
-            return Err(TableError::UnsupportedVersion { found: version });
-        }
-        let count = u16_at(6);
+        check_head(header, MAGIC, VERSION)?;
+        let count = u16::from_le_bytes(bytes_at(header, 6));
         if usize::from(count) > TAXELS {
             return Err(TableError::BadCount { count });
         }
-        let body = HEADER_BYTES + usize::from(count) * RECORD_BYTES;
-        let needed = body + CRC_BYTES;
-        let all = bytes.get(..needed).ok_or(too_short(needed))?;
-        let (contents, stored) = all.split_at(body);
-        let stored = u32::from_le_bytes(bytes_at(stored, 0));
-        let computed = crc32(contents);
-        if stored != computed {
-            return Err(TableError::Checksum { stored, computed });
-        }
+        let needed = HEADER_BYTES + usize::from(count) * RECORD_BYTES + CRC_BYTES;
+        let contents = check_crc(bytes, needed)?;
         let view = TableView {
             records: contents.get(HEADER_BYTES..).unwrap_or(&[]),
             count,

@@ -143,6 +143,20 @@ pub struct TrackingConfig {
     pub drive_max_g: f32,
 }
 
+impl From<crate::calibration::SealError> for TrackingError {
+    fn from(e: crate::calibration::SealError) -> Self {
+        use crate::calibration::SealError;
+        match e {
+            SealError::TooShort { bytes, needed } => TrackingError::TooShort { bytes, needed },
+            SealError::BadMagic => TrackingError::BadMagic,
+            SealError::UnsupportedVersion { found } => TrackingError::UnsupportedVersion { found },
+            SealError::Checksum { stored, computed } => {
+                TrackingError::Checksum { stored, computed }
+            }
+        }
+    }
+}
+
 /// Why a configuration is refused, naming the parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -304,17 +318,6 @@ impl TrackingConfig {
     pub fn encode(&self) -> Result<[u8; TABLE_BYTES], TrackingError> {
         self.check()?;
         let mut out = [0u8; TABLE_BYTES];
-        let version = TABLE_VERSION.to_le_bytes();
-        let head = [
-            TABLE_MAGIC[0],
-            TABLE_MAGIC[1],
-            TABLE_MAGIC[2],
-            TABLE_MAGIC[3],
-            version[0],
-            version[1],
-            self.delay_ticks,
-            self.points,
-        ];
         let scalars = [
             self.dt_s,
             self.reference_hz,
@@ -341,15 +344,13 @@ impl TrackingConfig {
             .flat_map(|p| [p.load_g, p.c[0], p.c[1], p.c[2], p.c[3], p.feedback]);
         let floats = scalars.into_iter().chain(points);
         let (header, rest) = out.split_at_mut(TABLE_HEADER_BYTES);
-        header.copy_from_slice(&head);
+        if let Some(slot) = header.get_mut(6..8) {
+            slot.copy_from_slice(&[self.delay_ticks, self.points]);
+        }
         for (slot, v) in rest.chunks_exact_mut(4).zip(floats) {
             slot.copy_from_slice(&v.to_le_bytes());
         }
-        let body = TABLE_BYTES - 4;
-        let crc = crate::calibration::crc32(out.get(..body).unwrap_or(&[]));
-        if let Some(slot) = out.get_mut(body..) {
-            slot.copy_from_slice(&crc.to_le_bytes());
-        }
+        crate::calibration::seal(&mut out, TABLE_MAGIC, TABLE_VERSION);
         Ok(out)
     }
 
@@ -360,19 +361,8 @@ impl TrackingConfig {
             bytes: bytes.len(),
             needed: TABLE_BYTES,
         })?;
-        if all.get(..4) != Some(&TABLE_MAGIC[..]) {
-            return Err(TrackingError::BadMagic);
-        }
-        let version = u16::from_le_bytes(crate::calibration::bytes_at(all, 4));
-        if version != TABLE_VERSION {
-            return Err(TrackingError::UnsupportedVersion { found: version });
-        }
-        let body = TABLE_BYTES - 4;
-        let stored = u32::from_le_bytes(crate::calibration::bytes_at(all, body));
-        let computed = crate::calibration::crc32(all.get(..body).unwrap_or(&[]));
-        if stored != computed {
-            return Err(TrackingError::Checksum { stored, computed });
-        }
+        crate::calibration::check_head(all, TABLE_MAGIC, TABLE_VERSION)?;
+        crate::calibration::check_crc(all, TABLE_BYTES)?;
         let f = |i: usize| {
             f32::from_le_bytes(crate::calibration::bytes_at(
                 all,

@@ -140,40 +140,25 @@ impl ApplicatorParams {
     /// little-endian.
     pub fn encode(&self) -> [u8; APPLICATOR_BYTES] {
         let mut out = [0u8; APPLICATOR_BYTES];
-        out[..4].copy_from_slice(&APPLICATOR_MAGIC);
-        out[4..6].copy_from_slice(&APPLICATOR_VERSION.to_le_bytes());
         for (k, v) in self.fields().iter().enumerate() {
             out[8 + 8 * k..16 + 8 * k].copy_from_slice(&v.to_le_bytes());
         }
-        let body = APPLICATOR_BYTES - 4;
-        let crc = tactile_core::calibration::crc32(&out[..body]);
-        out[body..].copy_from_slice(&crc.to_le_bytes());
+        tactile_core::calibration::seal(&mut out, APPLICATOR_MAGIC, APPLICATOR_VERSION);
         out
     }
 
     /// Reads [`Self::encode`]'s bytes, checked as a table is: length, magic, version, CRC,
     /// then [`Self::validate`].
     pub fn decode(bytes: &[u8]) -> Result<ApplicatorParams, ApplicatorError> {
-        use tactile_core::calibration::bytes_at;
+        use tactile_core::calibration::{bytes_at, check_crc, check_head};
         let all = bytes
             .get(..APPLICATOR_BYTES)
             .ok_or(ApplicatorError::TooShort {
                 bytes: bytes.len(),
                 needed: APPLICATOR_BYTES,
             })?;
-        if all.get(..4) != Some(&APPLICATOR_MAGIC[..]) {
-            return Err(ApplicatorError::BadMagic);
-        }
-        let version = u16::from_le_bytes(bytes_at(all, 4));
-        if version != APPLICATOR_VERSION {
-            return Err(ApplicatorError::UnsupportedVersion { found: version });
-        }
-        let body = APPLICATOR_BYTES - 4;
-        let stored = u32::from_le_bytes(bytes_at(all, body));
-        let computed = tactile_core::calibration::crc32(all.get(..body).unwrap_or(&[]));
-        if stored != computed {
-            return Err(ApplicatorError::Checksum { stored, computed });
-        }
+        check_head(all, APPLICATOR_MAGIC, APPLICATOR_VERSION)?;
+        check_crc(all, APPLICATOR_BYTES)?;
         let f = |k: usize| f64::from_le_bytes(bytes_at(all, 8 + 8 * k));
         let params = ApplicatorParams {
             amplifier_a_per_v: f(0),
@@ -201,6 +186,22 @@ pub const APPLICATOR_MAGIC: [u8; 4] = *b"TAPP";
 pub const APPLICATOR_VERSION: u16 = 1;
 /// Bytes of [`ApplicatorParams::encode`]'s form.
 pub const APPLICATOR_BYTES: usize = 8 + 8 * APPLICATOR_FIELDS + 4;
+
+impl From<tactile_core::calibration::SealError> for ApplicatorError {
+    fn from(e: tactile_core::calibration::SealError) -> Self {
+        use tactile_core::calibration::SealError;
+        match e {
+            SealError::TooShort { bytes, needed } => ApplicatorError::TooShort { bytes, needed },
+            SealError::BadMagic => ApplicatorError::BadMagic,
+            SealError::UnsupportedVersion { found } => {
+                ApplicatorError::UnsupportedVersion { found }
+            }
+            SealError::Checksum { stored, computed } => {
+                ApplicatorError::Checksum { stored, computed }
+            }
+        }
+    }
+}
 
 /// Why an applicator's parameters describe no rig.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
