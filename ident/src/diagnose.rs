@@ -2,7 +2,7 @@
 //! regressors, forward selection by blocked cross-validation with a paired test over folds.
 
 use std::fmt::Write as _;
-use std::rc::Rc;
+use std::sync::Arc;
 
 use serde::Serialize;
 
@@ -346,7 +346,7 @@ impl Work<'_> {
     fn add_computed(
         &mut self,
         term: Term,
-        recipe: impl Fn() -> Vec<f64> + 'static,
+        recipe: impl Fn() -> Vec<f64> + Send + Sync + 'static,
         sign: Sign,
     ) -> usize {
         let name = format!("{term:?}");
@@ -592,7 +592,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
 
     // Candidate columns that do not depend on the current model: one pass over the force each,
     // computed where they are read rather than stored.
-    let force: Rc<[f64]> = s.force_g.as_slice().into();
+    let force: Arc<[f64]> = s.force_g.as_slice().into();
     let slow: Vec<usize> = if t_s / 2.0 > 1.5 * settings.base_tau_max_s {
         grid(
             settings.base_tau_max_s * 1.5,
@@ -601,7 +601,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         )
         .into_iter()
         .map(|tau| {
-            let f = Rc::clone(&force);
+            let f = Arc::clone(&force);
             let recipe = move || terms::lowpass(&f, tau, dt);
             work.add_computed(Term::SlowRelaxation(tau), recipe, Sign::NonNegative)
         })
@@ -630,7 +630,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     radius_g: r,
                     settled,
                 };
-                let f = Rc::clone(&force);
+                let f = Arc::clone(&force);
                 let recipe = move || terms::play(&f, r, settled);
                 (swing > 0.01 * r).then(|| work.add_computed(term, recipe, Sign::Free))
             })

@@ -33,7 +33,7 @@ enum Column {
     /// Built from its recipe where it is read: a candidate that is cheap to compute (a play, a
     /// slow branch: one pass over the force) costs no memory while it waits (a 600 s record
     /// at 1 kHz: 2.4 MB a column, 22 of them).
-    Computed(Box<dyn Fn() -> Vec<f32>>),
+    Computed(Box<dyn Fn() -> Vec<f32> + Send + Sync>),
 }
 
 /// The regressors of a record, the strain they model, and the folds.
@@ -48,6 +48,8 @@ pub struct Pool {
     names: Vec<String>,
     cross: HashMap<(usize, usize), Vec<f64>>,
     with_y: HashMap<usize, Vec<f64>>,
+    /// Per half-cosine order, per fold: Σ w·cos (`cosine_sums`).
+    cosine_sums: HashMap<usize, Vec<f64>>,
     yy: Vec<f64>,
     /// Judge each held-out fold after its own offset and slope (see `set_local_nuisance`).
     local: bool,
@@ -90,6 +92,7 @@ impl Pool {
             names: Vec::new(),
             cross: HashMap::new(),
             with_y: HashMap::new(),
+            cosine_sums: HashMap::new(),
             yy: Vec::new(),
             local: false,
             local_x: HashMap::new(),
@@ -155,7 +158,7 @@ impl Pool {
     pub fn add_computed(
         &mut self,
         name: impl Into<String>,
-        recipe: impl Fn() -> Vec<f32> + 'static,
+        recipe: impl Fn() -> Vec<f32> + Send + Sync + 'static,
         sign: Sign,
     ) -> usize {
         self.cols.push(Column::Computed(Box::new(recipe)));
@@ -284,9 +287,83 @@ impl Pool {
         if let Some(v) = self.cross.get(&key) {
             return v.clone();
         }
+        let v = self.products(key, built);
+        self.cross.insert(key, v.clone());
+        v
+    }
+
+    /// The per-fold products of every pair of `columns` not yet taken, shared among the
+    /// machine's cores when there are many (each pair's sums are its own: the result does
+    /// not depend on how they are shared).
+    fn take_products(&mut self, columns: &[usize], built: &HashMap<usize, Vec<f32>>) {
+        let mut missing: Vec<(usize, usize)> = Vec::new();
+        for (r, &a) in columns.iter().enumerate() {
+            for &b in &columns[r..] {
+                let key = (a.min(b), a.max(b));
+                if !self.cross.contains_key(&key) && !missing.contains(&key) {
+                    missing.push(key);
+                }
+            }
+        }
+        for &(a, b) in &missing {
+            if let (Some(Column::Cosine(ka)), Some(Column::Cosine(kb))) =
+                (self.cols.get(a), self.cols.get(b))
+            {
+                let (d, s) = (ka.abs_diff(*kb), ka + kb);
+                self.cosine_sums(d);
+                self.cosine_sums(s);
+            }
+        }
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        // NOTE: below some millions of samples' products a thread costs more than it saves.
+        let threads = threads.min(missing.len() * self.n / 2_000_000).max(1);
+        let this = &*self;
+        let done: Vec<((usize, usize), Vec<f64>)> = if threads == 1 {
+            missing
+                .iter()
+                .map(|&k| (k, this.products(k, built)))
+                .collect()
+        } else {
+            std::thread::scope(|scope| {
+                let runs: Vec<_> = (0..threads)
+                    .map(|t| {
+                        let share: Vec<(usize, usize)> =
+                            missing.iter().skip(t).step_by(threads).copied().collect();
+                        scope.spawn(move || {
+                            share
+                                .into_iter()
+                                .map(|k| (k, this.products(k, built)))
+                                .collect::<Vec<_>>()
+                        })
+                    })
+                    .collect();
+                runs.into_iter()
+                    .flat_map(|r| r.join().unwrap_or_default())
+                    .collect()
+            })
+        };
+        self.cross.extend(done);
+    }
+
+    /// Columns `key`'s products on each fold.
+    fn products(&self, key: (usize, usize), built: &HashMap<usize, Vec<f32>>) -> Vec<f64> {
+        if let (Some(Column::Cosine(ka)), Some(Column::Cosine(kb))) =
+            (self.cols.get(key.0), self.cols.get(key.1))
+        {
+            // cos a·cos b = ½·(cos(a − b) + cos(a + b)): two of the folds' cosine sums.
+            let (d, s) = (ka.abs_diff(*kb), ka + kb);
+            let sums = |k| {
+                self.cosine_sums
+                    .get(&k)
+                    .cloned()
+                    .unwrap_or_else(|| self.fold_cosine_sums(k))
+            };
+            let (cd, cs) = (sums(d), sums(s));
+            return cd.iter().zip(&cs).map(|(a, b)| 0.5 * (a + b)).collect();
+        }
         let w = &self.weight;
         let cosine = self.cosine_k(key.0, key.1);
-        let v: Vec<f64> = match (self.raw(key.0), self.raw(key.1)) {
+        match (self.raw(key.0), self.raw(key.1)) {
             (Some((ca, 0, fa)), Some((cb, 0, fb))) if fa == 0.0 && fb == 0.0 => self
                 .folds
                 .ranges
@@ -315,6 +392,21 @@ impl Pool {
                     })
                     .collect()
             }
+            // A half-cosine against a column built for this score: rotated along its folds.
+            _ if cosine.is_some() => {
+                let k = cosine.unwrap_or(0);
+                let other = if matches!(self.cols.get(key.0), Some(Column::Cosine(_))) {
+                    key.1
+                } else {
+                    key.0
+                };
+                let x = self.read(other, built);
+                self.folds
+                    .ranges
+                    .iter()
+                    .map(|&(s, e)| dot_cosine(&x[s..e], &w[s..e], self.n, k, s))
+                    .collect()
+            }
             _ => {
                 let (ca, cb) = (self.read(key.0, built), self.read(key.1, built));
                 self.folds
@@ -323,9 +415,26 @@ impl Pool {
                     .map(|&(s, e)| dot3(&ca[s..e], &cb[s..e], &w[s..e]))
                     .collect()
             }
-        };
-        self.cross.insert(key, v.clone());
-        v
+        }
+    }
+
+    /// Per fold, Σ w·cos(π·k·(i + ½)/n) (kept: the products of two half-cosines are sums of
+    /// these).
+    fn cosine_sums(&mut self, k: usize) {
+        if !self.cosine_sums.contains_key(&k) {
+            let v = self.fold_cosine_sums(k);
+            self.cosine_sums.insert(k, v);
+        }
+    }
+
+    fn fold_cosine_sums(&self, k: usize) -> Vec<f64> {
+        let w = &self.weight;
+        // The mask is 0 or 1, so w·w = w.
+        self.folds
+            .ranges
+            .iter()
+            .map(|&(s, e)| dot_cosine(&w[s..e], &w[s..e], self.n, k, s))
+            .collect()
     }
 
     /// The `k` of the one half-cosine among columns `a` and `b`.
@@ -385,6 +494,7 @@ impl Pool {
             })
             .map(|&c| (c, self.values(c).into_owned()))
             .collect();
+        self.take_products(columns, &built);
         for (r, &cr) in columns.iter().enumerate() {
             let by = self.y_of(cr, &built);
             for f in 0..k {
@@ -734,6 +844,46 @@ mod tests {
         let one = pool.score(&[cx]);
         assert!(one.cv_mse > 0.05, "{}", one.cv_mse);
         assert_eq!(one.fold_mse.len(), 5);
+    }
+
+    #[test]
+    fn half_cosine_columns_score_as_the_same_cosines_stored() {
+        // Every product with a half-cosine is taken without building it (rotated along the
+        // folds; two cosines by their sum and difference); stored, they are summed plainly.
+        let n = 1000;
+        let excluded: Vec<bool> = (0..n).map(|i| (300..340).contains(&i)).collect();
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.013).sin() + 0.3).collect();
+        let y: Vec<f64> = (0..n)
+            .map(|i| x[i] + 0.2 * ((i as f64 + 0.5) * 0.01).cos() + 0.01 * ((i % 7) as f64))
+            .collect();
+        let mut pool = Pool::new(&y, &excluded, Folds::blocked(&excluded, 5));
+        let xs = pool.add("x", &x, Sign::Free);
+        let xr = x.clone();
+        let xc = pool.add_computed(
+            "x computed",
+            move || xr.iter().map(|v| *v as f32).collect(),
+            Sign::Free,
+        );
+        let (formula, stored): (Vec<usize>, Vec<usize>) = [1usize, 3, 4]
+            .iter()
+            .map(|&k| {
+                let c = crate::terms::cosine(n, k);
+                (
+                    pool.add_cosine(format!("cos {k}"), k, Sign::Free),
+                    pool.add(format!("stored cos {k}"), &c, Sign::Free),
+                )
+            })
+            .unzip();
+        for other in [xs, xc] {
+            let a = pool.score(&[&[other][..], &formula].concat());
+            let b = pool.score(&[&[other][..], &stored].concat());
+            for (u, v) in a.fold_mse.iter().zip(&b.fold_mse) {
+                assert!((u - v).abs() <= 1e-6 * v.max(1e-9), "{u} {v}");
+            }
+            for (u, v) in a.beta.iter().zip(&b.beta) {
+                assert!((u - v).abs() < 1e-4, "{u} {v}");
+            }
+        }
     }
 
     #[test]

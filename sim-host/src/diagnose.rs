@@ -4,7 +4,7 @@
 //! held-out folds with the core's own estimators, and exported only where it helps.
 
 use serde::Serialize;
-use tactile_core::calibration::{secant_schedule, TaxelModel};
+use tactile_core::calibration::{secant_schedule, EstimatorKind, TaxelModel};
 use tactile_core::estimator::TaxelEstimators;
 use tactile_core::hysteresis::{Plays, PLAYS};
 use tactile_core::spring::SpringCurve;
@@ -442,13 +442,16 @@ fn held_out_force(
         let model = taxel_model_of(terms, d, series, TaxelId::default(), form)?;
         let mut est = TaxelEstimators::new(&model, series.dt_s).ok()?;
         for i in 0..b {
-            let out = est.update(series.strain_pct[i] as f32);
+            let [scheduled_g, observer_g] = est.update_kinds(
+                series.strain_pct[i] as f32,
+                [EstimatorKind::ScheduledInverse, EstimatorKind::Observer],
+            );
             if i >= a && !series.excluded[i] {
                 let f = series.force_g[i];
                 // An estimate that ran away counts as the chip would show it: no force.
                 let v = |x: f32| if x.is_finite() { f64::from(x) } else { 0.0 };
-                observer += (v(out[3]) - f).powi(2);
-                scheduled += (v(out[2]) - f).powi(2);
+                observer += (v(observer_g) - f).powi(2);
+                scheduled += (v(scheduled_g) - f).powi(2);
                 count += 1;
             }
         }

@@ -170,28 +170,39 @@ impl TaxelEstimators {
 
     /// Each estimator's force, in [`EstimatorKind::ALL`]'s order, from the conditioned strain.
     pub fn update(&mut self, strain_pct: f32) -> [f32; 4] {
+        self.update_kinds(strain_pct, EstimatorKind::ALL)
+    }
+
+    /// The forces of `kinds` alone, each as [`update`](Self::update) gives it (the others
+    /// are not run: a host that compares two of them pays for two).
+    #[inline]
+    pub fn update_kinds<const K: usize>(
+        &mut self,
+        strain_pct: f32,
+        kinds: [EstimatorKind; K],
+    ) -> [f32; K] {
         let e = self.conditioner.update(strain_pct);
-        let mut out = [0.0; 4];
-        for ((o, est), comp) in out
-            .iter_mut()
-            .zip(self.estimators.iter_mut())
-            .zip(self.loops.iter_mut())
-        {
-            *o = comp.force_g(est, e);
+        kinds.map(|k| {
+            let (est, comp) = self.pair_mut(k);
+            comp.force_g(est, e)
+        })
+    }
+
+    /// One estimator and the loop taken off its input.
+    fn pair_mut(&mut self, kind: EstimatorKind) -> (&mut TaxelEstimator, &mut LoopCompensator) {
+        let ([a, b, c, d], [la, lb, lc, ld]) = (&mut self.estimators, &mut self.loops);
+        match kind {
+            EstimatorKind::Elastic => (a, la),
+            EstimatorKind::SecondOrderInverse => (b, lb),
+            EstimatorKind::ScheduledInverse => (c, lc),
+            EstimatorKind::Observer => (d, ld),
         }
-        out
     }
 
     /// One estimator, by kind (for timing them one at a time).
     #[inline]
     pub fn estimator_mut(&mut self, kind: EstimatorKind) -> &mut TaxelEstimator {
-        let [a, b, c, d] = &mut self.estimators;
-        match kind {
-            EstimatorKind::Elastic => a,
-            EstimatorKind::SecondOrderInverse => b,
-            EstimatorKind::ScheduledInverse => c,
-            EstimatorKind::Observer => d,
-        }
+        self.pair_mut(kind).0
     }
 }
 
