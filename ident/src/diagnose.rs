@@ -755,18 +755,14 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         }
         let force_part = work.force_part(&state.cols, &state.scored.beta);
         if !taken(Effect::TimeDelay, &state) {
-            // The force shifted later by d, through the baseline's own terms: a delay of
-            // whole or half samples up to 0.1 s.
+            // The force shifted later by d, through every force-driven term of the model (a
+            // play or a stiffening of the delayed force is the term delayed: each is causal
+            // and time-invariant): a delay of whole or half samples up to 0.1 s.
             let base_now: Vec<usize> = state
                 .cols
                 .iter()
                 .copied()
-                .filter(|c| {
-                    matches!(
-                        work.terms[*c],
-                        Term::Elastic | Term::Relaxation(_) | Term::Creep
-                    )
-                })
+                .filter(|c| work.terms[*c].force_driven())
                 .collect();
             // Doubling delays from one sample to 0.1 s, then the best refined between its
             // neighbours; only the best variant's columns are kept (a 1 kHz record's columns
@@ -786,14 +782,14 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                         .cols
                         .iter()
                         .zip(&state.scored.beta)
-                        .any(|(k, b)| k == c && (*b > 0.0 || work.terms[*c] == Term::Elastic))
+                        .any(|(k, b)| k == c && (*b != 0.0 || work.terms[*c] == Term::Elastic))
                 })
                 .collect();
             let delayed_cols = |work: &mut Work, d: f64| -> Vec<usize> {
                 active_base
                     .iter()
                     .map(|&c| {
-                        let j = work.pool.add_delayed(c, d / dt, Sign::NonNegative);
+                        let j = work.pool.add_delayed(c, d / dt);
                         work.terms.push(work.terms[c]);
                         j
                     })
@@ -1052,6 +1048,23 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         }
         if t.effect == Effect::TimeDelay {
             state.delay_s = t.delay_s;
+            // An effect's columns are now its delayed ones (taken out later, it leaves with
+            // them; a column the fit left at zero is gone).
+            for g in state.groups.iter_mut() {
+                g.1 =
+                    g.1.iter()
+                        .filter_map(|&c| {
+                            if t.remove.contains(&c) {
+                                t.add
+                                    .iter()
+                                    .copied()
+                                    .find(|&a| work.pool.delayed_source(a) == Some(c))
+                            } else {
+                                Some(c)
+                            }
+                        })
+                        .collect();
+            }
         }
         state.groups.push((t.effect, t.add));
         state.tests = work.tests(&sc.columns, &sc.beta);

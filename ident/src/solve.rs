@@ -175,8 +175,10 @@ impl Pool {
         self.cols.len() - 1
     }
 
-    /// Adds column `source` delayed by `samples` (held at its first value); returns its index.
-    pub fn add_delayed(&mut self, source: usize, samples: f64, sign: Sign) -> usize {
+    /// Adds column `source` delayed by `samples` (held at its first value), under the
+    /// source's sign constraint; returns its index.
+    pub fn add_delayed(&mut self, source: usize, samples: f64) -> usize {
+        let sign = self.signs.get(source).copied().unwrap_or(Sign::Free);
         let whole = samples.max(0.0).floor() as usize;
         self.cols.push(Column::Delayed {
             source,
@@ -187,6 +189,14 @@ impl Pool {
         self.names
             .push(format!("{} delayed {samples:.2}", self.name(source)));
         self.cols.len() - 1
+    }
+
+    /// The column `j` is a delayed copy of, if it is one.
+    pub fn delayed_source(&self, j: usize) -> Option<usize> {
+        match self.cols.get(j)? {
+            Column::Delayed { source, .. } => Some(*source),
+            _ => None,
+        }
     }
 
     /// A column as (stored values, whole samples of delay, fraction of a sample): a delayed
@@ -903,8 +913,8 @@ mod tests {
         let to_f32 = |v: &[f64]| v.iter().map(|a| *a as f32).collect::<Vec<f32>>();
         let xc = pool.add_computed("x computed", move || to_f32(&xr), Sign::Free);
         let zc = pool.add_computed("z computed", move || to_f32(&zr), Sign::Free);
-        let xsd = pool.add_delayed(xs, 2.0, Sign::Free);
-        let xcd = pool.add_delayed(xc, 2.0, Sign::Free);
+        let xsd = pool.add_delayed(xs, 2.0);
+        let xcd = pool.add_delayed(xc, 2.0);
         for (stored, computed) in [
             (vec![xs], vec![xc]),
             (vec![xs, zs], vec![xc, zc]),

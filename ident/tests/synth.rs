@@ -297,7 +297,7 @@ fn two_effects_at_once_are_both_named() {
     let interference = |amplitude, hz| SynthEffect::Interference { amplitude, hz };
     // (seed, rate Hz, length s, the effects, their names)
     type Case = (u64, f64, f64, [SynthEffect; 2], [&'static str; 2]);
-    let cases: [Case; 7] = [
+    let cases: [Case; 8] = [
         (
             21,
             200.0,
@@ -355,6 +355,22 @@ fn two_effects_at_once_are_both_named() {
                 SynthEffect::Hysteresis(0.05),
             ],
             ["slow_relaxation", "hysteresis"],
+        ),
+        // The delay replaces the slow branches found first with their delayed copies: they
+        // stay the slow relaxation's (were dropped as "explained by the later effects" when
+        // the effect still held the undelayed ones).
+        (
+            21,
+            200.0,
+            300.0,
+            [
+                SynthEffect::Delay(3),
+                SynthEffect::SlowRelaxation {
+                    share: 0.3,
+                    tau_s: 60.0,
+                },
+            ],
+            ["time_delay", "slow_relaxation"],
         ),
     ];
     for (seed, rate, length, effects, names) in cases {
