@@ -63,6 +63,19 @@ pub enum Run {
 }
 
 impl Run {
+    /// Its name in the records (`RunStart`), as the memo's protocols are named.
+    pub fn name(self) -> &'static str {
+        match self {
+            Run::ForceSteps => "force-steps",
+            Run::PseudoRandom { .. } => "pseudo-random",
+            Run::Sines => "sines",
+            Run::StepLoads => "step-loads",
+            Run::LowForce => "low-force",
+            Run::Calibration { .. } => "calibration",
+            Run::Excitation { .. } => "excitation",
+        }
+    }
+
     /// The protocol it runs.
     pub fn protocol(self) -> crate::profile::Protocol {
         use crate::profile::Protocol;

@@ -15,7 +15,7 @@
 //! Configuration ([`LowpassNotchConfig`], [`Biquad`] coefficients) is kept apart from state
 //! ([`BiquadState`]), as in quartiq/idsp.
 
-use libm::tan;
+use crate::trig::tan;
 use num_complex::Complex64;
 
 /// One second-order section, `y = (b0 + b1 z⁻¹ + b2 z⁻²) / (1 + a1 z⁻¹ + a2 z⁻²) x`.
@@ -69,8 +69,8 @@ impl Biquad {
             return None;
         }
         let w0 = 2.0 * core::f64::consts::PI * alias * dt_s;
-        let alpha = libm::sin(w0) / (2.0 * q);
-        let cos = libm::cos(w0);
+        let (sin, cos) = crate::trig::sin_cos(w0);
+        let alpha = sin / (2.0 * q);
         let a0 = 1.0 + alpha;
         Some(Biquad {
             b: [1.0 / a0, -2.0 * cos / a0, 1.0 / a0].map(|v| v as f32),

@@ -53,6 +53,7 @@ pub mod tactile;
 pub mod tasks;
 pub mod telemetry;
 pub mod tracking;
+pub mod trig;
 pub mod viscoelastic;
 
 /// Control period, s (memo: Δt = 1 ms): the force loop's tick, the filter's and the law's

@@ -367,7 +367,7 @@ impl CommandSource {
                 let ln_k = libm::logf(f1_hz / f0_hz);
                 let phase = 2.0 * core::f32::consts::PI * f0_hz * duration_s / ln_k
                     * (libm::expf(ln_k * tt / duration_s) - 1.0);
-                offset_g + amplitude_g * libm::sinf(phase)
+                offset_g + amplitude_g * crate::trig::sinf(phase)
             }
             Protocol::PseudoRandom {
                 min_g,
@@ -454,13 +454,13 @@ impl CommandSource {
         let cycles = EXCITATION_START_HZ * tau + sweep * tau * tau / (2.0 * EXCITATION_PERIOD_S);
         // Whole cycles taken off before the sine: its argument stays small in f32.
         let phase = 2.0 * core::f32::consts::PI * (cycles - libm::floorf(cycles));
-        amplitude_g * libm::sinf(phase)
+        amplitude_g * crate::trig::sinf(phase)
     }
 
     fn sines(&self, offset_g: f32, amplitude_g: f32, t_s: f32) -> f32 {
         let mut f = offset_g;
         for (hz, phase) in SINES_HZ.iter().zip(self.phases_rad.iter()) {
-            f += amplitude_g * libm::sinf(2.0 * core::f32::consts::PI * hz * t_s + phase);
+            f += amplitude_g * crate::trig::sinf(2.0 * core::f32::consts::PI * hz * t_s + phase);
         }
         f.max(0.0)
     }

@@ -915,7 +915,8 @@ mod tests {
         hold(&mut plain, 5.0);
         let mut worst = 0.0f32;
         for k in 0..1000 {
-            let command_g = 10.0 + 5.0 * libm::sinf(2.0 * core::f32::consts::PI * 0.02 * k as f32);
+            let command_g =
+                10.0 + 5.0 * crate::trig::sinf(2.0 * core::f32::consts::PI * 0.02 * k as f32);
             let a = t.update(command_g, 0.0, true).force_g;
             let b = plain.update(command_g, 0.0, true).force_g;
             if k > 100 {

@@ -136,6 +136,12 @@ impl Scanner {
         self.reset_with_table(config, calibration, config.calibration)
     }
 
+    /// [`Self::reset`] on the rest calibration it holds (a board that does not calibrate
+    /// again between runs: the probe may be pressing).
+    pub fn rebuild(&mut self, config: &FirmwareConfig) -> Result<(), ConfigError> {
+        self.reset(config, self.calibration)
+    }
+
     /// [`Self::reset`] with the calibration table `table` in place of the configuration's (one
     /// loaded at run time; checked here as the built-in one is).
     pub fn reset_with_table(

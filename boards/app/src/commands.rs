@@ -113,6 +113,15 @@ impl<const CAL: usize> CommandPort<CAL> {
         }
     }
 
+    /// The same port with `choice` as the force law until a command chooses another (a build
+    /// that runs the designed controller from reset).
+    pub fn with_controller(self, choice: ControllerChoice) -> Self {
+        CommandPort {
+            controller: choice,
+            ..self
+        }
+    }
+
     /// The calibration table loaded last (checked), if any.
     pub fn calibration_table(&self) -> Option<&[u8]> {
         self.cal.get(..self.cal_len).filter(|t| !t.is_empty())

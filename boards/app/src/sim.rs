@@ -207,17 +207,8 @@ impl FilRun {
     /// The run a command asks for, on the simulated board: the calibration with the probe over
     /// its taxel of the same finger.
     pub fn commanded(run: Run) -> FilRun {
-        let name = match run {
-            Run::ForceSteps => "force-steps",
-            Run::PseudoRandom { .. } => "pseudo-random",
-            Run::Sines => "sines",
-            Run::StepLoads => "step-loads",
-            Run::LowForce => "low-force",
-            Run::Calibration { .. } => "calibration",
-            Run::Excitation { .. } => "excitation",
-        };
         FilRun {
-            name,
+            name: run.name(),
             protocol: run.protocol(),
             finger: match run {
                 Run::Calibration { taxel } => Some((taxel, RigConfig::default().seed)),

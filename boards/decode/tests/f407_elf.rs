@@ -18,7 +18,7 @@ const STATIC_RAM_BUDGET: u64 = 32 * 1024;
 #[ignore = "builds the board firmware: scripts/test-all.sh runs it with --ignored"]
 fn f407_firmware_elf_has_its_parts_and_fits_the_budget() {
     // The build a user types, and the one that runs the designed controller's table.
-    for (alias, profile) in [("fw-f407", "release"), ("fw-f407-designed", "firmware")] {
+    for (alias, profile) in [("fw-f407", "release"), ("fw-f407-designed", "release")] {
         let path = build_firmware(alias, profile, "tactile-f407");
         check_elf(&path, alias);
     }
@@ -58,7 +58,7 @@ fn check_elf(path: &std::path::Path, alias: &str) {
     let rtt = elf
         .symbols()
         .find(|s| s.name() == Ok("_SEGGER_RTT"))
-        .expect("_SEGGER_RTT symbol (defmt-rtt's control block)");
+        .expect("_SEGGER_RTT symbol (the RTT control block)");
     assert!(
         RAM.contains(&rtt.address()),
         "_SEGGER_RTT at {:#x}",
@@ -66,6 +66,15 @@ fn check_elf(path: &std::path::Path, alias: &str) {
     );
     let defmt = elf.section_by_name(".defmt").expect(".defmt section");
     assert!(defmt.size() > 0, "empty .defmt section");
+    // The board answers commands: the replies' formats are in its defmt table (each format
+    // string is the name of a symbol in `.defmt`).
+    for reply in ["CommandAck", "CommandRefused"] {
+        assert!(
+            elf.symbols()
+                .any(|s| s.name().is_ok_and(|n| n.contains(reply))),
+            "{alias}: no `{reply}` in the defmt table: the board does not answer commands"
+        );
+    }
 
     // Flash: everything loaded there (code, constants, and .data's initial values).
     // Static RAM: .data, .bss and .uninit (the stack takes the rest).

@@ -7,6 +7,12 @@
 //! | `control` | 3 | SysTick, 1 kHz (hardware reload: drift-free) | 8 gauge samples → A1 → filter → DAC; probe channel → inverse model |
 //! | `scan` | 2 | TIM2 update, 4 kHz (250 µs dwell) | sample the selected taxel, move the multiplexer on |
 //! | `telemetry` | 1 | spawned by `control` | drains the bounded queues to defmt over RTT |
+//!
+//! Commands (issue 14) come down RTT down-channel 0 (`commands`); `control` takes the bytes
+//! that have arrived at the start of each tick (a copy of at most [`DOWN_BYTES_PER_TICK`]:
+//! never a wait) through `tactile_firmware::CommandPort`, answers each over defmt with its
+//! sequence number, and starts, holds or stops the runs they ask for. At reset it runs the
+//! build's protocol, as before.
 //! | `idle` | 0 | — | WFI |
 //!
 //! Control frames go out every [`CONTROL_FRAME_EVERY`]-th tick (RTT bandwidth; only queued
@@ -38,8 +44,10 @@ fn main() {
 #[cfg(target_os = "none")]
 mod board;
 
+// NOTE: the defmt logger is rtt-target's (up-channel 0), which also gives the down-channel;
+// defmt-rtt has none.
 #[cfg(target_os = "none")]
-use defmt_rtt as _;
+use rtt_target as _;
 
 /// Panic: the actuator to its safe zero first, then the report (location only: formatting the
 /// message would link `core::fmt`'s float code past the flash budget), then a HardFault, which
@@ -77,23 +85,50 @@ const WATCHDOG_TIMEOUT_MS: u32 = 100;
 #[cfg(target_os = "none")]
 const CONTROL_FRAME_EVERY: u32 = 5;
 
+/// Command bytes taken from the down-channel per tick, at most (a chunk command is about 40
+/// B, so a table loads at a frame a tick or so; the rest waits in the channel's buffer).
+#[cfg(target_os = "none")]
+const DOWN_BYTES_PER_TICK: usize = 64;
+
+/// The array estimator a command chose (an index into `EstimatorKind::ALL`), for the scan task
+/// to rebuild its estimators with at the next run; `NO_CHOICE` until one is chosen.
+#[cfg(target_os = "none")]
+static SCAN_ESTIMATOR: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(NO_CHOICE);
+#[cfg(target_os = "none")]
+const NO_CHOICE: u8 = u8::MAX;
+
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART1, USART2])]
 mod app {
     use core::mem::MaybeUninit;
+    use core::sync::atomic::AtomicBool;
     use core::sync::atomic::{AtomicU32, Ordering};
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SCB;
     use heapless::spsc::{Consumer, Queue};
+    use rtt_target::{ChannelMode, DownChannel};
     use stm32f4xx_hal::watchdog::IndependentWatchdog;
     use stm32f4xx_hal::{pac, prelude::*, timer};
+    use tactile_core::estimator::EstimatorKind;
+    use tactile_core::tactile::TaxelCalibration;
     use tactile_core::telemetry::TaxelFrame;
     use tactile_firmware::{
-        ArrayEstimate, CheckIns, Controller, Message, Outbox, RunEnd, RunStart, Scanner,
+        Action, ArrayEstimate, CheckIns, CommandPort, Controller, Message, Outbox, RunEnd,
+        RunStart, Scanner,
     };
 
     use crate::board::{self, ControlBoard, ScanBoard, WithAdc, CORE_HZ, PROTOCOL, PROTOCOL_NAME};
-    use crate::{CONTROL_FRAME_EVERY, WATCHDOG_TIMEOUT_MS};
+    use crate::{
+        CONTROL_FRAME_EVERY, DOWN_BYTES_PER_TICK, NO_CHOICE, SCAN_ESTIMATOR, WATCHDOG_TIMEOUT_MS,
+    };
+
+    /// No room for a calibration table loaded by command (static RAM is spoken for: the
+    /// command answers `Unsupported`); a controller table can be.
+    type Port = CommandPort<0>;
+
+    /// Set by `control` when a commanded run starts: the scan task rebuilds its estimators
+    /// (with the chosen array estimator) before its next dwell.
+    static RESCAN: AtomicBool = AtomicBool::new(false);
 
     /// Check-ins of control and telemetry; `idle` feeds the watchdog only when both are in.
     static CHECK_INS: CheckIns = CheckIns::new();
@@ -118,6 +153,9 @@ mod app {
         control_board: ControlBoard,
         scan_board: ScanBoard,
         controller: Controller,
+        probe_calibration: TaxelCalibration,
+        down: DownChannel,
+        port: Port,
         scanner: &'static mut Scanner,
         control_out: Outbox<'static, ControlMsg>,
         taxel_out: Outbox<'static, TaxelMsg>,
@@ -134,10 +172,27 @@ mod app {
         scanner_slot: MaybeUninit<Scanner> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        // First: every defmt message goes out through this up-channel.
+        let channels = rtt_target::rtt_init! {
+            up: {
+                0: {
+                    size: 1024,
+                    mode: ChannelMode::NoBlockSkip,
+                    name: "defmt"
+                }
+            }
+            down: {
+                0: {
+                    size: 128,
+                    name: "commands"
+                }
+            }
+        };
+        rtt_target::set_defmt_channel(channels.up.0);
         let config = tactile_firmware::BOARD;
         // The designed controller's table, checked as the calibration table is (refused: A1).
         #[cfg(feature = "controller-designed")]
-        let config = {
+        let (config, port) = {
             let table = &tactile_firmware::CONTROLLER_TABLE;
             let tracking = tactile_core::tracking::TrackingConfig::decode(table);
             match &tracking {
@@ -147,11 +202,17 @@ mod app {
                 ),
                 Err(e) => defmt::warn!("controller table refused ({}): A1", e),
             }
-            tactile_core::tasks::FirmwareConfig {
-                tracking: tracking.ok(),
-                ..config
-            }
+            let port = Port::new(config.supervisor.command_max_g, tactile_firmware::HOLD_S);
+            (
+                tactile_core::tasks::FirmwareConfig {
+                    tracking: tracking.ok(),
+                    ..config
+                },
+                port.with_controller(tactile_core::command::ControllerChoice::Designed),
+            )
         };
+        #[cfg(not(feature = "controller-designed"))]
+        let port = Port::new(config.supervisor.command_max_g, tactile_firmware::HOLD_S);
         let board::Hardware {
             mut adc,
             mut control_board,
@@ -169,7 +230,8 @@ mod app {
             .local
             .scanner_slot
             .write(Scanner::blank(&config, calibration));
-        let (Some(controller), Ok(())) = (
+        let (Some(probe_calibration), Some(controller), Ok(())) = (
+            probe,
             probe.and_then(|cal| Controller::new(&config, PROTOCOL, cal).ok()),
             scanner.reset(&config, calibration),
         ) else {
@@ -207,6 +269,9 @@ mod app {
                 control_board,
                 scan_board,
                 controller,
+                probe_calibration,
+                down: channels.down.0,
+                port,
                 scanner,
                 control_out: Outbox::new(control_tx),
                 taxel_out: Outbox::new(taxel_tx),
@@ -231,7 +296,8 @@ mod app {
     }
 
     #[task(binds = SysTick, priority = 3, shared = [adc],
-           local = [controller, control_board, control_out, tick: u32 = 0, ended: bool = false])]
+           local = [controller, control_board, control_out, probe_calibration, down,
+                    port, tick: u32 = 0, ended: bool = false, active: bool = true])]
     fn control(mut cx: control::Context) {
         let local = cx.local;
         let tick = *local.tick;
@@ -243,21 +309,87 @@ mod app {
                 duration_s: PROTOCOL.duration_s(),
             }));
         }
-        let (controller, board) = (&mut *local.controller, &mut *local.control_board);
-        let frame = cx
-            .shared
-            .adc
-            .lock(|adc| controller.tick(&mut WithAdc { adc, board }, tick));
-        if tick.is_multiple_of(CONTROL_FRAME_EVERY) {
-            local.control_out.send(Message::Tick(frame, ()));
+        // This tick's command bytes, and what their commands ask.
+        let mut bytes = [0u8; DOWN_BYTES_PER_TICK];
+        let n = local.down.read(&mut bytes);
+        let (mut start, mut stop, mut clear) = (None, false, false);
+        let out = &mut *local.control_out;
+        local.port.poll(
+            bytes.get(..n).unwrap_or(&[]),
+            &tactile_firmware::CONTROLLER_TABLE,
+            |reply, action| {
+                out.send(Message::Reply(reply));
+                match action {
+                    Action::Start(run) => start = Some((run.name(), run.protocol())),
+                    Action::Hold { force_g } => {
+                        start = Some(("hold", tactile_firmware::hold(force_g)));
+                    }
+                    Action::Stop => (start, stop) = (None, true),
+                    Action::ClearFaults => clear = true,
+                    Action::None => {}
+                }
+            },
+        );
+        if clear {
+            local.controller.clear_faults();
         }
-        if local.controller.finished() && !core::mem::replace(local.ended, true) {
-            local.control_out.send(Message::End(RunEnd {
-                end_tick: tick,
-                control_frames_dropped: local.control_out.dropped(),
-                taxel_frames_dropped: 0,
-                overruns: local.controller.overruns(),
-            }));
+        if stop || start.is_some() {
+            if core::mem::replace(local.active, false) && !*local.ended {
+                local.control_out.send(Message::End(RunEnd {
+                    end_tick: tick,
+                    control_frames_dropped: local.control_out.dropped(),
+                    taxel_frames_dropped: 0,
+                    overruns: local.controller.overruns(),
+                }));
+            }
+            // Between runs (and if the next cannot start) the actuator rests at its safe output.
+            local.control_board.zero_actuator();
+            if let Some((name, protocol)) = start {
+                let config = local
+                    .port
+                    .firmware(tactile_firmware::BOARD, &tactile_firmware::CONTROLLER_TABLE);
+                match Controller::new(&config, protocol, *local.probe_calibration) {
+                    Ok(c) => {
+                        *local.controller = c;
+                        *local.active = true;
+                        *local.ended = false;
+                        let chosen = config
+                            .array_estimator
+                            .and_then(|k| EstimatorKind::ALL.iter().position(|a| *a == k));
+                        SCAN_ESTIMATOR.store(
+                            chosen
+                                .and_then(|i| u8::try_from(i).ok())
+                                .unwrap_or(NO_CHOICE),
+                            Ordering::Relaxed,
+                        );
+                        RESCAN.store(true, Ordering::Release);
+                        local.control_out.send(Message::Start(RunStart {
+                            name,
+                            start_tick: tick,
+                            duration_s: protocol.duration_s(),
+                        }));
+                    }
+                    Err(_) => defmt::error!("the commanded run's configuration was refused"),
+                }
+            }
+        }
+        if *local.active {
+            let (controller, board) = (&mut *local.controller, &mut *local.control_board);
+            let frame = cx
+                .shared
+                .adc
+                .lock(|adc| controller.tick(&mut WithAdc { adc, board }, tick));
+            if tick.is_multiple_of(CONTROL_FRAME_EVERY) {
+                local.control_out.send(Message::Tick(frame, ()));
+            }
+            if local.controller.finished() && !core::mem::replace(local.ended, true) {
+                local.control_out.send(Message::End(RunEnd {
+                    end_tick: tick,
+                    control_frames_dropped: local.control_out.dropped(),
+                    taxel_frames_dropped: 0,
+                    overruns: local.controller.overruns(),
+                }));
+            }
         }
         let _ = telemetry::spawn();
         *local.tick = tick.wrapping_add(1);
@@ -274,6 +406,17 @@ mod app {
         let local = cx.local;
         local.scan_timer.clear_flags(timer::Flag::Update);
         let tick = TICK.load(Ordering::Relaxed);
+        if RESCAN.swap(false, Ordering::AcqRel) {
+            // A commanded run: the estimators afresh, with the array estimator chosen.
+            let mut config = tactile_firmware::BOARD;
+            let chosen = usize::from(SCAN_ESTIMATOR.load(Ordering::Relaxed));
+            if let Some(kind) = EstimatorKind::ALL.get(chosen) {
+                config.array_estimator = Some(*kind);
+            }
+            if local.scanner.rebuild(&config).is_err() {
+                defmt::error!("the scanner's configuration was refused");
+            }
+        }
         let (scanner, board) = (&mut *local.scanner, &mut *local.scan_board);
         let report = cx
             .shared
@@ -295,8 +438,7 @@ mod app {
                     Message::Tick(frame, ()) => defmt::info!("{}", frame),
                     Message::Start(s) => defmt::info!("{}", s),
                     Message::End(e) => defmt::info!("{}", e),
-                    // NOTE: no down-channel on this board yet, so no replies to format.
-                    Message::Reply(_) => {}
+                    Message::Reply(r) => defmt::info!("{}", r),
                 }
             }
             if let Some((frame, estimate)) = cx.local.taxel_rx.dequeue() {
