@@ -1,9 +1,9 @@
 //! `tactile board` (issue 14): drives a board from the host through a
 //! [`Transport`](tactile_decode::transport::Transport) — commands down, the defmt stream up,
 //! decoded as it arrives into the project's records, with a progress bar and a live summary
-//! line (force, error, faults, frames lost). The board today is the QEMU firmware (`cargo
-//! fw-qemu` builds it), whose down-channel is the script it reads at start; a saved log can be
-//! replayed. A probe's RTT is what `boards/README.md` describes as next.
+//! line (force, error, faults, frames lost). The board is the QEMU firmware (`cargo fw-qemu`
+//! builds it; its down-channel is the script it reads at start), a board over a debug probe
+//! ([`crate::probe`]: the commands sent when their time comes), or a saved log replayed.
 
 use std::path::{Path, PathBuf};
 
@@ -39,8 +39,68 @@ pub enum Action {
     },
     /// Hold a force for `seconds`, then stop.
     Hold { force_g: f32, seconds: f32 },
-    /// Only decode what the board streams.
-    Stream,
+    /// Only decode what the board streams (a live board's for `seconds`).
+    Stream { seconds: f32 },
+}
+
+/// Where the board is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target<'a> {
+    /// The QEMU firmware (the ELF given), started for the session.
+    Qemu,
+    /// A saved log of the firmware, replayed.
+    Replay(&'a Path),
+    /// A chip through the first debug probe found (`chip` as probe-rs names it), flashed with
+    /// the ELF and reset first if `flash`.
+    Probe { chip: &'a str, flash: bool },
+}
+
+/// The run `protocol` names, with its arguments.
+fn run_of(protocol: BoardProtocol, duration_s: f32, load_g: f32, taxel: TaxelId) -> Run {
+    match protocol {
+        BoardProtocol::ForceSteps => Run::ForceSteps,
+        BoardProtocol::PseudoRandom => Run::PseudoRandom {
+            seed: 1989,
+            duration_s,
+        },
+        BoardProtocol::Sines => Run::Sines,
+        BoardProtocol::StepLoads => Run::StepLoads,
+        BoardProtocol::LowForce => Run::LowForce,
+        BoardProtocol::Calibration => Run::Calibration { taxel },
+        BoardProtocol::Excitation => Run::Excitation { preload_g: load_g },
+    }
+}
+
+/// When a live board's session for `action` is over (see [`tactile_decode::Until`]): what it
+/// asked for has had its time, and a little more.
+fn until(action: &Action) -> tactile_decode::Until {
+    use std::time::Duration;
+    let s = |x: f32| Duration::from_secs_f32(x.max(0.0));
+    match *action {
+        Action::Run {
+            protocol,
+            duration_s,
+            load_g,
+            taxel,
+            ..
+        } => {
+            let length = run_of(protocol, duration_s, load_g, taxel)
+                .protocol()
+                .duration_s();
+            tactile_decode::Until {
+                settle: s(length + 0.5),
+                timeout: s(length + 15.0),
+            }
+        }
+        Action::Hold { .. } => tactile_decode::Until {
+            settle: s(0.5),
+            timeout: s(10.0),
+        },
+        Action::Stream { seconds } => tactile_decode::Until {
+            settle: s(seconds),
+            timeout: s(seconds),
+        },
+    }
 }
 
 /// The commands for `action`, each with the board tick it is sent at.
@@ -54,18 +114,7 @@ pub fn script(action: &Action) -> Vec<(u32, Vec<u8>)> {
             taxel,
             designed,
         } => {
-            let run = match protocol {
-                BoardProtocol::ForceSteps => Run::ForceSteps,
-                BoardProtocol::PseudoRandom => Run::PseudoRandom {
-                    seed: 1989,
-                    duration_s,
-                },
-                BoardProtocol::Sines => Run::Sines,
-                BoardProtocol::StepLoads => Run::StepLoads,
-                BoardProtocol::LowForce => Run::LowForce,
-                BoardProtocol::Calibration => Run::Calibration { taxel },
-                BoardProtocol::Excitation => Run::Excitation { preload_g: load_g },
-            };
+            let run = run_of(protocol, duration_s, load_g, taxel);
             let law = if designed {
                 ControllerChoice::Designed
             } else {
@@ -84,18 +133,13 @@ pub fn script(action: &Action) -> Vec<(u32, Vec<u8>)> {
             (0, frame(1, Command::Hold { force_g })),
             ((seconds.max(0.0) * 1000.0) as u32, frame(2, Command::Stop)),
         ],
-        Action::Stream => Vec::new(),
+        Action::Stream { .. } => Vec::new(),
     }
 }
 
-/// Runs `action` on the QEMU firmware `elf` (or decodes the saved log `replay`), writes the
-/// records into `out`, and returns the report.
-pub fn run(
-    elf: &Path,
-    replay: Option<&Path>,
-    action: &Action,
-    out: &Path,
-) -> Result<String, Error> {
+/// Runs `action` on the board `target` whose firmware is `elf` (the ELF's defmt table decodes
+/// its stream), writes the records into `out`, and returns the report.
+pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<String, Error> {
     let read = |p: &Path| {
         std::fs::read(p).map_err(|source| Error::Io {
             path: p.to_path_buf(),
@@ -108,33 +152,46 @@ pub fn run(
         path: out.to_path_buf(),
         source,
     })?;
-    let (mut transport, source): (Box<dyn Transport>, PathBuf) =
-        match (replay, action) {
-            (Some(log), _) => (Box::new(Replay::new(read(log)?, 4096)), log.to_path_buf()),
-            (None, Action::Stream) => return Err(Error::Usage(
-                "stream needs --replay LOG: a probe's RTT is not built in yet (boards/README.md)"
-                    .into(),
-            )),
-            (None, action) => {
-                let path = out.join("commands.bin");
-                let qemu = Qemu::start(elf, &script(action), &path)
-                    .map_err(|e| Error::Failed(format!("cannot start qemu-system-arm: {e}")))?;
-                (Box::new(qemu), PathBuf::from("qemu"))
-            }
-        };
+    let (mut transport, source): (Box<dyn Transport>, PathBuf) = match (target, action) {
+        (Target::Replay(log), _) => (Box::new(Replay::new(read(log)?, 4096)), log.to_path_buf()),
+        (Target::Qemu, Action::Stream { .. }) => {
+            return Err(Error::Usage(
+                "stream needs a board that runs on its own: --replay LOG or --probe".into(),
+            ))
+        }
+        (Target::Qemu, action) => {
+            let path = out.join("commands.bin");
+            let qemu = Qemu::start(elf, &script(action), &path)
+                .map_err(|e| Error::Failed(format!("cannot start qemu-system-arm: {e}")))?;
+            (Box::new(qemu), PathBuf::from("qemu"))
+        }
+        (Target::Probe { chip, flash }, _) => {
+            let probe =
+                crate::probe::Probe::attach(chip, flash.then_some(elf)).map_err(Error::Failed)?;
+            (Box::new(probe), PathBuf::from(format!("probe ({chip})")))
+        }
+    };
     let live = tactile_decode::Live::new(&table, &source);
     let bar = indicatif::ProgressBar::new(1000);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{prefix:>14} [{bar:30}] {percent:>3}%  {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let session = tactile_decode::follow(&mut *transport, live, |l| {
+    let show = |l: &tactile_decode::Live| {
         if let Some((name, done)) = l.progress() {
             bar.set_prefix(name.to_string());
             bar.set_position((done * 1000.0) as u64);
         }
         bar.set_message(l.summary());
-    })
+    };
+    let session = match target {
+        // A live board: each command sent when its time comes, until the action is over.
+        Target::Probe { .. } => {
+            tactile_decode::drive(&mut *transport, &script(action), live, until(action), show)
+        }
+        // QEMU reads its commands at start and ends the stream; a log ends.
+        _ => tactile_decode::follow(&mut *transport, live, show),
+    }
     .map_err(Error::Failed)?;
     bar.finish_and_clear();
     let mut report = String::new();
@@ -171,7 +228,8 @@ pub fn run(
         session.flagged_drops
     ));
     // A command of ours the board refused fails the session (a replayed log's are its own).
-    if *action != Action::Stream && session.replies.iter().any(|r| r.1.is_some()) {
+    let ours = !matches!(action, Action::Stream { .. }) && !matches!(target, Target::Replay(_));
+    if ours && session.replies.iter().any(|r| r.1.is_some()) {
         return Err(Error::Failed(report.trim_end().to_string()));
     }
     Ok(report)

@@ -19,6 +19,7 @@ pub mod fuzz;
 pub mod identify;
 pub mod metrics;
 pub mod plot;
+pub mod probe;
 pub mod report;
 pub mod scenario;
 pub mod tables;

@@ -114,6 +114,93 @@ pub fn follow<'t>(
     Ok(live.finish())
 }
 
+/// How [`drive`] ends a live board's session.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Until {
+    /// Once every command is answered and no run is in progress, this long after the last
+    /// command was sent (the length of what it asked for).
+    pub settle: std::time::Duration,
+    /// At the latest this long after the last command was sent: the session as it is if
+    /// every command was answered (a run still going is cut off), else an error (a board
+    /// that stopped answering).
+    pub timeout: std::time::Duration,
+}
+
+/// Drives a live board over `transport`: sends each entry of `script` when the host's clock
+/// reaches its tick (milliseconds from the start), decodes what arrives, and returns the
+/// session once it ends ([`Until`]); an error if the board stopped answering.
+pub fn drive<'t>(
+    transport: &mut dyn transport::Transport,
+    script: &[(u32, Vec<u8>)],
+    mut live: Live<'t>,
+    until: Until,
+    mut progress: impl FnMut(&Live<'t>),
+) -> Result<Session, String> {
+    use std::time::{Duration, Instant};
+    let commands = command_count(script);
+    let start = Instant::now();
+    let mut next = 0;
+    let mut last_sent = start;
+    loop {
+        while let Some((tick, bytes)) = script.get(next) {
+            if start.elapsed() < Duration::from_millis(u64::from(*tick)) {
+                break;
+            }
+            transport.send(bytes).map_err(|e| e.to_string())?;
+            last_sent = Instant::now();
+            next += 1;
+        }
+        match transport.receive().map_err(|e| e.to_string())? {
+            Some(bytes) if !bytes.is_empty() => {
+                live.push(&bytes).map_err(|e| e.to_string())?;
+                progress(&live);
+            }
+            Some(_) => {}
+            None => break,
+        }
+        if next < script.len() {
+            continue;
+        }
+        let answered = live.session.replies.len() >= commands;
+        let since = last_sent.elapsed();
+        if answered && !live.running() && since >= until.settle {
+            break;
+        }
+        if since >= until.timeout {
+            if answered {
+                // What the board streamed until now (a run cut off included).
+                break;
+            }
+            return Err(format!(
+                "the board answered {} of {commands} commands and {} after {:.0} s",
+                live.session.replies.len(),
+                if live.running() {
+                    "is still running"
+                } else {
+                    "runs nothing"
+                },
+                since.as_secs_f64()
+            ));
+        }
+    }
+    Ok(live.finish())
+}
+
+/// The command frames in a script.
+fn command_count(script: &[(u32, Vec<u8>)]) -> usize {
+    let mut decoder = tactile_core::command::Decoder::new();
+    let mut n = 0;
+    for (_, bytes) in script {
+        for &b in bytes {
+            decoder.push(b);
+            while decoder.next_frame().is_some() {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
 /// The defmt table of a firmware ELF (`elf_path` only names it in errors).
 pub fn table(elf: &[u8], elf_path: &Path) -> Result<Table, Error> {
     let elf_err = |message: String| Error {
@@ -205,6 +292,11 @@ impl<'t> Live<'t> {
     /// The run in progress, if any.
     pub fn current(&self) -> Option<&Run> {
         self.builder.current.as_ref()
+    }
+
+    /// Whether a run has started and not ended.
+    pub fn running(&self) -> bool {
+        self.current().is_some_and(|r| r.end.is_none())
     }
 
     /// The run in progress and the share of it done (by its ticks and its length).

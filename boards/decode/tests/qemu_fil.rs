@@ -1041,6 +1041,73 @@ fn the_board_session_decodes_live_as_in_batch() {
     )
     .expect("replayed");
     same(&replayed, &batch);
+    // A live board's path (`tactile board --probe`): the same bytes from a board that never
+    // ends its stream; `drive` sends the script's commands when due and ends the session on
+    // its own, once every command is answered, no run is in progress and the run's time is up.
+    struct Board {
+        bytes: Vec<u8>,
+        at: usize,
+        sent: Vec<u8>,
+    }
+    impl Transport for Board {
+        fn receive(&mut self) -> std::io::Result<Option<Vec<u8>>> {
+            let end = (self.at + 512).min(self.bytes.len());
+            let piece = self.bytes[self.at..end].to_vec();
+            self.at = end;
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            Ok(Some(piece))
+        }
+        fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+            self.sent.extend(bytes);
+            Ok(())
+        }
+    }
+    let mut board = Board {
+        bytes: tee.bytes.clone(),
+        at: 0,
+        sent: Vec::new(),
+    };
+    let until = tactile_decode::Until {
+        settle: std::time::Duration::from_millis(300),
+        timeout: std::time::Duration::from_secs(20),
+    };
+    let t0 = std::time::Instant::now();
+    let driven = tactile_decode::drive(
+        &mut board,
+        &script(&action),
+        Live::new(&table, log),
+        until,
+        |_| {},
+    )
+    .expect("driven");
+    same(&driven, &batch);
+    assert_eq!(
+        board.sent,
+        script(&action)
+            .into_iter()
+            .flat_map(|(_, b)| b)
+            .collect::<Vec<u8>>()
+    );
+    assert!(t0.elapsed() < std::time::Duration::from_secs(10));
+    // A board that answers nothing: an error once the timeout is up, not a hang.
+    let mut mute = Board {
+        bytes: Vec::new(),
+        at: 0,
+        sent: Vec::new(),
+    };
+    let quick = tactile_decode::Until {
+        settle: std::time::Duration::from_millis(10),
+        timeout: std::time::Duration::from_millis(200),
+    };
+    let e = tactile_decode::drive(
+        &mut mute,
+        &script(&action),
+        Live::new(&table, log),
+        quick,
+        |_| {},
+    )
+    .expect_err("no answer");
+    assert!(e.contains("answered 0 of 2 commands"), "{e}");
     eprintln!(
         "board session: {} bytes in {pieces} pieces decoded live",
         tee.bytes.len()

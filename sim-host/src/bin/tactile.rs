@@ -64,8 +64,12 @@ enum BoardCommand {
         #[arg(long, default_value_t = 5.0)]
         seconds: f32,
     },
-    /// Decode what the board streams (with --replay LOG).
-    Stream,
+    /// Decode what the board streams (a saved log with --replay LOG, a board with --probe).
+    Stream {
+        /// How long to follow a live board, s.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f32,
+    },
 }
 
 #[derive(Subcommand)]
@@ -199,17 +203,26 @@ enum Command {
     },
     /// Drive a board from the host: commands down, its defmt stream up, decoded as it arrives
     /// into records (`OUT/NAME.csv`), with a progress bar and a live line (force, error,
-    /// faults, frames lost). The board is the QEMU firmware (`cargo fw-qemu` builds it).
+    /// faults, frames lost). The board is the QEMU firmware (`cargo fw-qemu` builds it), or
+    /// with --probe an STM32F407G-DISC1 over SWD (`cargo fw-f407` builds its firmware).
     Board {
-        /// The firmware ELF: its defmt table, and what QEMU runs.
-        #[arg(
-            long,
-            default_value = "target/thumbv7em-none-eabihf/release/tactile-qemu"
-        )]
-        elf: PathBuf,
-        /// Decode a saved log of the firmware instead of running it.
+        /// The firmware ELF: its defmt table, what QEMU runs, what --flash writes
+        /// [default: the QEMU build's, or the F407 build's with --probe].
         #[arg(long)]
+        elf: Option<PathBuf>,
+        /// Decode a saved log of the firmware instead of running it.
+        #[arg(long, conflicts_with = "probe")]
         replay: Option<PathBuf>,
+        /// A board through the first debug probe found: its RTT channels carry the commands
+        /// and the stream.
+        #[arg(long)]
+        probe: bool,
+        /// With --probe: the chip, as probe-rs names it.
+        #[arg(long, requires = "probe", default_value = sim_host::probe::F407)]
+        chip: String,
+        /// With --probe: write the ELF to the chip and reset it first.
+        #[arg(long, requires = "probe")]
+        flash: bool,
         #[arg(long, default_value = "out/board")]
         out: PathBuf,
         #[command(subcommand)]
@@ -599,6 +612,9 @@ fn run(command: Command) -> Result<(), Error> {
         Command::Board {
             elf,
             replay,
+            probe,
+            chip,
+            flash,
             out,
             action,
         } => {
@@ -619,9 +635,21 @@ fn run(command: Command) -> Result<(), Error> {
                 BoardCommand::Hold { force_g, seconds } => {
                     sim_host::board::Action::Hold { force_g, seconds }
                 }
-                BoardCommand::Stream => sim_host::board::Action::Stream,
+                BoardCommand::Stream { seconds } => sim_host::board::Action::Stream { seconds },
             };
-            let text = sim_host::board::run(&elf, replay.as_deref(), &action, &out)?;
+            let target = match (&replay, probe) {
+                (Some(log), _) => sim_host::board::Target::Replay(log),
+                (None, true) => sim_host::board::Target::Probe { chip: &chip, flash },
+                (None, false) => sim_host::board::Target::Qemu,
+            };
+            let elf = elf.unwrap_or_else(|| {
+                PathBuf::from(if probe {
+                    "target/thumbv7em-none-eabihf/release/tactile-f407"
+                } else {
+                    "target/thumbv7em-none-eabihf/release/tactile-qemu"
+                })
+            });
+            let text = sim_host::board::run(&elf, target, &action, &out)?;
             out!("{text}");
         }
         Command::Tables { out, seed } => {
