@@ -41,7 +41,25 @@ pub enum Action {
     Hold { force_g: f32, seconds: f32 },
     /// Only decode what the board streams (a live board's for `seconds`).
     Stream { seconds: f32 },
+    /// The calibration protocol over each taxel in turn, then the table fitted to their
+    /// records (`tactile calibrate`'s code) loaded into the board, and a short pseudo-random
+    /// run on it.
+    Calibrate { taxels: Vec<TaxelId> },
 }
+
+/// The calibration runs' spacing, ms: the protocol and half a second.
+fn calibration_period_ms() -> u32 {
+    (Run::Calibration {
+        taxel: TaxelId::default(),
+    }
+    .protocol()
+    .duration_s()
+        * 1000.0) as u32
+        + 500
+}
+
+/// The pseudo-random run on the loaded table, s.
+const CHECK_RUN_S: f32 = 2.0;
 
 /// Where the board is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,7 +118,32 @@ fn until(action: &Action) -> tactile_decode::Until {
             settle: s(seconds),
             timeout: s(seconds),
         },
+        Action::Calibrate { .. } => tactile_decode::Until {
+            settle: Duration::from_millis(u64::from(calibration_period_ms())),
+            timeout: Duration::from_millis(u64::from(calibration_period_ms()) + 15_000),
+        },
     }
+}
+
+/// The commands that load `table` (a calibration table) and run a short pseudo-random
+/// protocol on it, numbered from `seq`.
+fn load_and_check(table: &[u8], seq: u16) -> Vec<(u32, Vec<u8>)> {
+    use tactile_core::command::TableKind;
+    let mut commands: Vec<Command> = Command::table_chunks(TableKind::Calibration, table).collect();
+    commands.push(Command::LoadTable {
+        table: TableKind::Calibration,
+        len: u16::try_from(table.len()).unwrap_or(u16::MAX),
+    });
+    commands.push(Command::Run(Run::PseudoRandom {
+        seed: 1989,
+        duration_s: CHECK_RUN_S,
+    }));
+    let bytes = commands
+        .into_iter()
+        .zip(seq..)
+        .flat_map(|(c, n)| c.frame(n).as_bytes().to_vec())
+        .collect();
+    vec![(0, bytes)]
 }
 
 /// The commands for `action`, each with the board tick it is sent at.
@@ -134,12 +177,105 @@ pub fn script(action: &Action) -> Vec<(u32, Vec<u8>)> {
             ((seconds.max(0.0) * 1000.0) as u32, frame(2, Command::Stop)),
         ],
         Action::Stream { .. } => Vec::new(),
+        Action::Calibrate { ref taxels } => taxels
+            .iter()
+            .zip(1u16..)
+            .map(|(&taxel, seq)| {
+                (
+                    u32::from(seq - 1) * calibration_period_ms(),
+                    frame(seq, Command::Run(Run::Calibration { taxel })),
+                )
+            })
+            .collect(),
     }
 }
 
 /// Runs `action` on the board `target` whose firmware is `elf` (the ELF's defmt table decodes
 /// its stream), writes the records into `out`, and returns the report.
 pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<String, Error> {
+    let Action::Calibrate { taxels } = action else {
+        return session(elf, target, &script(action), until(action), out, |_| None);
+    };
+    if taxels.is_empty() {
+        return Err(Error::Usage(
+            "calibrate: name at least one taxel, ROW,COL".into(),
+        ));
+    }
+    if let Target::Replay(_) = target {
+        return Err(Error::Usage(
+            "calibrate needs a board, not a replayed log".into(),
+        ));
+    }
+    // The runs, each record named after its taxel, fitted into the table.
+    let mut records: Vec<(TaxelId, PathBuf)> = Vec::new();
+    let mut report = session(elf, target, &script(action), until(action), out, |i| {
+        let t = taxels.get(i)?;
+        let name = format!("calibration-{}-{}", t.row(), t.col());
+        records.push((*t, out.join(format!("{name}.csv"))));
+        Some(name)
+    })?;
+    if records.len() < taxels.len() {
+        return Err(Error::Failed(format!(
+            "{report}the board ran {} of {} calibrations",
+            records.len(),
+            taxels.len()
+        )));
+    }
+    let table_path = out.join("calibration-table.bin");
+    report.push_str(&crate::cli::calibrate(
+        &records,
+        &table_path,
+        crate::calibrate::FINGER_SEED,
+        crate::fingers::FingerKind::Memo,
+    )?);
+    report.push('\n');
+    // The table into the board (checked there as at start-up), and a run on it. QEMU's board
+    // is a new one (its runs are sessions of their own); a probe's is the same board.
+    let table = std::fs::read(&table_path).map_err(|source| Error::Io {
+        path: table_path.clone(),
+        source,
+    })?;
+    let seq = u16::try_from(taxels.len() + 1).unwrap_or(u16::MAX);
+    let target = match target {
+        Target::Probe { chip, .. } => Target::Probe { chip, flash: false },
+        other => other,
+    };
+    let check = tactile_decode::Until {
+        settle: std::time::Duration::from_secs_f32(CHECK_RUN_S + 0.5),
+        timeout: std::time::Duration::from_secs_f32(CHECK_RUN_S + 15.0),
+    };
+    match session(
+        elf,
+        target,
+        &load_and_check(&table, seq),
+        check,
+        out,
+        |_| None,
+    ) {
+        Ok(r) => report.push_str(&r),
+        Err(Error::Failed(r)) if r.contains("Unsupported") => {
+            report.push_str(&format!(
+                "{r}\nthis board has no room for a calibration table loaded by command: build \
+                 it in (cp {} boards/calibration/table.bin, then cargo flash-f407)\n",
+                table_path.display()
+            ));
+        }
+        Err(e) => return Err(e),
+    }
+    Ok(report)
+}
+
+/// One session on the board: `script` sent (QEMU: read at start; a probe: each entry when
+/// due), the stream decoded live until it ends (`until` for a live board), its runs written
+/// into `out` (`name` may rename the i-th run's records), and the report.
+fn session(
+    elf: &Path,
+    target: Target,
+    script: &[(u32, Vec<u8>)],
+    until: tactile_decode::Until,
+    out: &Path,
+    mut name: impl FnMut(usize) -> Option<String>,
+) -> Result<String, Error> {
     let read = |p: &Path| {
         std::fs::read(p).map_err(|source| Error::Io {
             path: p.to_path_buf(),
@@ -152,26 +288,30 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
         path: out.to_path_buf(),
         source,
     })?;
-    let (mut transport, source): (Box<dyn Transport>, PathBuf) = match (target, action) {
-        (Target::Replay(log), _) => (Box::new(Replay::new(read(log)?, 4096)), log.to_path_buf()),
-        (Target::Qemu, Action::Stream { .. }) => {
+    let (mut transport, source): (Box<dyn Transport>, PathBuf) = match target {
+        Target::Replay(log) => (Box::new(Replay::new(read(log)?, 4096)), log.to_path_buf()),
+        Target::Qemu if script.is_empty() => {
             return Err(Error::Usage(
                 "stream needs a board that runs on its own: --replay LOG or --probe".into(),
             ))
         }
-        (Target::Qemu, action) => {
+        Target::Qemu => {
             let path = out.join("commands.bin");
-            let qemu = Qemu::start(elf, &script(action), &path)
+            let qemu = Qemu::start(elf, script, &path)
                 .map_err(|e| Error::Failed(format!("cannot start qemu-system-arm: {e}")))?;
             (Box::new(qemu), PathBuf::from("qemu"))
         }
-        (Target::Probe { chip, flash }, _) => {
+        Target::Probe { chip, flash } => {
             let probe =
                 crate::probe::Probe::attach(chip, flash.then_some(elf)).map_err(Error::Failed)?;
             (Box::new(probe), PathBuf::from(format!("probe ({chip})")))
         }
     };
-    let live = tactile_decode::Live::new(&table, &source);
+    // A board attached while it runs: what belongs to a run begun before is left out.
+    let live = match target {
+        Target::Probe { flash: false, .. } => tactile_decode::Live::joined(&table, &source),
+        _ => tactile_decode::Live::new(&table, &source),
+    };
     let bar = indicatif::ProgressBar::new(1000);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{prefix:>14} [{bar:30}] {percent:>3}%  {msg}")
@@ -186,9 +326,7 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
     };
     let session = match target {
         // A live board: each command sent when its time comes, until the action is over.
-        Target::Probe { .. } => {
-            tactile_decode::drive(&mut *transport, &script(action), live, until(action), show)
-        }
+        Target::Probe { .. } => tactile_decode::drive(&mut *transport, script, live, until, show),
         // QEMU reads its commands at start and ends the stream; a log ends.
         _ => tactile_decode::follow(&mut *transport, live, show),
     }
@@ -208,7 +346,18 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
         "source".to_string(),
         format!("tactile board, {}", source.display()),
     )];
-    for run in &session.runs {
+    for (i, run) in session.runs.iter().enumerate() {
+        let renamed;
+        let run = match name(i) {
+            Some(n) => {
+                renamed = tactile_decode::Run {
+                    name: n,
+                    ..run.clone()
+                };
+                &renamed
+            }
+            None => run,
+        };
         let files = tactile_decode::write_run(out, run, &meta).map_err(|e| Error::Io {
             path: out.to_path_buf(),
             source: e,
@@ -227,8 +376,14 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
         session.control_seq.missing(),
         session.flagged_drops
     ));
+    if session.before_first_run > 0 {
+        report.push_str(&format!(
+            "{} frames of a run begun before the probe attached left out\n",
+            session.before_first_run
+        ));
+    }
     // A command of ours the board refused fails the session (a replayed log's are its own).
-    let ours = !matches!(action, Action::Stream { .. }) && !matches!(target, Target::Replay(_));
+    let ours = !matches!(target, Target::Replay(_));
     if ours && session.replies.iter().any(|r| r.1.is_some()) {
         return Err(Error::Failed(report.trim_end().to_string()));
     }

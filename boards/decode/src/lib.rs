@@ -80,6 +80,9 @@ pub struct Session {
     /// The board's answers to commands, in order: (sequence number, `None` when taken, or
     /// the reason it was refused as the board wrote it).
     pub replies: Vec<(u16, Option<String>)>,
+    /// Frames of a run whose start the stream did not carry (a board joined mid-run,
+    /// [`Live::joined`]), left out.
+    pub before_first_run: usize,
 }
 
 impl Session {
@@ -238,6 +241,15 @@ impl<'t> Live<'t> {
         }
     }
 
+    /// A decoder of a stream joined while the board runs (a probe attached to a running
+    /// board): what belongs to a run begun before is counted and left out
+    /// ([`Session::before_first_run`]); the stream should start at a frame boundary.
+    pub fn joined(table: &'t Table, source: &Path) -> Live<'t> {
+        let mut live = Live::new(table, source);
+        live.builder.joined = true;
+        live
+    }
+
     /// Takes the next bytes of the stream and decodes the frames they complete.
     pub fn push(&mut self, bytes: &[u8]) -> Result<(), Error> {
         self.pending.extend_from_slice(bytes);
@@ -358,6 +370,8 @@ fn shorten(text: &str) -> String {
 #[derive(Default)]
 struct Builder {
     current: Option<Run>,
+    /// Frames before the first `RunStart` are counted and left out, not an error.
+    joined: bool,
 }
 
 impl Builder {
@@ -367,6 +381,14 @@ impl Builder {
             session.notes.push(text.to_string());
             return Ok(());
         };
+        let run_part = matches!(
+            first.name.as_str(),
+            "RunEnd" | "ControlFrame" | "TaxelFrame"
+        );
+        if self.joined && run_part && self.current.is_none() {
+            session.before_first_run += 1;
+            return Ok(());
+        }
         match first.name.as_str() {
             "RunStart" => {
                 self.finish(session);

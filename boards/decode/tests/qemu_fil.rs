@@ -1089,6 +1089,14 @@ fn the_board_session_decodes_live_as_in_batch() {
             .collect::<Vec<u8>>()
     );
     assert!(t0.elapsed() < std::time::Duration::from_secs(10));
+    // A probe attached mid-run: the stream from the middle, at the first frame boundary;
+    // what belongs to the run begun before is left out, not an error.
+    let middle = sim_host::probe::after_first_delimiter(&tee.bytes[tee.bytes.len() / 2..])
+        .expect("a delimiter");
+    let mut joined = Live::joined(&table, log);
+    joined.push(middle).expect("a joined stream decodes");
+    let joined = joined.finish();
+    assert!(joined.runs.is_empty() && joined.before_first_run > 500);
     // A board that answers nothing: an error once the timeout is up, not a hang.
     let mut mute = Board {
         bytes: Vec::new(),
@@ -1197,5 +1205,47 @@ fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
     assert!(
         worst > 0.3,
         "the table changed the estimates by {worst} g at most"
+    );
+}
+
+/// `tactile board calibrate` (issue 14) on the QEMU firmware: the calibration protocol run by
+/// command over a taxel, its record fitted into a table on the host (`tactile calibrate`'s
+/// code), the table loaded into a board by command and a run made on it; every command taken.
+#[test]
+#[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
+fn the_board_calibrates_a_taxel_by_command() {
+    use sim_host::board::{run, Action, Target};
+    use tactile_core::tactile::TaxelId;
+    let Some((elf, dir)) = firmware_for("board calibration test") else {
+        return;
+    };
+    let out = dir.join("board-calibrate");
+    let taxel = TaxelId::new(4, 2).expect("a taxel");
+    let action = Action::Calibrate {
+        taxels: vec![taxel],
+    };
+    let report = run(&elf, Target::Qemu, &action, &out).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("{report}");
+    assert!(report.contains("command 1: taken"), "{report}");
+    assert!(!report.contains("refused"), "{report}");
+    // The record of the run, named after its taxel, and the table fitted to it: one taxel.
+    let record = tactile_record::read_record(&out.join("calibration-4-2.csv")).expect("record");
+    assert!(record.force_g.len() >= 121_000, "{}", record.force_g.len());
+    let table = std::fs::read(out.join("calibration-table.bin")).expect("table");
+    let view = tactile_core::calibration::TableView::check(&table).expect("a valid table");
+    assert_eq!(view.len(), 1);
+    // Loaded by the chunks and the load command (numbered on from the run's), then the run.
+    let chunks = table.len().div_ceil(tactile_core::command::CHUNK_BYTES);
+    let last = 1 + chunks + 2;
+    assert!(
+        report.contains(&format!("command {last}: taken")),
+        "{report}"
+    );
+    // Two seconds at 1 kHz (the record starts at the second tick: the first senses nothing).
+    let check = tactile_record::read_record(&out.join("pseudo-random.csv")).expect("run");
+    assert!(
+        (1990..=2000).contains(&check.force_g.len()),
+        "{}",
+        check.force_g.len()
     );
 }

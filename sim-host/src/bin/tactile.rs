@@ -64,6 +64,12 @@ enum BoardCommand {
         #[arg(long, default_value_t = 5.0)]
         seconds: f32,
     },
+    /// Calibrate taxels: the calibration protocol over each (ROW,COL) in turn, the table fitted
+    /// to their records (OUT/calibration-table.bin), loaded into the board and run.
+    Calibrate {
+        #[arg(required = true, value_parser = taxel_arg)]
+        taxels: Vec<TaxelId>,
+    },
     /// Decode what the board streams (a saved log with --replay LOG, a board with --probe).
     Stream {
         /// How long to follow a live board, s.
@@ -636,6 +642,7 @@ fn run(command: Command) -> Result<(), Error> {
                     sim_host::board::Action::Hold { force_g, seconds }
                 }
                 BoardCommand::Stream { seconds } => sim_host::board::Action::Stream { seconds },
+                BoardCommand::Calibrate { taxels } => sim_host::board::Action::Calibrate { taxels },
             };
             let target = match (&replay, probe) {
                 (Some(log), _) => sim_host::board::Target::Replay(log),
