@@ -73,19 +73,31 @@ pub enum Target<'a> {
     Probe { chip: &'a str, flash: bool },
 }
 
-/// The run `protocol` names, with its arguments.
-fn run_of(protocol: BoardProtocol, duration_s: f32, load_g: f32, taxel: TaxelId) -> Run {
-    match protocol {
-        BoardProtocol::ForceSteps => Run::ForceSteps,
-        BoardProtocol::PseudoRandom => Run::PseudoRandom {
-            seed: 1989,
+impl Action {
+    /// The run a `Run` action asks for.
+    fn run(&self) -> Option<Run> {
+        let Action::Run {
+            protocol,
             duration_s,
-        },
-        BoardProtocol::Sines => Run::Sines,
-        BoardProtocol::StepLoads => Run::StepLoads,
-        BoardProtocol::LowForce => Run::LowForce,
-        BoardProtocol::Calibration => Run::Calibration { taxel },
-        BoardProtocol::Excitation => Run::Excitation { preload_g: load_g },
+            load_g,
+            taxel,
+            ..
+        } = *self
+        else {
+            return None;
+        };
+        Some(match protocol {
+            BoardProtocol::ForceSteps => Run::ForceSteps,
+            BoardProtocol::PseudoRandom => Run::PseudoRandom {
+                seed: 1989,
+                duration_s,
+            },
+            BoardProtocol::Sines => Run::Sines,
+            BoardProtocol::StepLoads => Run::StepLoads,
+            BoardProtocol::LowForce => Run::LowForce,
+            BoardProtocol::Calibration => Run::Calibration { taxel },
+            BoardProtocol::Excitation => Run::Excitation { preload_g: load_g },
+        })
     }
 }
 
@@ -95,16 +107,8 @@ fn until(action: &Action) -> tactile_decode::Until {
     use std::time::Duration;
     let s = |x: f32| Duration::from_secs_f32(x.max(0.0));
     match *action {
-        Action::Run {
-            protocol,
-            duration_s,
-            load_g,
-            taxel,
-            ..
-        } => {
-            let length = run_of(protocol, duration_s, load_g, taxel)
-                .protocol()
-                .duration_s();
+        Action::Run { .. } => {
+            let length = action.run().map_or(0.0, |r| r.protocol().duration_s());
             tactile_decode::Until {
                 settle: s(length + 0.5),
                 timeout: s(length + 15.0),
@@ -150,14 +154,10 @@ fn load_and_check(table: &[u8], seq: u16) -> Vec<(u32, Vec<u8>)> {
 pub fn script(action: &Action) -> Vec<(u32, Vec<u8>)> {
     let frame = |seq: u16, c: Command| c.frame(seq).as_bytes().to_vec();
     match *action {
-        Action::Run {
-            protocol,
-            duration_s,
-            load_g,
-            taxel,
-            designed,
-        } => {
-            let run = run_of(protocol, duration_s, load_g, taxel);
+        Action::Run { designed, .. } => {
+            let Some(run) = action.run() else {
+                return Vec::new();
+            };
             let law = if designed {
                 ControllerChoice::Designed
             } else {
