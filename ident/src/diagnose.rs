@@ -758,7 +758,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             // The force shifted later by d, through every force-driven term of the model (a
             // play or a stiffening of the delayed force is the term delayed: each is causal
             // and time-invariant): a delay of whole or half samples up to 0.1 s.
-            let base_now: Vec<usize> = state
+            let driven_now: Vec<usize> = state
                 .cols
                 .iter()
                 .copied()
@@ -771,10 +771,10 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .cols
                 .iter()
                 .copied()
-                .filter(|c| !base_now.contains(c))
+                .filter(|c| !driven_now.contains(c))
                 .collect();
-            // The baseline's branches in use, delayed (views of their columns, no copies).
-            let active_base: Vec<usize> = base_now
+            // The force-driven terms in use, delayed (views of their columns, no copies).
+            let active_driven: Vec<usize> = driven_now
                 .iter()
                 .copied()
                 .filter(|c| {
@@ -786,7 +786,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 })
                 .collect();
             let delayed_cols = |work: &mut Work, d: f64| -> Vec<usize> {
-                active_base
+                active_driven
                     .iter()
                     .map(|&c| {
                         let j = work.pool.add_delayed(c, d / dt);
@@ -826,7 +826,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     effect: Effect::TimeDelay,
                     variant: format!("force delayed {:.1} ms", 1e3 * d),
                     add: cols,
-                    remove: base_now.clone(),
+                    remove: driven_now.clone(),
                     delay_s: d,
                 });
             }

@@ -316,10 +316,7 @@ impl Pool {
             }
         }
         for &(a, b) in &missing {
-            if let (Some(Column::Cosine(ka)), Some(Column::Cosine(kb))) =
-                (self.cols.get(a), self.cols.get(b))
-            {
-                let (d, s) = (ka.abs_diff(*kb), ka + kb);
+            if let Some((d, s)) = self.cosine_orders(a, b) {
                 self.cosine_sums(d);
                 self.cosine_sums(s);
             }
@@ -357,11 +354,7 @@ impl Pool {
 
     /// Columns `key`'s products on each fold.
     fn products(&self, key: (usize, usize), built: &HashMap<usize, Vec<f32>>) -> Vec<f64> {
-        if let (Some(Column::Cosine(ka)), Some(Column::Cosine(kb))) =
-            (self.cols.get(key.0), self.cols.get(key.1))
-        {
-            // cos a·cos b = ½·(cos(a − b) + cos(a + b)): two of the folds' cosine sums.
-            let (d, s) = (ka.abs_diff(*kb), ka + kb);
+        if let Some((d, s)) = self.cosine_orders(key.0, key.1) {
             let sums = |k| {
                 self.cosine_sums
                     .get(&k)
@@ -396,10 +389,7 @@ impl Pool {
                 self.folds
                     .ranges
                     .iter()
-                    .map(|&(s, e)| {
-                        span(&mut x, src, s, e);
-                        dot_cosine(&x, &w[s..e], self.n, k, s)
-                    })
+                    .map(|&(s, e)| dot_cosine(view(&mut x, src, s, e), &w[s..e], self.n, k, s))
                     .collect()
             }
             // A half-cosine against a column built for this score: rotated along its folds.
@@ -425,6 +415,17 @@ impl Pool {
                     .map(|&(s, e)| dot3(&ca[s..e], &cb[s..e], &w[s..e]))
                     .collect()
             }
+        }
+    }
+
+    /// For two half-cosine columns, the orders whose folds' sums make their products:
+    /// cos a·cos b = ½·(cos(a − b) + cos(a + b)).
+    fn cosine_orders(&self, a: usize, b: usize) -> Option<(usize, usize)> {
+        match (self.cols.get(a), self.cols.get(b)) {
+            (Some(Column::Cosine(ka)), Some(Column::Cosine(kb))) => {
+                Some((ka.abs_diff(*kb), ka + kb))
+            }
+            _ => None,
         }
     }
 

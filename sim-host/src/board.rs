@@ -47,15 +47,13 @@ pub enum Action {
     Calibrate { taxels: Vec<TaxelId> },
 }
 
-/// The calibration runs' spacing, ms: the protocol and half a second.
-fn calibration_period_ms() -> u32 {
-    (Run::Calibration {
+/// The calibration protocol's length, s.
+fn calibration_s() -> f32 {
+    Run::Calibration {
         taxel: TaxelId::default(),
     }
     .protocol()
     .duration_s()
-        * 1000.0) as u32
-        + 500
 }
 
 /// The pseudo-random run on the loaded table, s.
@@ -104,16 +102,9 @@ impl Action {
 /// When a live board's session for `action` is over (see [`tactile_decode::Until`]): what it
 /// asked for has had its time, and a little more.
 fn until(action: &Action) -> tactile_decode::Until {
-    use std::time::Duration;
-    let s = |x: f32| Duration::from_secs_f32(x.max(0.0));
+    let s = |x: f32| std::time::Duration::from_secs_f32(x.max(0.0));
     match *action {
-        Action::Run { .. } => {
-            let length = action.run().map_or(0.0, |r| r.protocol().duration_s());
-            tactile_decode::Until {
-                settle: s(length + 0.5),
-                timeout: s(length + 15.0),
-            }
-        }
+        Action::Run { .. } => after_run(action.run().map_or(0.0, |r| r.protocol().duration_s())),
         Action::Hold { .. } => tactile_decode::Until {
             settle: s(0.5),
             timeout: s(10.0),
@@ -122,10 +113,18 @@ fn until(action: &Action) -> tactile_decode::Until {
             settle: s(seconds),
             timeout: s(seconds),
         },
-        Action::Calibrate { .. } => tactile_decode::Until {
-            settle: Duration::from_millis(u64::from(calibration_period_ms())),
-            timeout: Duration::from_millis(u64::from(calibration_period_ms()) + 15_000),
-        },
+        // After the last calibration's command.
+        Action::Calibrate { .. } => after_run(calibration_s()),
+    }
+}
+
+/// A session whose last command starts a run of `length_s`: over half a second after the
+/// run's end; a board still silent 15 s after it has stopped answering.
+fn after_run(length_s: f32) -> tactile_decode::Until {
+    let s = |x: f32| std::time::Duration::from_secs_f32(x.max(0.0));
+    tactile_decode::Until {
+        settle: s(length_s + 0.5),
+        timeout: s(length_s + 15.0),
     }
 }
 
@@ -181,8 +180,10 @@ pub fn script(action: &Action) -> Vec<(u32, Vec<u8>)> {
             .iter()
             .zip(1u16..)
             .map(|(&taxel, seq)| {
+                // One after the other, half a second apart.
+                let period_ms = (calibration_s() * 1000.0) as u32 + 500;
                 (
-                    u32::from(seq - 1) * calibration_period_ms(),
+                    u32::from(seq - 1) * period_ms,
                     frame(seq, Command::Run(Run::Calibration { taxel })),
                 )
             })
@@ -206,10 +207,18 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
             "calibrate needs a board, not a replayed log".into(),
         ));
     }
-    // The runs, each record named after its taxel, fitted into the table.
+    // The calibration runs (a board just flashed also ran its build's protocol first), each
+    // record named after its taxel, in the order asked; then fitted into the table.
+    let calibration = Run::Calibration {
+        taxel: TaxelId::default(),
+    }
+    .name();
     let mut records: Vec<(TaxelId, PathBuf)> = Vec::new();
-    let mut report = session(elf, target, &script(action), until(action), out, |i| {
-        let t = taxels.get(i)?;
+    let mut report = session(elf, target, &script(action), until(action), out, |run| {
+        if run.name != calibration {
+            return None;
+        }
+        let t = taxels.get(records.len())?;
         let name = format!("calibration-{}-{}", t.row(), t.col());
         records.push((*t, out.join(format!("{name}.csv"))));
         Some(name)
@@ -240,10 +249,7 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
         Target::Probe { chip, .. } => Target::Probe { chip, flash: false },
         other => other,
     };
-    let check = tactile_decode::Until {
-        settle: std::time::Duration::from_secs_f32(CHECK_RUN_S + 0.5),
-        timeout: std::time::Duration::from_secs_f32(CHECK_RUN_S + 15.0),
-    };
+    let check = after_run(CHECK_RUN_S);
     match session(
         elf,
         target,
@@ -267,14 +273,14 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
 
 /// One session on the board: `script` sent (QEMU: read at start; a probe: each entry when
 /// due), the stream decoded live until it ends (`until` for a live board), its runs written
-/// into `out` (`name` may rename the i-th run's records), and the report.
+/// into `out` (`name` may give a run's records another name), and the report.
 fn session(
     elf: &Path,
     target: Target,
     script: &[(u32, Vec<u8>)],
     until: tactile_decode::Until,
     out: &Path,
-    mut name: impl FnMut(usize) -> Option<String>,
+    mut name: impl FnMut(&tactile_decode::Run) -> Option<String>,
 ) -> Result<String, Error> {
     let read = |p: &Path| {
         std::fs::read(p).map_err(|source| Error::Io {
@@ -346,9 +352,9 @@ fn session(
         "source".to_string(),
         format!("tactile board, {}", source.display()),
     )];
-    for (i, run) in session.runs.iter().enumerate() {
+    for run in &session.runs {
         let renamed;
-        let run = match name(i) {
+        let run = match name(run) {
             Some(n) => {
                 renamed = tactile_decode::Run {
                     name: n,

@@ -8,6 +8,8 @@
 //! arrived and returns. `CAL` is the room for a calibration table (0: none can be loaded, as on
 //! a board whose RAM is spoken for).
 
+use core::sync::atomic::{AtomicU8, Ordering};
+
 use tactile_core::calibration::TableView as CalibrationTable;
 use tactile_core::command::{
     Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind, CHUNK_BYTES,
@@ -260,6 +262,45 @@ impl<const CAL: usize> CommandPort<CAL> {
     }
 }
 
+/// The array estimator a command chose, from the task that takes commands to the scan task
+/// that rebuilds its estimators with it (lock-free: an index into [`EstimatorKind::ALL`]).
+pub struct EstimatorChoice(AtomicU8);
+
+impl EstimatorChoice {
+    /// No choice: each taxel's own estimator.
+    const NONE: u8 = u8::MAX;
+
+    pub const fn new() -> Self {
+        EstimatorChoice(AtomicU8::new(Self::NONE))
+    }
+
+    pub fn set(&self, kind: Option<EstimatorKind>) {
+        let i = kind.and_then(|k| EstimatorKind::ALL.iter().position(|a| *a == k));
+        let v = i.and_then(|i| u8::try_from(i).ok()).unwrap_or(Self::NONE);
+        self.0.store(v, Ordering::Release);
+    }
+
+    pub fn get(&self) -> Option<EstimatorKind> {
+        EstimatorKind::ALL
+            .get(usize::from(self.0.load(Ordering::Acquire)))
+            .copied()
+    }
+
+    /// `config` with the chosen array estimator, if one was chosen.
+    pub fn applied(&self, config: FirmwareConfig) -> FirmwareConfig {
+        FirmwareConfig {
+            array_estimator: self.get().or(config.array_estimator),
+            ..config
+        }
+    }
+}
+
+impl Default for EstimatorChoice {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// Why a table does not fit: no room for one at all on this board, or not this long.
 fn room(table: TableKind) -> Refusal {
     match table {
@@ -300,6 +341,21 @@ mod tests {
 
     /// A frame split across ticks is read whole; a false start is given up after the quiet
     /// ticks and the frame behind it read.
+    #[test]
+    fn an_estimator_choice_crosses_as_it_was_made() {
+        let choice = EstimatorChoice::new();
+        assert_eq!(choice.get(), None);
+        let base = crate::BOARD;
+        assert_eq!(choice.applied(base).array_estimator, base.array_estimator);
+        for kind in EstimatorKind::ALL {
+            choice.set(Some(kind));
+            assert_eq!(choice.get(), Some(kind));
+            assert_eq!(choice.applied(base).array_estimator, Some(kind));
+        }
+        choice.set(None);
+        assert_eq!(choice.get(), None);
+    }
+
     #[test]
     fn frames_across_ticks_and_false_starts() {
         let mut port = CommandPort::<0>::new(120.0, 600.0);

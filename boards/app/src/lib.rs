@@ -35,7 +35,7 @@ pub use sim::{
     CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION,
 };
 
-pub use commands::{hold, Action, CommandPort, Reply, HOLD_S, QUIET_TICKS};
+pub use commands::{hold, Action, CommandPort, EstimatorChoice, Reply, HOLD_S, QUIET_TICKS};
 
 pub use safety::{CheckIns, ResetCause, SafeStop};
 pub use table::{BOARD, CALIBRATION_TABLE, CONTROLLER_TABLE};

@@ -172,22 +172,12 @@ pub fn renew_commanded(
 ) {
     let mut config = board_rig(run);
     config.firmware = port.firmware(config.firmware, &tactile_firmware::CONTROLLER_TABLE);
-    let estimator = config
-        .firmware
-        .array_estimator
-        .and_then(|k| {
-            tactile_core::estimator::EstimatorKind::ALL
-                .iter()
-                .position(|e| *e == k)
-        })
-        .map_or(u8::MAX, |i| i as u8);
-    SCAN_ESTIMATOR.store(estimator, Ordering::Release);
+    SCAN_ESTIMATOR.set(config.firmware.array_estimator);
     renew_with(&config, run.protocol, hw, controller);
 }
 
-/// The array estimator a commanded run chose (`u8::MAX`: each taxel's own), for the scan
-/// task's reset.
-static SCAN_ESTIMATOR: AtomicU8 = AtomicU8::new(u8::MAX);
+/// The array estimator a commanded run chose, for the scan task's reset.
+static SCAN_ESTIMATOR: tactile_firmware::EstimatorChoice = tactile_firmware::EstimatorChoice::new();
 
 fn renew_with(
     config: &RigConfig,
@@ -213,11 +203,7 @@ pub fn reset_scanner(
     calibration: [TaxelCalibration; TAXELS],
     loaded: Option<&[u8]>,
 ) -> bool {
-    let mut config = rig(0).firmware;
-    let chosen = SCAN_ESTIMATOR.load(Ordering::Acquire);
-    if let Some(kind) = tactile_core::estimator::EstimatorKind::ALL.get(usize::from(chosen)) {
-        config.array_estimator = Some(*kind);
-    }
+    let config = SCAN_ESTIMATOR.applied(rig(0).firmware);
     let table = loaded.unwrap_or(config.calibration);
     scanner
         .reset_with_table(&config, calibration, table)

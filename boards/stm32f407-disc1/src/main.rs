@@ -90,12 +90,10 @@ const CONTROL_FRAME_EVERY: u32 = 5;
 #[cfg(target_os = "none")]
 const DOWN_BYTES_PER_TICK: usize = 64;
 
-/// The array estimator a command chose (an index into `EstimatorKind::ALL`), for the scan task
-/// to rebuild its estimators with at the next run; `NO_CHOICE` until one is chosen.
+/// The array estimator a command chose, for the scan task to rebuild its estimators with at
+/// the next run.
 #[cfg(target_os = "none")]
-static SCAN_ESTIMATOR: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(NO_CHOICE);
-#[cfg(target_os = "none")]
-const NO_CHOICE: u8 = u8::MAX;
+static SCAN_ESTIMATOR: tactile_firmware::EstimatorChoice = tactile_firmware::EstimatorChoice::new();
 
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART1, USART2])]
@@ -109,7 +107,6 @@ mod app {
     use rtt_target::{ChannelMode, DownChannel};
     use stm32f4xx_hal::watchdog::IndependentWatchdog;
     use stm32f4xx_hal::{pac, prelude::*, timer};
-    use tactile_core::estimator::EstimatorKind;
     use tactile_core::tactile::TaxelCalibration;
     use tactile_core::telemetry::TaxelFrame;
     use tactile_firmware::{
@@ -118,9 +115,7 @@ mod app {
     };
 
     use crate::board::{self, ControlBoard, ScanBoard, WithAdc, CORE_HZ, PROTOCOL, PROTOCOL_NAME};
-    use crate::{
-        CONTROL_FRAME_EVERY, DOWN_BYTES_PER_TICK, NO_CHOICE, SCAN_ESTIMATOR, WATCHDOG_TIMEOUT_MS,
-    };
+    use crate::{CONTROL_FRAME_EVERY, DOWN_BYTES_PER_TICK, SCAN_ESTIMATOR, WATCHDOG_TIMEOUT_MS};
 
     /// No room for a calibration table loaded by command (static RAM is spoken for: the
     /// command answers `Unsupported`); a controller table can be.
@@ -335,12 +330,8 @@ mod app {
         }
         if stop || start.is_some() {
             if core::mem::replace(local.active, false) && !*local.ended {
-                local.control_out.send(Message::End(RunEnd {
-                    end_tick: tick,
-                    control_frames_dropped: local.control_out.dropped(),
-                    taxel_frames_dropped: 0,
-                    overruns: local.controller.overruns(),
-                }));
+                let end = run_end(tick, local.control_out, local.controller);
+                local.control_out.send(Message::End(end));
             }
             // Between runs (and if the next cannot start) the actuator rests at its safe output.
             local.control_board.zero_actuator();
@@ -353,15 +344,7 @@ mod app {
                         *local.controller = c;
                         *local.active = true;
                         *local.ended = false;
-                        let chosen = config
-                            .array_estimator
-                            .and_then(|k| EstimatorKind::ALL.iter().position(|a| *a == k));
-                        SCAN_ESTIMATOR.store(
-                            chosen
-                                .and_then(|i| u8::try_from(i).ok())
-                                .unwrap_or(NO_CHOICE),
-                            Ordering::Relaxed,
-                        );
+                        SCAN_ESTIMATOR.set(config.array_estimator);
                         RESCAN.store(true, Ordering::Release);
                         local.control_out.send(Message::Start(RunStart {
                             name,
@@ -383,12 +366,8 @@ mod app {
                 local.control_out.send(Message::Tick(frame, ()));
             }
             if local.controller.finished() && !core::mem::replace(local.ended, true) {
-                local.control_out.send(Message::End(RunEnd {
-                    end_tick: tick,
-                    control_frames_dropped: local.control_out.dropped(),
-                    taxel_frames_dropped: 0,
-                    overruns: local.controller.overruns(),
-                }));
+                let end = run_end(tick, local.control_out, local.controller);
+                local.control_out.send(Message::End(end));
             }
         }
         let _ = telemetry::spawn();
@@ -400,6 +379,20 @@ mod app {
         CHECK_INS.control();
     }
 
+    /// The counts a run's end reports.
+    fn run_end(
+        end_tick: u32,
+        out: &Outbox<'static, ControlMsg>,
+        controller: &Controller,
+    ) -> RunEnd {
+        RunEnd {
+            end_tick,
+            control_frames_dropped: out.dropped(),
+            taxel_frames_dropped: 0,
+            overruns: controller.overruns(),
+        }
+    }
+
     #[task(binds = TIM2, priority = 2, shared = [adc],
            local = [scanner, scan_board, scan_timer, taxel_out])]
     fn scan(mut cx: scan::Context) {
@@ -408,11 +401,7 @@ mod app {
         let tick = TICK.load(Ordering::Relaxed);
         if RESCAN.swap(false, Ordering::AcqRel) {
             // A commanded run: the estimators afresh, with the array estimator chosen.
-            let mut config = tactile_firmware::BOARD;
-            let chosen = usize::from(SCAN_ESTIMATOR.load(Ordering::Relaxed));
-            if let Some(kind) = EstimatorKind::ALL.get(chosen) {
-                config.array_estimator = Some(*kind);
-            }
+            let config = SCAN_ESTIMATOR.applied(tactile_firmware::BOARD);
             if local.scanner.rebuild(&config).is_err() {
                 defmt::error!("the scanner's configuration was refused");
             }
