@@ -47,14 +47,21 @@ impl Record {
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
     }
-    /// Sample period from the time column (median step).
+    /// Sample period from the time column: the median step, or, where the time stamps jitter
+    /// (a step more than 1 % off the median), the step of the even grid that fits them.
     pub fn sample_period_s(&self) -> Option<f64> {
-        let mut d: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).collect();
-        if d.is_empty() {
-            return None;
-        }
-        d.sort_by(f64::total_cmp);
-        Some(d[d.len() / 2])
+        let median = median_step(&self.t_s)?;
+        Some(if max_step_deviation(&self.t_s, median) > EVEN_STEP_SHARE {
+            grid(&self.t_s).map_or(median, |g| g.1)
+        } else {
+            median
+        })
+    }
+
+    /// How far the time stamps stray from an even grid, as a share of the step: 0 for a record
+    /// sampled evenly, at most [`JITTER_SHARE`] for one that was read.
+    pub fn jitter(&self) -> f64 {
+        grid_deviation(&self.t_s).unwrap_or(0.0)
     }
 }
 
@@ -83,8 +90,9 @@ fn in_column(column: &Option<String>) -> String {
 
 const REQUIRED: [&str; 3] = ["t_s", "force_g", "strain_pct"];
 
-/// Reads a record strictly. Time must increase and be evenly sampled (within 1 % of the median
-/// step); every cell of the required and extra columns must be a finite number.
+/// Reads a record strictly. Time must increase and be evenly sampled: every step within 1 % of
+/// the median, or time stamps that jitter by at most [`JITTER_SHARE`] of a step about an even
+/// grid (read as evenly sampled at the mean step; no gap, no change of rate); every cell of the required and extra columns must be a finite number.
 pub fn read_record(path: &Path) -> Result<Record, RecordError> {
     let err = |line: Option<usize>, column: Option<String>, message: String| RecordError {
         file: path.to_path_buf(),
@@ -132,8 +140,9 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
                         Some(n),
                         Some(want.to_string()),
                         format!(
-                            "header lacks the required column (found: {})",
-                            names.join(",")
+                            "header lacks the required column (found: {}){}",
+                            shown(&names.join(",")),
+                            separator_hint(&names)
                         ),
                     )
                 })?;
@@ -208,23 +217,8 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
             format!("{} data rows; a record needs at least two", rec.len()),
         ));
     }
-    let step = rec.sample_period_s().unwrap_or(0.0);
-    // The first step that strays from the median by more than 1 % is uneven sampling.
-    if let Some(k) = rec
-        .t_s
-        .windows(2)
-        .position(|w| ((w[1] - w[0]) - step).abs() > 0.01 * step)
-    {
-        let (a, b) = (rec.t_s[k], rec.t_s[k + 1]);
-        return Err(err(
-            row_lines.get(k + 1).copied(),
-            Some("t_s".into()),
-            format!(
-                "uneven sampling: step {:.6} s from {a} s, the record's median step is {step:.6} s",
-                b - a
-            ),
-        ));
-    }
+    check_sampling(&rec.t_s)
+        .map_err(|(k, message)| err(row_lines.get(k).copied(), Some("t_s".into()), message))?;
     // The columns grew by doubling: a 600 s record at 1 kHz would hold 3.6 MB unused in each.
     for v in [&mut rec.t_s, &mut rec.force_g, &mut rec.strain_pct]
         .into_iter()
@@ -233,6 +227,124 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         v.shrink_to_fit();
     }
     Ok(rec)
+}
+
+/// Steps within this share of the median are even sampling.
+const EVEN_STEP_SHARE: f64 = 0.01;
+/// Most a time stamp may stray from the even grid that fits the stamps, as a share of the step: the jitter of a logger's clock, not a change of rate. The samples are
+/// then read as evenly spaced (a sampler's clock ticks evenly; its time stamps are what jitter).
+pub const JITTER_SHARE: f64 = 0.25;
+
+fn median_step(t: &[f64]) -> Option<f64> {
+    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    if d.is_empty() {
+        return None;
+    }
+    d.sort_by(f64::total_cmp);
+    Some(d[d.len() / 2])
+}
+
+/// Largest step's departure from `step`, as a share of it.
+fn max_step_deviation(t: &[f64], step: f64) -> f64 {
+    t.windows(2)
+        .map(|w| ((w[1] - w[0]) - step).abs() / step)
+        .fold(0.0, f64::max)
+}
+
+/// The even grid that fits the time stamps best (least squares): its first time and its step.
+fn grid(t: &[f64]) -> Option<(f64, f64)> {
+    let n = t.len();
+    if n < 2 {
+        return None;
+    }
+    let nf = n as f64;
+    let k_mean = (nf - 1.0) / 2.0;
+    let t_mean = t.iter().sum::<f64>() / nf;
+    let (mut skt, mut skk) = (0.0, 0.0);
+    for (k, v) in t.iter().enumerate() {
+        let dk = k as f64 - k_mean;
+        skt += dk * (v - t_mean);
+        skk += dk * dk;
+    }
+    let step = skt / skk;
+    Some((t_mean - step * k_mean, step))
+}
+
+/// Each time stamp's departure from the grid, as a share of its step.
+fn grid_offsets(t: &[f64]) -> impl Iterator<Item = f64> + '_ {
+    let (t0, step) = grid(t).unwrap_or((0.0, 1.0));
+    t.iter()
+        .enumerate()
+        .map(move |(k, v)| (v - (t0 + k as f64 * step)) / step)
+}
+
+/// Largest departure of a time stamp from the even grid, as a share of the step.
+fn grid_deviation(t: &[f64]) -> Option<f64> {
+    grid(t)?;
+    Some(grid_offsets(t).map(f64::abs).fold(0.0, f64::max))
+}
+
+/// Even sampling, or time stamps that jitter about an even grid; else the index of the first
+/// row that breaks it and why (a gap, a burst, a clock that changes rate).
+fn check_sampling(t: &[f64]) -> Result<(), (usize, String)> {
+    let Some(step) = median_step(t) else {
+        return Ok(());
+    };
+    if max_step_deviation(t, step) <= EVEN_STEP_SHARE {
+        return Ok(());
+    }
+    for (k, w) in t.windows(2).enumerate() {
+        let d = w[1] - w[0];
+        if d > 1.5 * step {
+            let missing = ((d / step).round() - 1.0).max(1.0);
+            let samples = if missing > 1.0 { "samples" } else { "sample" };
+            return Err((
+                k + 1,
+                format!(
+                    "a gap of {d:.6} s after {} s (about {missing:.0} {samples} missing at the \
+                     median step {step:.6} s): split the record there or fill the gap",
+                    w[0]
+                ),
+            ));
+        }
+        if d < 0.5 * step {
+            return Err((
+                k + 1,
+                format!(
+                    "uneven sampling: step {d:.6} s from {} s, the record's median step is \
+                     {step:.6} s",
+                    w[0]
+                ),
+            ));
+        }
+    }
+    // Every step is within half of the median: jitter, unless the stamps wander off the grid.
+    let step = grid(t).map_or(step, |g| g.1);
+    match grid_offsets(t).position(|d| d.abs() > JITTER_SHARE) {
+        None => Ok(()),
+        Some(k) => Err((
+            k,
+            format!(
+                "uneven sampling: time {} s is {:.0} % of a step off the even grid of {step:.6} s \
+                 that fits the time stamps (they may jitter by {:.0} %): a rate that changes \
+                 within the record, or jitter too large to read as even sampling",
+                t[k],
+                100.0 * grid_offsets(t).nth(k).unwrap_or(0.0).abs(),
+                100.0 * JITTER_SHARE
+            ),
+        )),
+    }
+}
+
+/// A header read as one cell that holds the names between another separator.
+fn separator_hint(names: &[String]) -> &'static str {
+    match names {
+        [one] if one.contains('\t') => "; the format is comma-separated, this header tab-separated",
+        [one] if one.contains(';') => {
+            "; the format is comma-separated, this header semicolon-separated"
+        }
+        _ => "",
+    }
 }
 
 /// A cell as an error message shows it: at most 40 characters, control characters escaped
@@ -293,6 +405,73 @@ mod tests {
         assert!(e.message.contains("empty"));
         let e =
             parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.02,1,1\n0.05,1,1\n").unwrap_err();
-        assert!(e.message.contains("uneven sampling"), "{e}");
+        assert!(
+            e.message.contains("a gap of 0.030000 s after 0.02 s"),
+            "{e}"
+        );
+        assert!(e.message.contains("about 2 samples missing"), "{e}");
+        assert_eq!(e.line, Some(5));
+        let e = parse("t_s\tforce_g\tstrain_pct\n0.0\t1\t1\n").unwrap_err();
+        assert!(e.message.ends_with("this header tab-separated"), "{e}");
+    }
+
+    /// The refusal of `text` (a record read instead is not printed: it can be long).
+    fn refused(text: &str) -> RecordError {
+        match parse(text) {
+            Ok(r) => panic!("a record of {} rows was read", r.len()),
+            Err(e) => e,
+        }
+    }
+
+    /// `n` time stamps at `step` s, each moved by `off(k)` steps.
+    fn stamps(n: usize, step: f64, off: impl Fn(usize) -> f64) -> String {
+        let mut text = String::from("t_s,force_g,strain_pct\n");
+        for k in 0..n {
+            let t = (k as f64 + off(k)) * step;
+            text.push_str(&format!("{t:.7},{k},{}\n", k % 7));
+        }
+        text
+    }
+
+    #[test]
+    fn time_stamps_that_jitter_about_an_even_grid_are_read_as_even() {
+        // A logger's stamps ±20 % of a 10 ms step (a pattern, so the test is exact).
+        let jitter = [0.0, 0.2, -0.15, 0.1, -0.2, 0.05, 0.18, -0.1];
+        let r = parse(&stamps(801, 0.01, |k| jitter[k % 8])).unwrap();
+        // The pattern's mean is 0.01 step: the grid 0.1 ms late, its step 10 ms (but for the
+        // pattern's slight trend over the record's last partial cycle); the farthest stamp is
+        // the -0.2 one, 0.21 of a step off that grid.
+        assert!((r.sample_period_s().unwrap() - 0.01).abs() < 1e-8);
+        assert!((r.jitter() - 0.21).abs() < 1e-3, "{}", r.jitter());
+        // Even stamps: no jitter, and the median step as before.
+        let even = parse(&stamps(100, 0.01, |_| 0.0)).unwrap();
+        assert!(even.jitter() < 1e-6);
+        assert!((even.sample_period_s().unwrap() - 0.01).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_clock_that_changes_rate_is_refused_where_it_leaves_the_grid() {
+        // 3 % slower from sample 400 on: every step within half of the median, but the stamps
+        // leave the best even grid by about 1.5 steps.
+        let text = stamps(801, 0.01, |k| {
+            if k > 400 {
+                0.03 * (k - 400) as f64
+            } else {
+                0.0
+            }
+        });
+        let e = refused(&text);
+        assert!(
+            e.message.contains("a rate that changes within the record"),
+            "{e}"
+        );
+        assert_eq!(e.column.as_deref(), Some("t_s"));
+        // Stamps that bunch (a step under half the median) are uneven sampling.
+        let e = refused(&stamps(50, 0.01, |k| if k == 20 { -0.6 } else { 0.0 }));
+        assert!(
+            e.message.contains("uneven sampling: step 0.004000 s"),
+            "{e}"
+        );
+        assert_eq!(e.line, Some(22));
     }
 }

@@ -567,6 +567,14 @@ fn run(command: Command) -> Result<(), Error> {
             taxel,
         } => {
             let record = sim_host::record::read_record(&file)?;
+            if record.jitter() > 0.01 {
+                outln!(
+                    "time stamps jitter by up to {:.0} % of the step: read as evenly sampled every \
+                     {:.6} s",
+                    100.0 * record.jitter(),
+                    record.sample_period_s().unwrap_or(0.0)
+                );
+            }
             let series = sim_host::diagnose::into_series(record).map_err(|reason| {
                 Error::Failed(format!("{}: cannot be diagnosed: {reason}", file.display()))
             })?;
