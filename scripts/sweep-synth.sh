@@ -12,7 +12,7 @@ right=0 total=0
 run() {
     local expected=$1; shift
     local verdict
-    verdict=$($T synth "$@" | grep -E '^verdict' | sed 's/verdict: //; s/found //; s/:.*//')
+    verdict=$($T synth "$@" | grep -E '^verdict' | sed 's/verdict: //; s/found //; s/[;:].*//')
     total=$((total + 1))
     if [ "$verdict" = "$expected" ]; then right=$((right + 1)); echo "OK $expected  [$*]"; else echo "XX $expected <- $verdict  [$*]"; fi
 }
@@ -20,7 +20,7 @@ run() {
 run_pair() {
     local a=$1 b=$2; shift 2
     local verdict
-    verdict=$($T synth "$@" | grep -E '^verdict' | sed 's/verdict: //; s/found //; s/:.*//')
+    verdict=$($T synth "$@" | grep -E '^verdict' | sed 's/verdict: //; s/found //; s/[;:].*//')
     total=$((total + 1))
     if [ "$verdict" = "$a, then $b" ] || [ "$verdict" = "$b, then $a" ]; then
         right=$((right + 1)); echo "OK $a + $b  [$*]"
