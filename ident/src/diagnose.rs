@@ -275,6 +275,10 @@ pub struct Model {
     pub orientation: f64,
     /// Force scale of the load basis, g.
     pub force_scale_g: f64,
+    /// Load the load basis is measured from, g: 0, or the record's lowest (or, for a force
+    /// recorded negative, highest) load where the force never comes near zero (a load cell
+    /// not tared, a finger held preloaded): see [`stiffening_load`].
+    pub force_origin_g: f64,
     /// The accepted delay of the strain behind the force, s (0: none).
     pub delay_s: f64,
     pub terms: Vec<(Term, f64)>,
@@ -333,6 +337,30 @@ struct Work<'a> {
     /// interference (the smoothed force has no spectrum left above its passband to compare).
     measured_force_kept: Vec<f64>,
     force_scale: f64,
+    force_origin: f64,
+}
+
+/// The load basis of a stiffening term of `power` at force `f_g`: the load above `origin_g`
+/// times its size over `scale_g` to that power, (σ − σ₀)·|(σ − σ₀)/σs|^p. Where the force never
+/// comes near zero the origin is the record's lowest load: measured from zero, the basis over a
+/// narrow band far from it is nearly linear in the load, and an untared load cell's record
+/// (300 g on an 80 g swing) had its stiffening named hysteresis.
+pub fn stiffening_load(f_g: f64, origin_g: f64, scale_g: f64, power: f64) -> f64 {
+    let d = f_g - origin_g;
+    d * (d.abs() / scale_g).powf(power)
+}
+
+/// The origin of the load basis for a force whose 1st and 99th percentiles are `q01`, `q99`:
+/// zero where the force comes within a tenth of its range of zero, else the end nearest zero.
+fn force_origin(q01: f64, q99: f64) -> f64 {
+    let range = q99 - q01;
+    if q01 > 0.1 * range {
+        q01
+    } else if q99 < -0.1 * range {
+        q99
+    } else {
+        0.0
+    }
 }
 
 impl Work<'_> {
@@ -472,7 +500,14 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let y: Vec<f64> = series.strain_pct.iter().map(|e| orientation * e).collect();
     let abs_f: Vec<f64> = fk.iter().map(|v| v.abs()).collect();
     let force_scale = stats::quantile(&abs_f, 0.99).max(f64::MIN_POSITIVE);
-    let force_range = (stats::quantile(&fk, 0.99) - stats::quantile(&fk, 0.01)).max(1e-12);
+    let (q01, q99) = (stats::quantile(&fk, 0.01), stats::quantile(&fk, 0.99));
+    let force_range = (q99 - q01).max(1e-12);
+    let force_origin = force_origin(q01, q99);
+    let force_scale = if force_origin == 0.0 {
+        force_scale
+    } else {
+        force_range
+    };
     let tau_lo = settings.tau_min_s.max(2.0 * dt);
     let tau_hi = settings.base_tau_max_s.min(t_s / 2.0).max(tau_lo);
     let taus = grid(tau_lo, tau_hi, settings.per_decade);
@@ -491,6 +526,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             force_kept: Vec::new(),
             measured_force_kept: Vec::new(),
             force_scale,
+            force_origin,
         };
         let cols = baseline_columns(&mut work, &taus);
         let fit = work.pool.score(&cols);
@@ -539,6 +575,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         force_kept: fk,
         measured_force_kept,
         force_scale,
+        force_origin,
     };
     let base = baseline_columns(&mut work, &taus);
     let scored = work.pool.score(&base);
@@ -713,7 +750,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 let g: Vec<f64> = s
                     .force_g
                     .iter()
-                    .map(|f| f * (f.abs() / force_scale).powf(power))
+                    .map(|f| stiffening_load(*f, force_origin, force_scale, power))
                     .collect();
                 cols.push(work.add(Term::Stiffening { power, tau_s: None }, &g, Sign::Free));
                 for &(tau, _) in branches.iter().take(2) {
@@ -1407,6 +1444,7 @@ fn finish(
         model: Model {
             orientation,
             force_scale_g: work.force_scale,
+            force_origin_g: work.force_origin,
             delay_s: state.delay_s,
             terms: model_terms,
             baseline_terms,
@@ -1530,7 +1568,7 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                         .map(|(t, b)| match t {
                             Term::Elastic | Term::Relaxation(_) | Term::SlowRelaxation(_) => b * f,
                             Term::Stiffening { power, .. } => {
-                                b * f * (f.abs() / work.force_scale).powf(*power)
+                                b * stiffening_load(f, work.force_origin, work.force_scale, *power)
                             }
                             _ => 0.0,
                         })

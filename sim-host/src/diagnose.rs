@@ -13,6 +13,7 @@ use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
 // Every play the diagnosis fits reaches the chip.
 const _: () = assert!(tactile_ident::diagnose::PLAY_SHARES.len() <= PLAYS);
+use tactile_ident::diagnose::stiffening_load;
 use tactile_ident::solve::Sign;
 use tactile_ident::{Refusal, Series};
 
@@ -235,7 +236,7 @@ fn reduce_branches(j0: f64, branches: &[(f64, f64)], count: usize) -> (f64, Vec<
 /// the springs' laws over the loads the record saw.
 pub fn element_of(
     terms: &[(Term, f64)],
-    force_scale_g: f64,
+    (force_scale_g, force_origin_g): (f64, f64),
     loads: (f64, f64),
     form: ChipForm,
 ) -> Option<NonlinearMk> {
@@ -282,7 +283,8 @@ pub fn element_of(
         return None;
     }
     let (tau_k, j_k) = kelvin.unwrap_or((1.0, j0 * 1e-3));
-    // Stiffening: compliance at load σ = J + Σ c·|σ/σs|^p, per spring; fitted as a + b√σ + cσ.
+    // Stiffening: compliance at load σ = J + Σ c·b(σ)/σ, b the load basis
+    // ([`tactile_ident::diagnose::stiffening_load`]), per spring; fitted as a + b√σ + cσ.
     let law = |base_j: f64, through: &dyn Fn(Option<f64>) -> bool| -> SpringLaw {
         let extra: Vec<(f64, f64)> = terms
             .iter()
@@ -295,12 +297,16 @@ pub fn element_of(
             return SpringLaw::constant(1.0 / base_j);
         }
         let (lo, hi) = (loads.0.max(1.0), loads.1.max(loads.0 + 1.0));
+        // Below the loads the record saw the compliance is held too where the basis is measured
+        // from the record's lowest load (from zero it goes to the spring's own at no load).
+        let lowest = if force_origin_g == 0.0 { 0.0 } else { lo };
         let compliance = |s: f64| -> f64 {
-            let j: f64 = base_j
-                + extra
-                    .iter()
-                    .map(|(p, c)| c * (s / force_scale_g).powf(*p))
-                    .sum::<f64>();
+            let s = s.max(lowest);
+            let extra_strain: f64 = extra
+                .iter()
+                .map(|(p, c)| c * stiffening_load(s, force_origin_g, force_scale_g, *p))
+                .sum();
+            let j = base_j + if s > 0.0 { extra_strain / s } else { 0.0 };
             j.max(base_j * 0.05)
         };
         // The law as the chip's curve: the strain at each knot; above the loads the record saw
@@ -385,7 +391,12 @@ fn taxel_model_of(
             _ => Some((*term, *b)),
         })
         .collect();
-    let element = element_of(&scaled, d.model.force_scale_g, loads, form)?;
+    let element = element_of(
+        &scaled,
+        (d.model.force_scale_g, d.model.force_origin_g),
+        loads,
+        form,
+    )?;
     let stiffening = terms
         .iter()
         .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0);
