@@ -498,13 +498,13 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let orientation = if slope < 0.0 { -1.0 } else { 1.0 };
     let secant = 1.0 / slope.abs().max(f64::MIN_POSITIVE);
     let y: Vec<f64> = series.strain_pct.iter().map(|e| orientation * e).collect();
-    let abs_f: Vec<f64> = fk.iter().map(|v| v.abs()).collect();
-    let force_scale = stats::quantile(&abs_f, 0.99).max(f64::MIN_POSITIVE);
     let (q01, q99) = (stats::quantile(&fk, 0.01), stats::quantile(&fk, 0.99));
     let force_range = (q99 - q01).max(1e-12);
     let force_origin = force_origin(q01, q99);
+    // The load basis's scale: the load's size from zero, or its swing from the origin.
     let force_scale = if force_origin == 0.0 {
-        force_scale
+        let abs_f: Vec<f64> = fk.iter().map(|v| v.abs()).collect();
+        stats::quantile(&abs_f, 0.99).max(f64::MIN_POSITIVE)
     } else {
         force_range
     };

@@ -92,7 +92,8 @@ const REQUIRED: [&str; 3] = ["t_s", "force_g", "strain_pct"];
 
 /// Reads a record strictly. Time must increase and be evenly sampled: every step within 1 % of
 /// the median, or time stamps that jitter by at most [`JITTER_SHARE`] of a step about an even
-/// grid (read as evenly sampled at the mean step; no gap, no change of rate); every cell of the required and extra columns must be a finite number.
+/// grid (read as evenly sampled at that grid's step; no gap, no change of rate); every cell of
+/// the required and extra columns must be a finite number.
 pub fn read_record(path: &Path) -> Result<Record, RecordError> {
     let err = |line: Option<usize>, column: Option<String>, message: String| RecordError {
         file: path.to_path_buf(),
@@ -231,8 +232,9 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
 
 /// Steps within this share of the median are even sampling.
 const EVEN_STEP_SHARE: f64 = 0.01;
-/// Most a time stamp may stray from the even grid that fits the stamps, as a share of the step: the jitter of a logger's clock, not a change of rate. The samples are
-/// then read as evenly spaced (a sampler's clock ticks evenly; its time stamps are what jitter).
+/// Most a time stamp may stray from the even grid that fits the stamps, as a share of the step:
+/// the jitter of a logger's clock, not a change of rate. The samples are then read as evenly
+/// spaced (a sampler's clock ticks evenly; its time stamps are what jitter).
 pub const JITTER_SHARE: f64 = 0.25;
 
 fn median_step(t: &[f64]) -> Option<f64> {
@@ -270,18 +272,16 @@ fn grid(t: &[f64]) -> Option<(f64, f64)> {
     Some((t_mean - step * k_mean, step))
 }
 
-/// Each time stamp's departure from the grid, as a share of its step.
-fn grid_offsets(t: &[f64]) -> impl Iterator<Item = f64> + '_ {
-    let (t0, step) = grid(t).unwrap_or((0.0, 1.0));
+/// Each time stamp's departure from the grid `(t0, step)`, as a share of its step.
+fn grid_offsets(t: &[f64], (t0, step): (f64, f64)) -> impl Iterator<Item = f64> + '_ {
     t.iter()
         .enumerate()
         .map(move |(k, v)| (v - (t0 + k as f64 * step)) / step)
 }
 
-/// Largest departure of a time stamp from the even grid, as a share of the step.
+/// Largest departure of a time stamp from the even grid that fits them, as a share of the step.
 fn grid_deviation(t: &[f64]) -> Option<f64> {
-    grid(t)?;
-    Some(grid_offsets(t).map(f64::abs).fold(0.0, f64::max))
+    Some(grid_offsets(t, grid(t)?).map(f64::abs).fold(0.0, f64::max))
 }
 
 /// Even sampling, or time stamps that jitter about an even grid; else the index of the first
@@ -319,17 +319,23 @@ fn check_sampling(t: &[f64]) -> Result<(), (usize, String)> {
         }
     }
     // Every step is within half of the median: jitter, unless the stamps wander off the grid.
-    let step = grid(t).map_or(step, |g| g.1);
-    match grid_offsets(t).position(|d| d.abs() > JITTER_SHARE) {
+    let Some(fitted) = grid(t) else {
+        return Ok(());
+    };
+    match grid_offsets(t, fitted)
+        .enumerate()
+        .find(|(_, d)| d.abs() > JITTER_SHARE)
+    {
         None => Ok(()),
-        Some(k) => Err((
+        Some((k, off)) => Err((
             k,
             format!(
-                "uneven sampling: time {} s is {:.0} % of a step off the even grid of {step:.6} s \
+                "uneven sampling: time {} s is {:.0} % of a step off the even grid of {:.6} s \
                  that fits the time stamps (they may jitter by {:.0} %): a rate that changes \
                  within the record, or jitter too large to read as even sampling",
                 t[k],
-                100.0 * grid_offsets(t).nth(k).unwrap_or(0.0).abs(),
+                100.0 * off.abs(),
+                fitted.1,
                 100.0 * JITTER_SHARE
             ),
         )),

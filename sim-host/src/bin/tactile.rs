@@ -567,11 +567,12 @@ fn run(command: Command) -> Result<(), Error> {
             taxel,
         } => {
             let record = sim_host::record::read_record(&file)?;
-            if record.jitter() > 0.01 {
+            let jitter = record.jitter();
+            if jitter > 0.01 {
                 outln!(
                     "time stamps jitter by up to {:.0} % of the step: read as evenly sampled every \
                      {:.6} s",
-                    100.0 * record.jitter(),
+                    100.0 * jitter,
                     record.sample_period_s().unwrap_or(0.0)
                 );
             }
