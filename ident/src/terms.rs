@@ -85,17 +85,21 @@ pub fn cosine_from(n: usize, k: usize, start: usize) -> impl Iterator<Item = f64
     })
 }
 
-/// Legendre polynomial of degree `k` (1 or 2) over the record, from −1 to 1: a gain that
-/// changes linearly or bends.
+/// Legendre polynomial of degree `k` over the record, from −1 to 1 (Bonnet's recursion): a gain
+/// that changes linearly, bends, or settles.
 pub fn legendre(n: usize, k: usize) -> Vec<f64> {
     (0..n)
         .map(|i| {
             let x = 2.0 * (i as f64 + 0.5) / n as f64 - 1.0;
-            if k == 1 {
-                x
-            } else {
-                1.5 * x * x - 0.5
+            let (mut below, mut p) = (1.0, x);
+            if k == 0 {
+                return below;
             }
+            for m in 1..k {
+                let m = m as f64;
+                (below, p) = (p, ((2.0 * m + 1.0) * x * p - m * below) / (m + 1.0));
+            }
+            p
         })
         .collect()
 }
@@ -380,6 +384,25 @@ pub fn lines_in(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn legendre_polynomials_are_the_closed_forms() {
+        // P1 = x, P2 = (3x² − 1)/2, P3 = (5x³ − 3x)/2 at the sample centres of 4 samples:
+        // x = −0.75, −0.25, 0.25, 0.75.
+        let x = [-0.75, -0.25, 0.25, 0.75];
+        for (k, f) in [
+            (1, (|x: f64| x) as fn(f64) -> f64),
+            (2, |x: f64| (3.0 * x * x - 1.0) / 2.0),
+            (3, |x: f64| (5.0 * x * x * x - 3.0 * x) / 2.0),
+        ] {
+            let p = legendre(4, k);
+            for (p, x) in p.iter().zip(x) {
+                assert!((p - f(x)).abs() < 1e-15, "P{k}({x}) = {p}");
+            }
+        }
+        // P3(0.75) by hand: (5·0.421875 − 2.25)/2 = −0.0703125.
+        assert_eq!(legendre(4, 3)[3], -0.0703125);
+    }
 
     #[test]
     fn cosine_by_rotation_is_the_cosine() {
