@@ -55,7 +55,7 @@ impl Default for Settings {
     }
 }
 
-/// Radii of the hysteresis candidate's plays, as shares of the record's force range (a loop that
+/// Radii of the hysteresis candidate's plays and Duhem operators, as shares of the record's force range (a loop that
 /// spans the whole range, as a magnetic skin's does, needs the widest).
 pub const PLAY_SHARES: [f64; 5] = [0.01, 0.03, 0.1, 0.3, 0.6];
 
@@ -113,6 +113,10 @@ pub enum Term {
         radius_g: f64,
         settled: bool,
     },
+    /// A Duhem operator of this radius, g (`terms::duhem`).
+    Duhem {
+        radius_g: f64,
+    },
     /// cos(πkt/T).
     Drift(usize),
     /// sin (false) or cos (true) at this frequency.
@@ -131,6 +135,7 @@ impl Term {
                 | Term::SlowRelaxation(_)
                 | Term::Stiffening { .. }
                 | Term::Play { .. }
+                | Term::Duhem { .. }
         )
     }
 }
@@ -286,6 +291,10 @@ pub struct Model {
     /// The same models fitted on each fold's complement (for held-out scores of their forms on
     /// the chip).
     pub fold_terms: Vec<Vec<(Term, f64)>>,
+    /// The model in the chip's forms (`terms` but for a loop of Duhem operators, which the
+    /// chip undoes as plays), and fitted on each fold's complement.
+    pub chip_terms: Vec<(Term, f64)>,
+    pub chip_fold_terms: Vec<Vec<(Term, f64)>>,
     pub baseline_fold_terms: Vec<Vec<(Term, f64)>>,
     /// Predicted strain of the baseline and of the accepted model, % (in the record's sign).
     pub baseline_prediction: Vec<f64>,
@@ -674,6 +683,18 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             })
             .collect()
     });
+    // The force's travel counts in a Duhem operator, and the noise left in the smoothed force
+    // travels: seen through a play of twice its deviation, a hold is still.
+    let deadband = 2.0 * force_noise.max(0.0).sqrt();
+    let duhems: Vec<usize> = PLAY_SHARES
+        .iter()
+        .map(|share| {
+            let r = share * force_range;
+            let f = Arc::clone(&force);
+            let recipe = move || terms::duhem(&terms::play(&f, deadband, false), r);
+            work.add_computed(Term::Duhem { radius_g: r }, recipe, Sign::Free)
+        })
+        .collect();
     let drift_max = ((t_s / 15.0) as usize).clamp(1, 16);
     let drift: Vec<usize> = (1..=drift_max)
         .map(|k| {
@@ -717,6 +738,14 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     cols.clone(),
                 ));
             }
+            tries.push(Try::adding(
+                Effect::Hysteresis,
+                format!(
+                    "Duhem operators of {} % of the force range",
+                    PLAY_SHARES.map(|p| format!("{:.0}", 100.0 * p)).join(", ")
+                ),
+                duhems.clone(),
+            ));
         }
         if !taken(Effect::BaselineDrift, &state) {
             for k in [1usize, 2, 4, 8, 16] {
@@ -898,6 +927,8 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             } else {
                 &[(2, "a line and a parabola")]
             };
+            // Only the best degree's columns are kept (a 1 kHz record's are 4.8 MB each).
+            let mut kept: Option<(f64, &str, Vec<usize>)> = None;
             for &(top, shape) in shapes {
                 let mut cols = gain_columns(&mut work, &force_part, top);
                 for _ in 0..2 {
@@ -909,6 +940,17 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                     }
                     cols = gain_columns(&mut work, &part, top);
                 }
+                let all: Vec<usize> = state.cols.iter().chain(&cols).copied().collect();
+                let mse = work.pool.score(&all).cv_mse;
+                if kept.as_ref().is_none_or(|k| mse < k.0) {
+                    if let Some((_, _, old)) = kept.replace((mse, shape, cols)) {
+                        old.into_iter().for_each(|c| work.pool.drop_column(c));
+                    }
+                } else {
+                    cols.into_iter().for_each(|c| work.pool.drop_column(c));
+                }
+            }
+            if let Some((_, shape, cols)) = kept {
                 temporary.extend(&cols);
                 tries.push(Try::adding(
                     Effect::SensitivityDrift,
@@ -1194,8 +1236,50 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         state.scored = work.pool.score(&state.cols);
     }
 
+    // The chip undoes a loop with plays (`tactile_core::hysteresis`): where the loop was named
+    // by Duhem operators, the chip's model has the plays in their place (delayed as the rest),
+    // the set that holds out better.
+    let chip = state
+        .cols
+        .iter()
+        .any(|c| matches!(work.terms[*c], Term::Duhem { .. }))
+        .then(|| {
+            let kept: Vec<usize> = state
+                .cols
+                .iter()
+                .copied()
+                .filter(|c| !matches!(work.terms[*c], Term::Duhem { .. }))
+                .collect();
+            plays
+                .iter()
+                .filter(|p| !p.is_empty())
+                .map(|p| {
+                    let cols: Vec<usize> = if state.delay_s > 0.0 {
+                        p.iter()
+                            .map(|&c| {
+                                let j = work.pool.add_delayed(c, state.delay_s / dt);
+                                work.terms.push(work.terms[c]);
+                                j
+                            })
+                            .collect()
+                    } else {
+                        p.clone()
+                    };
+                    let all: Vec<usize> = kept.iter().chain(&cols).copied().collect();
+                    work.pool.score(&all)
+                })
+                .min_by(|a, b| a.cv_mse.total_cmp(&b.cv_mse))
+        })
+        .flatten();
+
     // The candidates' columns are no longer needed: free them before the report's copies.
-    for c in slow.iter().chain(plays.iter().flatten()).chain(&drift) {
+    for c in slow
+        .iter()
+        .chain(plays.iter().flatten())
+        .chain(&drift)
+        .chain(&duhems)
+        .filter(|c| chip.as_ref().is_none_or(|sc| !sc.columns.contains(c)))
+    {
         if !state.cols.contains(c) {
             work.pool.drop_column(*c);
         }
@@ -1203,6 +1287,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     finish(
         &work,
         state,
+        chip,
         first_order,
         before_scored,
         before_tests,
@@ -1258,6 +1343,7 @@ fn errors(sc: &Scored, secant: f64) -> Errors {
 fn finish(
     work: &Work,
     state: State,
+    chip: Option<Scored>,
     first_order: Option<Scored>,
     before: Scored,
     before_tests: ResidualTests,
@@ -1472,6 +1558,8 @@ fn finish(
             terms: model_terms,
             baseline_terms,
             fold_terms: folds_of(&state.scored),
+            chip_terms: terms_of(chip.as_ref().unwrap_or(&state.scored)),
+            chip_fold_terms: folds_of(chip.as_ref().unwrap_or(&state.scored)),
             baseline_fold_terms: folds_of(&before),
             baseline_prediction: predict(&before),
             prediction: predict(&state.scored),
@@ -1615,7 +1703,11 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
                 let gap: f64 = terms
                     .iter()
                     .filter_map(|(t, b)| match t {
+                        // Either saturates at its radius from the force, branches 2r apart:
+                        // a play trails the force (σ − r rising), a Duhem operator leads its
+                        // zero (+r rising, at the end of a long enough travel).
                         Term::Play { radius_g, .. } => Some(2.0 * radius_g * b),
+                        Term::Duhem { radius_g } => Some(-2.0 * radius_g * b),
                         _ => None,
                     })
                     .sum();

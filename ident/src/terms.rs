@@ -66,6 +66,26 @@ pub fn play(x: &[f64], r: f64, settled: bool) -> Vec<f64> {
         .collect()
 }
 
+/// A Duhem operator of radius `r` (Bouc-Wen with n = 1): dz/dσ = 1 − sign(dσ)·z/r, solved
+/// exactly over each sample's monotone step, so z approaches ±r exponentially in the force's
+/// travel (scale r) and every movement, back and forth, draws z toward the side it moves to:
+/// unlike a play, it forgets under small reversals. Starts at 0.
+pub fn duhem(x: &[f64], r: f64) -> Vec<f64> {
+    let mut z = 0.0;
+    let mut prev = x.first().copied().unwrap_or(0.0);
+    x.iter()
+        .map(|&v| {
+            let d = v - prev;
+            prev = v;
+            if d != 0.0 {
+                let side = r * d.signum();
+                z = side + (z - side) * (-d.abs() / r).exp();
+            }
+            z
+        })
+        .collect()
+}
+
 /// cos(π·k·t/T) over the record (k = 1 is one half-period: a smooth step from one end to the
 /// other).
 pub fn cosine(n: usize, k: usize) -> Vec<f64> {
@@ -535,6 +555,20 @@ mod tests {
             let exact = 1.0 - tau / dt * (1.0 - (-dt / tau).exp()) * (-(t - dt) / tau).exp();
             assert!((v - exact).abs() < 1e-9, "{i}: {v} vs {exact}");
         }
+    }
+
+    #[test]
+    fn duhem_operator_hand_sequence() {
+        // r = 1: a rise of 1 from 0 reaches 1 − e⁻¹; a fall of 1 from there, −1 + (2 − e⁻¹)·e⁻¹.
+        let z = duhem(&[0.0, 1.0, 0.0, 0.0], 1.0);
+        let e = (-1.0f64).exp();
+        assert_eq!(z[0], 0.0);
+        assert!((z[1] - (1.0 - e)).abs() < 1e-15);
+        assert!((z[2] - (-1.0 + (2.0 - e) * e)).abs() < 1e-15);
+        assert_eq!(z[3], z[2]);
+        // Small steps sum to the exact solution of one large one: 1 − e⁻²  after a travel of 2.
+        let x: Vec<f64> = (0..=2000).map(|i| i as f64 * 1e-3).collect();
+        assert!((duhem(&x, 1.0)[2000] - (1.0 - (-2.0f64).exp())).abs() < 1e-12);
     }
 
     #[test]

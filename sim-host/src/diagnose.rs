@@ -518,13 +518,13 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     let (form, after) = if inverted || d.effects.is_empty() {
         (base_form, before)
     } else {
-        best_form(&d.model.fold_terms, &d, series, &ChipForm::ALL)
+        best_form(&d.model.chip_fold_terms, &d, series, &ChipForm::ALL)
     };
     let (before_o, before_s) = before.unwrap_or((f64::NAN, f64::NAN));
     let (after_o, after_s) = after.unwrap_or((before_o, before_s));
     let exported = !d.effects.is_empty() && after_o < before_o;
     let (chosen, form) = if exported {
-        (&d.model.terms, form)
+        (&d.model.chip_terms, form)
     } else {
         (&d.model.baseline_terms, base_form)
     };
