@@ -261,8 +261,9 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
         Ok(r) => report.push_str(&r),
         Err(Error::Failed(r)) if r.contains("Unsupported") => {
             report.push_str(&format!(
-                "{r}\nthis board has no room for a calibration table loaded by command: build \
-                 it in (cp {} boards/calibration/table.bin, then cargo flash-f407)\n",
+                "{r}\nthis board has no room for this calibration table loaded by command \
+                 (eight taxels fit): build it in (cp {} boards/calibration/table.bin, then \
+                 cargo flash-f407)\n",
                 table_path.display()
             ));
         }

@@ -142,6 +142,16 @@ impl Scanner {
         self.reset(config, self.calibration)
     }
 
+    /// [`Self::rebuild`] with the calibration table `table` (one loaded by command) in place of
+    /// the configuration's.
+    pub fn rebuild_with_table(
+        &mut self,
+        config: &FirmwareConfig,
+        table: &[u8],
+    ) -> Result<(), ConfigError> {
+        self.reset_with_table(config, self.calibration, table)
+    }
+
     /// [`Self::reset`] with the calibration table `table` in place of the configuration's (one
     /// loaded at run time; checked here as the built-in one is).
     pub fn reset_with_table(

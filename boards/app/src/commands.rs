@@ -76,6 +76,10 @@ pub struct CommandPort<const CAL: usize> {
     quiet: u16,
 }
 
+/// Room for a calibration table loaded by command on a board that has it: eight taxels (about
+/// 3 KB; a build's own table may calibrate the whole array).
+pub const LOADED_TABLE_BYTES: usize = tactile_core::calibration::table_bytes(8);
+
 /// How long a commanded hold lasts at most, s (a `Stop` or the next run ends it sooner), and
 /// the longest open-ended run a command may ask for.
 pub const HOLD_S: f32 = 3600.0;
@@ -127,6 +131,16 @@ impl<const CAL: usize> CommandPort<CAL> {
     /// The calibration table loaded last (checked), if any.
     pub fn calibration_table(&self) -> Option<&[u8]> {
         self.cal.get(..self.cal_len).filter(|t| !t.is_empty())
+    }
+
+    /// Copies the calibration table loaded last into `buf` and returns its length (0: none
+    /// loaded, or longer than `buf`): a task that rebuilds its estimators from it holds the
+    /// port only for the copy, not for the rebuild.
+    pub fn copy_calibration_table(&self, buf: &mut [u8]) -> usize {
+        let table = self.calibration_table().unwrap_or(&[]);
+        buf.get_mut(..table.len())
+            .map(|dst| dst.copy_from_slice(table))
+            .map_or(0, |()| table.len())
     }
 
     /// Frames dropped by the decoder (failed checks, noise).
@@ -505,6 +519,11 @@ mod tests {
         port.poll(&bytes(&chunks(false)), &[], |r, _| replies.push(r));
         assert!(replies.iter().all(|r| r.result.is_ok()), "{replies:?}");
         assert_eq!(port.calibration_table(), Some(&table[..]));
+        let mut copy = [0u8; 4096];
+        let n = port.copy_calibration_table(&mut copy);
+        assert_eq!(&copy[..n], &table[..]);
+        // A buffer too short for it gets nothing rather than a part.
+        assert_eq!(port.copy_calibration_table(&mut copy[..table.len() - 1]), 0);
         let mut none = CommandPort::<0>::new(120.0, 600.0);
         let mut replies = Vec::new();
         none.poll(&bytes(&chunks(false)[..1]), &[], |r, _| replies.push(r));

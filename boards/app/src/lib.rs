@@ -35,7 +35,9 @@ pub use sim::{
     CALIBRATION_SESSION, EXCITATION_SESSION, FIL_SESSION,
 };
 
-pub use commands::{hold, Action, CommandPort, EstimatorChoice, Reply, HOLD_S, QUIET_TICKS};
+pub use commands::{
+    hold, Action, CommandPort, EstimatorChoice, Reply, HOLD_S, LOADED_TABLE_BYTES, QUIET_TICKS,
+};
 
 pub use safety::{CheckIns, ResetCause, SafeStop};
 pub use table::{BOARD, CALIBRATION_TABLE, CONTROLLER_TABLE};

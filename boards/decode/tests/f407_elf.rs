@@ -11,6 +11,8 @@ use object::{Object, ObjectSection, ObjectSymbol};
 
 const FLASH: std::ops::Range<u64> = 0x0800_0000..0x0810_0000;
 const RAM: std::ops::Range<u64> = 0x2000_0000..0x2002_0000;
+/// The core-coupled RAM (memory.x's CCMRAM): the command port lives there.
+const CCM: std::ops::Range<u64> = 0x1000_0000..0x1001_0000;
 const FLASH_BUDGET: u64 = 64 * 1024;
 const STATIC_RAM_BUDGET: u64 = 32 * 1024;
 
@@ -77,8 +79,9 @@ fn check_elf(path: &std::path::Path, alias: &str) {
     }
 
     // Flash: everything loaded there (code, constants, and .data's initial values).
-    // Static RAM: .data, .bss and .uninit (the stack takes the rest).
-    let (mut flash, mut ram) = (0u64, 0u64);
+    // Static RAM: .data, .bss and .uninit (the stack takes the rest). CCM RAM: `.ccmram`,
+    // never loaded (no bytes in the image: NOLOAD).
+    let (mut flash, mut ram, mut ccm) = (0u64, 0u64, 0u64);
     for s in elf.sections() {
         let name = s.name().unwrap_or("");
         if FLASH.contains(&s.address()) {
@@ -90,14 +93,41 @@ fn check_elf(path: &std::path::Path, alias: &str) {
                 flash += s.size();
             }
         }
+        if CCM.contains(&s.address()) && s.size() > 0 {
+            assert_eq!(
+                s.kind(),
+                object::SectionKind::UninitializedData,
+                "{alias}: {name} in CCM RAM has bytes to load; CCM is NOLOAD"
+            );
+            ccm += s.size();
+        }
     }
     let label = format!("tactile-f407 (cargo {alias})");
     println!(
-        "{label}: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB)",
+        "{label}: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB), CCM RAM {ccm} B of 64 KiB",
         flash as f64 / 1024.0,
         FLASH_BUDGET / 1024,
         ram as f64 / 1024.0,
         STATIC_RAM_BUDGET / 1024
+    );
+    // The command port with room for a loaded calibration table (8 taxels) is in CCM RAM.
+    let port = elf
+        .symbols()
+        .find(|s| s.name().is_ok_and(|n| n.contains("ccm4PORT")))
+        .expect("the command port's CCM slot (ccm::PORT)");
+    assert!(
+        CCM.contains(&port.address()),
+        "ccm::PORT at {:#x}",
+        port.address()
+    );
+    assert!(
+        port.size() > tactile_firmware::LOADED_TABLE_BYTES as u64,
+        "ccm::PORT is {} B: no room for a loaded calibration table",
+        port.size()
+    );
+    assert!(
+        ccm <= CCM.end - CCM.start,
+        "{label}: CCM RAM {ccm} B over 64 KiB"
     );
     assert!(
         flash <= FLASH_BUDGET,

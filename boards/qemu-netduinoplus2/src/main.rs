@@ -396,12 +396,7 @@ mod app {
             // port the control task takes commands through).
             let calibration = cx.shared.hw.lock(|hw| *hw.calibration());
             let buf = &mut *local.loaded;
-            let n = cx.shared.port.lock(|port| {
-                let table = port.calibration_table().unwrap_or(&[]);
-                buf.get_mut(..table.len())
-                    .map(|dst| dst.copy_from_slice(table))
-                    .map_or(0, |_| table.len())
-            });
+            let n = cx.shared.port.lock(|port| port.copy_calibration_table(buf));
             let loaded = buf.get(..n).filter(|t| !t.is_empty());
             if !session::reset_scanner(local.scanner, calibration, loaded) {
                 defmt::error!("the scanner's configuration was refused");

@@ -111,8 +111,7 @@ fn board_rig(run: &FilRun) -> RigConfig {
 /// Set at start-up by `calibration=none`.
 static NO_TABLE: AtomicBool = AtomicBool::new(false);
 
-/// Room for a calibration table loaded by command: eight taxels.
-pub const LOADED_TABLE_BYTES: usize = tactile_core::calibration::table_bytes(8);
+pub use tactile_firmware::LOADED_TABLE_BYTES;
 
 /// The command channel of this board.
 pub type Port = tactile_firmware::CommandPort<LOADED_TABLE_BYTES>;

@@ -12,7 +12,8 @@
 //! that have arrived at the start of each tick (a copy of at most [`DOWN_BYTES_PER_TICK`]:
 //! never a wait) through `tactile_firmware::CommandPort`, answers each over defmt with its
 //! sequence number, and starts, holds or stops the runs they ask for. At reset it runs the
-//! build's protocol, as before.
+//! build's protocol, as before. A calibration table loaded by command (eight taxels at most)
+//! is kept in CCM RAM with the port; `scan` rebuilds its estimators from it at the next run.
 //! | `idle` | 0 | — | WFI |
 //!
 //! Control frames go out every [`CONTROL_FRAME_EVERY`]-th tick (RTT bandwidth; only queued
@@ -90,6 +91,46 @@ const CONTROL_FRAME_EVERY: u32 = 5;
 #[cfg(target_os = "none")]
 const DOWN_BYTES_PER_TICK: usize = 64;
 
+/// The command channel: with room for a calibration table loaded by command.
+#[cfg(target_os = "none")]
+type Port = tactile_firmware::CommandPort<{ tactile_firmware::LOADED_TABLE_BYTES }>;
+
+/// CCM RAM, 64 KiB the CPU alone reaches (no DMA: nothing here is a DMA buffer) and that
+/// nothing else uses: the command port (its two table buffers, about 7 KB) and the copy of a
+/// loaded calibration table the scan task rebuilds its estimators from. Static RAM (issue 5's
+/// 32 KiB) is spoken for.
+#[cfg(target_os = "none")]
+mod ccm {
+    use core::mem::MaybeUninit;
+    use core::sync::atomic::{AtomicBool, Ordering};
+    use tactile_firmware::LOADED_TABLE_BYTES;
+
+    // NOTE: `.ccmram` is NOLOAD (memory.x): never zeroed at reset, so the slots are
+    // `MaybeUninit` and written before they are read.
+    #[link_section = ".ccmram.port"]
+    static mut PORT: MaybeUninit<super::Port> = MaybeUninit::uninit();
+    #[link_section = ".ccmram.table"]
+    static mut TABLE: MaybeUninit<[u8; LOADED_TABLE_BYTES]> = MaybeUninit::uninit();
+    static TAKEN: AtomicBool = AtomicBool::new(false);
+
+    /// The port, written with `port`, and the table copy, zeroed: once (from `init`; any later
+    /// call gets `None`).
+    pub fn take(
+        port: super::Port,
+    ) -> Option<(
+        &'static mut super::Port,
+        &'static mut [u8; LOADED_TABLE_BYTES],
+    )> {
+        if TAKEN.swap(true, Ordering::AcqRel) {
+            return None;
+        }
+        // SAFETY: the flag hands the two slots out once; nothing else names them.
+        let (p, t) = (&raw mut PORT, &raw mut TABLE);
+        let (p, t) = unsafe { (&mut *p, &mut *t) };
+        Some((p.write(port), t.write([0; LOADED_TABLE_BYTES])))
+    }
+}
+
 /// The array estimator a command chose, for the scan task to rebuild its estimators with at
 /// the next run.
 #[cfg(target_os = "none")]
@@ -110,16 +151,14 @@ mod app {
     use tactile_core::tactile::TaxelCalibration;
     use tactile_core::telemetry::TaxelFrame;
     use tactile_firmware::{
-        Action, ArrayEstimate, CheckIns, CommandPort, Controller, Message, Outbox, RunEnd,
-        RunStart, Scanner,
+        Action, ArrayEstimate, CheckIns, Controller, Message, Outbox, RunEnd, RunStart, Scanner,
+        LOADED_TABLE_BYTES,
     };
 
     use crate::board::{self, ControlBoard, ScanBoard, WithAdc, CORE_HZ, PROTOCOL, PROTOCOL_NAME};
     use crate::{CONTROL_FRAME_EVERY, DOWN_BYTES_PER_TICK, SCAN_ESTIMATOR, WATCHDOG_TIMEOUT_MS};
 
-    /// No room for a calibration table loaded by command (static RAM is spoken for: the
-    /// command answers `Unsupported`); a controller table can be.
-    type Port = CommandPort<0>;
+    use crate::Port;
 
     /// Set by `control` when a commanded run starts: the scan task rebuilds its estimators
     /// (with the chosen array estimator) before its next dwell.
@@ -141,6 +180,9 @@ mod app {
     struct Shared {
         /// ADC1, converting for both the control and the scan task.
         adc: board::Converter,
+        /// The command channel (in CCM RAM): `control` takes commands through it, `scan` copies
+        /// a loaded calibration table out of it when a commanded run starts.
+        port: &'static mut Port,
     }
 
     #[local]
@@ -150,7 +192,7 @@ mod app {
         controller: Controller,
         probe_calibration: TaxelCalibration,
         down: DownChannel,
-        port: Port,
+        table_copy: &'static mut [u8; LOADED_TABLE_BYTES],
         scanner: &'static mut Scanner,
         control_out: Outbox<'static, ControlMsg>,
         taxel_out: Outbox<'static, TaxelMsg>,
@@ -218,6 +260,9 @@ mod app {
         } = board::setup(cx.device);
         control_board.zero_actuator();
         defmt::info!("{}", reset_cause);
+        let Some((port, table_copy)) = crate::ccm::take(port) else {
+            defmt::panic!("the CCM RAM slots were taken before init");
+        };
         // Calibrate with the probe lifted (the actuator output is at its safe zero).
         let calibration = scan_board.rest_calibration(&mut adc, 16);
         let probe = calibration.get(config.probe.index()).copied();
@@ -259,14 +304,14 @@ mod app {
         // Last: the calibration above takes 256 ms and feeds nothing.
         watchdog.start(WATCHDOG_TIMEOUT_MS.millis());
         (
-            Shared { adc },
+            Shared { adc, port },
             Local {
                 control_board,
                 scan_board,
                 controller,
                 probe_calibration,
                 down: channels.down.0,
-                port,
+                table_copy,
                 scanner,
                 control_out: Outbox::new(control_tx),
                 taxel_out: Outbox::new(taxel_tx),
@@ -290,9 +335,9 @@ mod app {
         }
     }
 
-    #[task(binds = SysTick, priority = 3, shared = [adc],
+    #[task(binds = SysTick, priority = 3, shared = [adc, port],
            local = [controller, control_board, control_out, probe_calibration, down,
-                    port, tick: u32 = 0, ended: bool = false, active: bool = true])]
+                    tick: u32 = 0, ended: bool = false, active: bool = true])]
     fn control(mut cx: control::Context) {
         let local = cx.local;
         let tick = *local.tick;
@@ -309,22 +354,25 @@ mod app {
         let n = local.down.read(&mut bytes);
         let (mut start, mut stop, mut clear) = (None, false, false);
         let out = &mut *local.control_out;
-        local.port.poll(
-            bytes.get(..n).unwrap_or(&[]),
-            &tactile_firmware::CONTROLLER_TABLE,
-            |reply, action| {
-                out.send(Message::Reply(reply));
-                match action {
-                    Action::Start(run) => start = Some((run.name(), run.protocol())),
-                    Action::Hold { force_g } => {
-                        start = Some(("hold", tactile_firmware::hold(force_g)));
+        // NOTE: the highest priority that takes the port: its lock costs nothing.
+        cx.shared.port.lock(|port| {
+            port.poll(
+                bytes.get(..n).unwrap_or(&[]),
+                &tactile_firmware::CONTROLLER_TABLE,
+                |reply, action| {
+                    out.send(Message::Reply(reply));
+                    match action {
+                        Action::Start(run) => start = Some((run.name(), run.protocol())),
+                        Action::Hold { force_g } => {
+                            start = Some(("hold", tactile_firmware::hold(force_g)));
+                        }
+                        Action::Stop => (start, stop) = (None, true),
+                        Action::ClearFaults => clear = true,
+                        Action::None => {}
                     }
-                    Action::Stop => (start, stop) = (None, true),
-                    Action::ClearFaults => clear = true,
-                    Action::None => {}
-                }
-            },
-        );
+                },
+            )
+        });
         if clear {
             local.controller.clear_faults();
         }
@@ -336,9 +384,9 @@ mod app {
             // Between runs (and if the next cannot start) the actuator rests at its safe output.
             local.control_board.zero_actuator();
             if let Some((name, protocol)) = start {
-                let config = local
-                    .port
-                    .firmware(tactile_firmware::BOARD, &tactile_firmware::CONTROLLER_TABLE);
+                let config = cx.shared.port.lock(|port| {
+                    port.firmware(tactile_firmware::BOARD, &tactile_firmware::CONTROLLER_TABLE)
+                });
                 match Controller::new(&config, protocol, *local.probe_calibration) {
                     Ok(c) => {
                         *local.controller = c;
@@ -393,18 +441,30 @@ mod app {
         }
     }
 
-    #[task(binds = TIM2, priority = 2, shared = [adc],
-           local = [scanner, scan_board, scan_timer, taxel_out])]
+    #[task(binds = TIM2, priority = 2, shared = [adc, port],
+           local = [scanner, scan_board, scan_timer, taxel_out, table_copy])]
     fn scan(mut cx: scan::Context) {
         let local = cx.local;
         local.scan_timer.clear_flags(timer::Flag::Update);
         let tick = TICK.load(Ordering::Relaxed);
         if RESCAN.swap(false, Ordering::AcqRel) {
-            // A commanded run: the estimators afresh, with the array estimator chosen.
+            // A commanded run: the estimators afresh, with the array estimator chosen and the
+            // calibration table loaded by command, if one is (copied out: the rebuild must not
+            // hold the port the control task takes commands through).
             let config = SCAN_ESTIMATOR.applied(tactile_firmware::BOARD);
-            if local.scanner.rebuild(&config).is_err() {
+            let copy = &mut **local.table_copy;
+            let n = cx
+                .shared
+                .port
+                .lock(|port| port.copy_calibration_table(copy));
+            let rebuilt = match copy.get(..n).filter(|t| !t.is_empty()) {
+                Some(table) => local.scanner.rebuild_with_table(&config, table),
+                None => local.scanner.rebuild(&config),
+            };
+            if rebuilt.is_err() {
                 defmt::error!("the scanner's configuration was refused");
             }
+            defmt::info!("{}", local.scanner.calibration_status());
         }
         let (scanner, board) = (&mut *local.scanner, &mut *local.scan_board);
         let report = cx
