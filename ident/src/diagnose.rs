@@ -724,6 +724,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             ));
         }
         if !taken(Effect::Hysteresis, &state) {
+            let radii = PLAY_SHARES.map(|p| format!("{:.0}", 100.0 * p)).join(", ");
             for (cols, start) in plays
                 .iter()
                 .zip(["in the middle", "settled"])
@@ -731,19 +732,13 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             {
                 tries.push(Try::adding(
                     Effect::Hysteresis,
-                    format!(
-                        "plays of {} % of the force range, started {start}",
-                        PLAY_SHARES.map(|p| format!("{:.0}", 100.0 * p)).join(", ")
-                    ),
+                    format!("plays of {radii} % of the force range, started {start}"),
                     cols.clone(),
                 ));
             }
             tries.push(Try::adding(
                 Effect::Hysteresis,
-                format!(
-                    "Duhem operators of {} % of the force range",
-                    PLAY_SHARES.map(|p| format!("{:.0}", 100.0 * p)).join(", ")
-                ),
+                format!("Duhem operators of {radii} % of the force range"),
                 duhems.clone(),
             ));
         }
