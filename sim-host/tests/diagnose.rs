@@ -238,9 +238,9 @@ fn hysteresis_reaches_the_chip_and_lowers_its_error() {
         });
         tactile_ident::Series::new(g.dt_s, g.force_g, g.strain_pct, vec![]).unwrap()
     };
-    // The simulator's loop is the chip's form: most of the error goes. A Duhem loop is
-    // followed less closely (measured 0.73 → 0.18, 0.90 → 0.46, 1.33 → 1.23 and, 120 s at
-    // 1 kHz, 1.95 → 0.93 g).
+    // The simulator's loop is the chip's form: most of the error goes. A Duhem loop, which
+    // the chip undoes with plays, is followed less closely (measured 0.74 → 0.24, 0.89 →
+    // 0.49, 1.32 → 1.13 and, 120 s at 1 kHz, 1.92 → 0.94 g).
     let cases = [
         (
             "simulator 0.2 %",
