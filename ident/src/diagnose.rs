@@ -394,6 +394,13 @@ impl Work<'_> {
         j
     }
 
+    /// Adds column `c` delayed by `delay_s` (a view of it, the same term).
+    fn add_delayed(&mut self, c: usize, delay_s: f64) -> usize {
+        let j = self.pool.add_delayed(c, delay_s / self.s.dt_s);
+        self.terms.push(self.terms[c]);
+        j
+    }
+
     fn residual(&self, cols: &[usize], beta: &[f64]) -> Vec<f64> {
         // In place over the prediction: a 600 s record at 1 kHz has no room for two copies.
         let mut r = self.pool.predict(cols, beta);
@@ -850,11 +857,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             let delayed_cols = |work: &mut Work, d: f64| -> Vec<usize> {
                 active_driven
                     .iter()
-                    .map(|&c| {
-                        let j = work.pool.add_delayed(c, d / dt);
-                        work.terms.push(work.terms[c]);
-                        j
-                    })
+                    .map(|&c| work.add_delayed(c, d))
                     .collect()
             };
             let mut best: Option<(f64, f64, Vec<usize>)> = None;
@@ -1251,11 +1254,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 .map(|p| {
                     let cols: Vec<usize> = if state.delay_s > 0.0 {
                         p.iter()
-                            .map(|&c| {
-                                let j = work.pool.add_delayed(c, state.delay_s / dt);
-                                work.terms.push(work.terms[c]);
-                                j
-                            })
+                            .map(|&c| work.add_delayed(c, state.delay_s))
                             .collect()
                     } else {
                         p.clone()
