@@ -67,6 +67,21 @@ fn clean_fingers_get_none_at_any_rate_and_length() {
     }
 }
 
+/// A record without noise: strain an exact spring of a slow sine of force. Nothing is
+/// missing, so `none`; the fit's single-precision arithmetic (1.6·10⁻⁵ of the strain, held out)
+/// read `unexplained`.
+#[test]
+fn a_noise_free_linear_record_gets_none() {
+    let dt = 0.005;
+    let force: Vec<f64> = (0..20_000)
+        .map(|i| 20.0 + 10.0 * (i as f64 * dt).sin())
+        .collect();
+    let strain: Vec<f64> = force.iter().map(|f| 0.3 * f).collect();
+    let d = diagnose(&Series::new(dt, force, strain, vec![]).unwrap());
+    assert_eq!(d.effect, "none", "{}", d.summary);
+    assert!(d.after.held_out_rms_pct < 1e-3, "{}", d.summary);
+}
+
 #[test]
 fn an_eight_second_record_is_diagnosed_not_refused() {
     let d = diag(6, 100.0, 8.0, &[]);
