@@ -610,10 +610,6 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     };
     let passed_var = force_noise * force_noise_passed;
     // The noise floor of a model: the strain's own noise and the force's through the model.
-    // An effect is judged above the floor of the model that names it: a baseline standing in
-    // for a delay smooths the force and passes less of its noise (its floor is half the delayed
-    // model's, `try synth 21 200 180 delay=3`), so what a right delay leaves looked like a
-    // third of the error left unexplained.
     // The columns are single precision: what a fit of them holds out on an exact record (130
     // of its rounding steps of the strain's scale, 1.6·10⁻⁵, a noise-free linear record that
     // read `unexplained`) is arithmetic, not the finger; 3·10⁻⁵ of the strain is the least
@@ -622,6 +618,10 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let rounding = 256.0 * f64::from(f32::EPSILON) * stats::rms(&kept_y);
     let strain_floor = stats::noise_variance(&kept_y, window).max(rounding * rounding);
     let floor = strain_floor + energy_of(&work, &scored) * passed_var;
+    // An effect is judged above the floor of the models compared, the larger, never below the
+    // baseline's: a baseline standing in for a delay smooths the force and passes less of its
+    // noise (its floor is half the delayed model's, `try synth 21 200 180 delay=3`), so what a
+    // right delay leaves looked like a third of the error left unexplained.
     let floor_of = |work: &Work, a: &Scored, b: &Scored| {
         floor.max(strain_floor + energy_of(work, a).max(energy_of(work, b)) * passed_var)
     };
