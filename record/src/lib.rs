@@ -6,7 +6,8 @@
 //! 0.0000,0.109,-0.00589
 //! ```
 //!
-//! Writing and strict reading: every problem names the file, the line and the column.
+//! Writing and strict reading: every problem names the file, the line and the column. What
+//! spreadsheets add is read: a byte-order mark, CRLF line ends, cells in double quotes.
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -122,6 +123,12 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
     for (i, line) in reader.lines().enumerate() {
         let n = i + 1;
         let line = line.map_err(|e| err(Some(n), None, format!("unreadable line: {e}")))?;
+        // A spreadsheet's export may open with a byte-order mark.
+        let line = if i == 0 {
+            line.strip_prefix('\u{feff}').unwrap_or(&line)
+        } else {
+            &line
+        };
         let trimmed = line.trim();
         if trimmed.is_empty() {
             continue;
@@ -132,7 +139,8 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
             }
             continue;
         }
-        let cells: Vec<&str> = trimmed.split(',').map(str::trim).collect();
+        // Cells may be quoted (a quoted comma is not read: no column of the format holds one).
+        let cells: Vec<&str> = trimmed.split(',').map(unquoted).collect();
         let Some(names) = &header else {
             let names: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
             for (slot, want) in index.iter_mut().zip(REQUIRED) {
@@ -343,6 +351,14 @@ fn check_sampling(t: &[f64]) -> Result<(), (usize, String)> {
 }
 
 /// A header read as one cell that holds the names between another separator.
+/// A cell trimmed, and without the double quotes around it if it has them.
+fn unquoted(cell: &str) -> &str {
+    let cell = cell.trim();
+    cell.strip_prefix('"')
+        .and_then(|c| c.strip_suffix('"'))
+        .map_or(cell, str::trim)
+}
+
 fn separator_hint(names: &[String]) -> &'static str {
     match names {
         [one] if one.contains('\t') => "; the format is comma-separated, this header tab-separated",
@@ -369,6 +385,21 @@ mod tests {
 
     fn parse(text: &str) -> Result<Record, RecordError> {
         parse_record(text.as_bytes(), Path::new("mem.csv"))
+    }
+
+    #[test]
+    fn reads_a_byte_order_mark_quoted_cells_and_crlf() {
+        let r = parse(
+            "\u{feff}\"t_s\",\"force_g\",\"strain_pct\"\r\n\"0.0\",1.0,0.5\r\n0.005,\" 2.0\",0.6\r\n",
+        )
+        .unwrap();
+        assert_eq!(r.t_s, vec![0.0, 0.005]);
+        assert_eq!(r.force_g, vec![1.0, 2.0]);
+        assert_eq!(r.strain_pct, vec![0.5, 0.6]);
+        // A mark anywhere but the file's start, or a quote left open, is still refused.
+        assert!(parse("t_s,force_g,strain_pct\n\u{feff}0.0,1,1\n").is_err());
+        let e = parse("t_s,force_g,strain_pct\n\"0.0,1,1\n").unwrap_err();
+        assert_eq!((e.line, e.column.as_deref()), (Some(2), Some("t_s")));
     }
 
     #[test]
