@@ -611,7 +611,15 @@ impl Tracking {
         let (kp, ki) = (share * c.kp, share * c.ki_per_s);
         let rate = self.x[1] / FRICTION_RATE_G_PER_S;
         if rate.abs() >= 0.5 {
-            self.moved = rate.signum();
+            let now = rate.signum();
+            // NOTE: a reversal turns the friction round. What the integral carried in the
+            // last direction, up to the friction the held share leaves (stiction less the
+            // held share, at most the held share), now pushes the wrong way: dropped.
+            if self.moved != 0.0 && now != self.moved {
+                let carried = crate::limit(self.integral_g * self.moved, 0.0, c.held_friction_g);
+                self.integral_g -= carried * self.moved;
+            }
+            self.moved = now;
         }
         let still = (1.0 - 2.0 * rate.abs()).max(0.0);
         let friction =
@@ -924,6 +932,49 @@ mod tests {
             }
         }
         assert!(worst < 0.05, "{worst}");
+    }
+
+    #[test]
+    fn a_reversal_drops_what_the_integral_carried_against_the_friction() {
+        // A unit plant whose friction takes 0.8 g while it holds after moving up: the held
+        // share gives 0.5 of it, the integral learns the other 0.3.
+        let cfg = TrackingConfig {
+            held_friction_g: 0.5,
+            ..TrackingConfig::UNIT_PLANT
+        };
+        let mut t = Tracking::new(cfg).unwrap();
+        let mut drive = 0.0;
+        for _ in 0..5000 {
+            drive = t.update(10.0, drive - 0.8, true).force_g;
+        }
+        assert!((t.integral_g - 0.3).abs() < 1e-3, "{}", t.integral_g);
+        // Down to 5 g, the friction now the other way: once the reference moves down, the
+        // 0.3 g is gone in one tick (the integral alone, 20/s on an error of about a gram,
+        // unwinds 0.02 g a tick).
+        let mut dropped = None;
+        for k in 0..20 {
+            let before = t.integral_g;
+            drive = t.update(5.0, drive + 0.8, true).force_g;
+            if before - t.integral_g > 0.25 {
+                dropped = Some(k);
+                break;
+            }
+        }
+        assert!(dropped.is_some(), "{}", t.integral_g);
+        assert!(t.integral_g.abs() < 0.05, "{}", t.integral_g);
+        // Without the held share the integral carried nothing the rule may take: a plant
+        // without friction keeps its integral (here a gain error of 2 %) through reversals.
+        let mut t = Tracking::new(TrackingConfig::UNIT_PLANT).unwrap();
+        let mut drive = 0.0;
+        for _ in 0..5000 {
+            drive = t.update(10.0, 0.98 * drive, true).force_g;
+        }
+        let learned = t.integral_g;
+        assert!((learned - 0.2).abs() < 0.01, "{learned}");
+        for _ in 0..300 {
+            drive = t.update(5.0, 0.98 * drive, true).force_g;
+        }
+        assert!(t.integral_g > 0.05, "{}", t.integral_g);
     }
 
     #[test]

@@ -156,21 +156,18 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     assert!(20.0 * a1_30.log10() > 6.0);
     assert!(20.0 * (a1_30 / designed_30).log10() > 5.0);
 
-    // Force steps: every step after the first (from rest) into ±1 g within 30 ms but one
-    // (measured 18–25 ms, and 31 ms down from 100 g to 90 g, 53 ms before the friction held
-    // at rest; A1 takes up to 69 ms), that one within 40 ms; overshoot within the target's
-    // 1 g (measured ≤ 0.60 g, the last step down to 10 g; A1's up to 4.4 g).
+    // Force steps: every step after the first (from rest) into ±1 g within 30 ms (measured
+    // 18–26 ms; 31 ms down from 100 g to 90 g before a reversal dropped what the integral
+    // carried against the friction, 53 ms before the friction held at rest; A1 takes up to
+    // 69 ms); overshoot within the target's 1 g (measured ≤ 0.60 g, the last step down to
+    // 10 g; A1's up to 4.4 g).
     let o = ScenarioOptions::default();
     let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
         .unwrap()
         .ticks;
     let settle = metrics::settling_after_first_s(&steps);
     eprintln!("settling after the first step: {settle:?}");
-    assert!(
-        settle.iter().rev().nth(1).is_some_and(|t| *t <= 0.030),
-        "{settle:?}"
-    );
-    assert!(settle.last().is_some_and(|t| *t <= 0.040), "{settle:?}");
+    assert!(settle.last().is_some_and(|t| *t <= 0.030), "{settle:?}");
     for (level, over) in metrics::step_overshoots_g(&steps).into_iter().skip(1) {
         assert!(over <= 1.0, "{level} g: overshoot {over} g");
     }
@@ -227,11 +224,12 @@ fn the_procedure_works_unchanged_on_other_applicators() {
     // with twice the stiction on a stiffer beam. The holds give the static gain (1: the drive's
     // grams are the motor's force at the probe) and the stiction the file has (10 or 20 g·cm
     // on a 9 cm arm: 1.11 or 2.22 g); every force step after the first settles into ±1 g
-    // within 60 ms and overshoots by at most the target's 1 g, and all but two within the
+    // within 40 ms and overshoots by at most the target's 1 g, and all but one within the
     // target's 30 ms (measured: heavy rig 18–25 ms, 0.94 g over at most; the light rig
-    // 18–20 ms but 28, 32 and 45 ms, 0.30 g over at most. Before the friction held at rest:
-    // the heavy rig's second step 78 ms and 1.71 g over, the light rig's stiction-held steps
-    // 61–82 ms).
+    // 18–20 ms but 28 and 32 ms on its first climb, 0.28 g over at most. Before a reversal
+    // dropped what the integral carried against the friction, the light rig's 100 → 90 g
+    // took 45 ms; before the friction held at rest, the heavy rig's second step 78 ms and
+    // 1.71 g over, the light rig's stiction-held steps 61–82 ms).
     for ((file, mut cfg), stiction_g) in rigs().into_iter().zip([1.11, 1.11, 2.22]) {
         let r = design::design_for_rig(&cfg).expect("design");
         let id = &r.identified;
@@ -252,10 +250,10 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         let settle = metrics::settling_after_first_s(&steps);
         eprintln!("{file}: settling after the first step {settle:?}");
         assert!(
-            settle.last().is_some_and(|t| *t <= 0.060),
+            settle.last().is_some_and(|t| *t <= 0.040),
             "{file}: {settle:?}"
         );
-        assert!(settle[settle.len() - 3] <= 0.030, "{file}: {settle:?}");
+        assert!(settle[settle.len() - 2] <= 0.030, "{file}: {settle:?}");
         for (level, over) in metrics::step_overshoots_g(&steps).into_iter().skip(1) {
             assert!(over <= 1.0, "{file}, {level} g: overshoot {over} g");
         }
