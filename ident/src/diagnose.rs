@@ -166,8 +166,10 @@ struct Judged {
     /// noise it passes beyond the model's), and the t-test's p-value on them.
     fold_gains: Vec<f64>,
     p_value: f64,
-    /// The held-out mean square it takes off, and what the model holds out above the floor.
+    /// The held-out mean square it takes off, the floor of the two models, and what the model
+    /// holds out above that floor.
     gain: f64,
+    floor: f64,
     excess: f64,
     ljung_box_ratio: f64,
     /// Its residual's coloured power.
@@ -618,13 +620,12 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let rounding = 256.0 * f64::from(f32::EPSILON) * stats::rms(&kept_y);
     let strain_floor = stats::noise_variance(&kept_y, window).max(rounding * rounding);
     let floor = strain_floor + energy_of(&work, &scored) * passed_var;
-    // An effect is judged above the floor of the models compared, the larger, never below the
-    // baseline's: a baseline standing in for a delay smooths the force and passes less of its
-    // noise (its floor is half the delayed model's, `try synth 21 200 180 delay=3`), so what a
-    // right delay leaves looked like a third of the error left unexplained.
-    let floor_of = |work: &Work, a: &Scored, b: &Scored| {
-        floor.max(strain_floor + energy_of(work, a).max(energy_of(work, b)) * passed_var)
-    };
+    // An effect is judged above the floor of the models compared (of the larger of their
+    // energies), never below the baseline's: a baseline standing in for a delay smooths the
+    // force and passes less of its noise (its floor is half the delayed model's, `try synth 21
+    // 200 180 delay=3`), so what a right delay leaves looked like a third of the error left
+    // unexplained.
+    let floor_at = |energy: f64| floor.max(strain_floor + energy * passed_var);
     // A candidate's fold errors less the force noise it passes beyond what a model of energy
     // `to_energy` (the one it is judged against) passes: a model that smooths the force (the
     // baseline standing in for a delay with a fast branch) wins the quiet folds by passing
@@ -1007,11 +1008,13 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             let fold_gains =
                 fold_gains(&state.scored.fold_mse, &noise_matched(work, sc, cur_energy));
             let (ljung_box_ratio, colored) = work.whiteness(&sc.columns, &sc.beta);
+            let floor = floor_at(energy_of(work, sc).max(cur_energy));
             Judged {
                 p_value: stats::paired_p_value(&fold_gains),
                 fold_gains,
                 gain: state.scored.cv_mse - sc.cv_mse,
-                excess: (state.scored.cv_mse - floor_of(work, sc, &state.scored)).max(0.0),
+                floor,
+                excess: (state.scored.cv_mse - floor).max(0.0),
                 ljung_box_ratio,
                 colored,
             }
@@ -1019,12 +1022,11 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         // Effect `a` beats `b` by the bar an effect clears against the model without it:
         // consistently over the folds, and a share of what `b` leaves above the floor.
         let beats = |a: &Scored, b: &Scored| {
-            paired(&fold_gains(
-                &b.fold_mse,
-                &noise_matched(&work, a, energy_of(&work, b)),
-            )) < settings.alpha
+            let (energy_a, energy_b) = (energy_of(&work, a), energy_of(&work, b));
+            paired(&fold_gains(&b.fold_mse, &noise_matched(&work, a, energy_b))) < settings.alpha
                 && b.cv_mse - a.cv_mse
-                    >= settings.min_excess_share * (b.cv_mse - floor_of(&work, a, b)).max(0.0)
+                    >= settings.min_excess_share
+                        * (b.cv_mse - floor_at(energy_a.max(energy_b))).max(0.0)
         };
         // A gain on the force-driven strain is an additive slow term wherever the load moves
         // slowly: it is named only where it beats a drift alone, passing or not (a drift beside
@@ -1046,7 +1048,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 && gain >= (settings.min_excess_share * strict).min(0.5) * excess
                 && gain > 0.0
                 && gain >= settings.min_excess_share * excess
-                && gain >= settings.min_floor_share * floor_of(&work, sc, &state.scored)
+                && gain >= settings.min_floor_share * judged.floor
                 && (colored < cur_colored || gain >= settings.coloured_excess_share * excess)
                 && !(t.effect == Effect::SensitivityDrift && drift_does_as_well(sc));
             passed.push(pass);
@@ -1130,7 +1132,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 // misfit, a drift most of the residual.
                 let pass = judged.p_value < settings.alpha
                     && gain >= settings.coloured_excess_share * excess
-                    && gain >= settings.min_floor_share * floor_of(&work, &sc, &state.scored)
+                    && gain >= settings.min_floor_share * judged.floor
                     && judged.colored < cur_colored;
                 round_candidates.push(Candidate::judged(
                     (
@@ -1225,15 +1227,17 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
                 state.scored = work.pool.score(&state.cols);
             }
             let sc = work.pool.score(&without);
+            let energy_without = energy_of(&work, &sc);
             let d = fold_gains(
                 &sc.fold_mse,
-                &noise_matched(&work, &state.scored, energy_of(&work, &sc)),
+                &noise_matched(&work, &state.scored, energy_without),
             );
             let gain = sc.cv_mse - state.scored.cv_mse;
-            let excess = (sc.cv_mse - floor_of(&work, &state.scored, &sc)).max(0.0);
+            let floor = floor_at(energy_of(&work, &state.scored).max(energy_without));
+            let excess = (sc.cv_mse - floor).max(0.0);
             let needed = stats::paired_p_value(&d) < settings.alpha
                 && gain >= settings.min_excess_share * excess
-                && gain >= settings.min_floor_share * floor_of(&work, &state.scored, &sc);
+                && gain >= settings.min_floor_share * floor;
             if needed {
                 i += 1;
             } else {

@@ -366,6 +366,10 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
 #[test]
 fn two_effects_at_once_are_both_named() {
     let interference = |amplitude, hz| SynthEffect::Interference { amplitude, hz };
+    let slow_mode = SynthEffect::SlowRelaxation {
+        share: 0.3,
+        tau_s: 60.0,
+    };
     // (seed, rate Hz, length s, the effects, their names)
     type Case = (u64, f64, f64, [SynthEffect; 2], [&'static str; 2]);
     let cases: [Case; 13] = [
@@ -444,13 +448,7 @@ fn two_effects_at_once_are_both_named() {
             24,
             200.0,
             300.0,
-            [
-                SynthEffect::SlowRelaxation {
-                    share: 0.3,
-                    tau_s: 60.0,
-                },
-                SynthEffect::Hysteresis(0.05),
-            ],
+            [slow_mode, SynthEffect::Hysteresis(0.05)],
             ["slow_relaxation", "hysteresis"],
         ),
         // Seeds 42 and 91: the plays left so much of the generator's Duhem loop (which forgets
@@ -460,26 +458,14 @@ fn two_effects_at_once_are_both_named() {
             42,
             200.0,
             300.0,
-            [
-                SynthEffect::SlowRelaxation {
-                    share: 0.3,
-                    tau_s: 60.0,
-                },
-                SynthEffect::Hysteresis(0.05),
-            ],
+            [slow_mode, SynthEffect::Hysteresis(0.05)],
             ["slow_relaxation", "hysteresis"],
         ),
         (
             91,
             200.0,
             300.0,
-            [
-                SynthEffect::SlowRelaxation {
-                    share: 0.3,
-                    tau_s: 60.0,
-                },
-                SynthEffect::Hysteresis(0.05),
-            ],
+            [slow_mode, SynthEffect::Hysteresis(0.05)],
             ["slow_relaxation", "hysteresis"],
         ),
         // The delay replaces the slow branches found first with their delayed copies: they
@@ -489,13 +475,7 @@ fn two_effects_at_once_are_both_named() {
             21,
             200.0,
             300.0,
-            [
-                SynthEffect::Delay(3),
-                SynthEffect::SlowRelaxation {
-                    share: 0.3,
-                    tau_s: 60.0,
-                },
-            ],
+            [SynthEffect::Delay(3), slow_mode],
             ["time_delay", "slow_relaxation"],
         ),
     ];

@@ -350,7 +350,6 @@ fn check_sampling(t: &[f64]) -> Result<(), (usize, String)> {
     }
 }
 
-/// A header read as one cell that holds the names between another separator.
 /// A cell trimmed, and without the double quotes around it if it has them.
 fn unquoted(cell: &str) -> &str {
     let cell = cell.trim();
@@ -359,6 +358,7 @@ fn unquoted(cell: &str) -> &str {
         .map_or(cell, str::trim)
 }
 
+/// A header read as one cell that holds the names between another separator.
 fn separator_hint(names: &[String]) -> &'static str {
     match names {
         [one] if one.contains('\t') => "; the format is comma-separated, this header tab-separated",
