@@ -640,17 +640,26 @@ impl Tracking {
             b1 * x - a1 * error_g + self.filter_state[1],
             b2 * x - a2 * error_g,
         ];
+        // NOTE: a rest (a command at or below zero) drives nothing once the reference is below
+        // contact: the held friction and the integral have no finger to push against, and on a
+        // heavy rig their sum (1.6 g against 1.1 g of stiction) threw the probe 9.5 mm off,
+        // where the next touch-down took seconds to come back from.
+        let resting = command_g <= 0.0 && contact_g > 0.0 && self.x[0] < contact_g;
         let raw_without = feed_forward + kp * error_g + self.integral_g;
         let pushing_out = (raw_without >= c.drive_max_g && error_g > 0.0)
             || (raw_without <= c.drive_min_g && error_g < 0.0);
-        if integrate && !pushing_out {
+        if integrate && !pushing_out && !resting {
             self.integral_g = crate::limit(
                 self.integral_g + ki * c.dt_s * error_g,
                 -c.integral_limit_g,
                 c.integral_limit_g,
             );
         }
-        let raw = feed_forward + kp * error_g + self.integral_g;
+        let raw = if resting {
+            0.0
+        } else {
+            feed_forward + kp * error_g + self.integral_g
+        };
         let force_g = crate::limit(raw, c.drive_min_g, c.drive_max_g);
         TrackingOutput {
             drive: Adjusted {
@@ -932,6 +941,44 @@ mod tests {
             }
         }
         assert!(worst < 0.05, "{worst}");
+    }
+
+    #[test]
+    fn a_rest_drives_nothing_once_the_reference_is_below_contact() {
+        // A unit plant on a finger (contact at 0.4 g) whose friction takes 0.8 g: held at 8 g
+        // the held share and the integral carry it. Commanded to rest, the drive follows the
+        // reference down while it is above contact, then is exactly zero (the held share and
+        // the integral, −0.5 + 0.035 g here, would push a free probe away from the finger),
+        // and the integral keeps what it learned for the next landing.
+        let cfg = TrackingConfig {
+            held_friction_g: 0.5,
+            contact_g: 0.4,
+            ..TrackingConfig::UNIT_PLANT
+        };
+        let mut t = Tracking::new(cfg).unwrap();
+        let mut drive = 0.0f32;
+        for k in 0..5000 {
+            // Touched down: the first readings on the finger.
+            let sensed = if k < CONTACT_TICKS { 1.0 } else { drive - 0.8 };
+            drive = t.update(8.0, sensed.max(0.0), true).force_g;
+        }
+        assert!(t.landed());
+        assert!((drive - 8.8).abs() < 0.01, "{drive}");
+        let (mut drove, mut kept) = (0, None);
+        for k in 0..100 {
+            let above = t.x[0] >= 0.4;
+            drive = t.update(0.0, (drive + 0.8).max(0.0), true).force_g;
+            drove += usize::from(above && drive != 0.0);
+            if !above {
+                assert_eq!(drive, 0.0, "tick {k}");
+                let learned = *kept.get_or_insert(t.integral_g);
+                assert_eq!(t.integral_g, learned, "tick {k}");
+            }
+        }
+        assert!(
+            drove > 3 && kept.is_some_and(|i| i != 0.0),
+            "{drove} {kept:?}"
+        );
     }
 
     #[test]

@@ -244,6 +244,11 @@ impl SimHardware {
         self.plant.stuck = true;
     }
 
+    /// The probe tip's and the motor's positions, m (zero: the finger's surface at rest).
+    pub fn positions_m(&self) -> (f64, f64) {
+        (self.plant.tip_m, self.plant.motor_m)
+    }
+
     pub fn in_contact(&self) -> bool {
         self.true_force_g > 0.0
     }

@@ -1,0 +1,46 @@
+//! `low-force` (8, 6, 4, 2 g, each after a second's rest, held 3 s) under the designed
+//! controller, tick by tick: command, drive, contact force, gauge reading and where the probe
+//! tip and the motor are (0: the finger's surface at rest; negative: off it). What showed the
+//! heavy rig's first rest throwing the probe 9.5 mm off the finger.
+//!
+//! cargo run --release -p sim-host --example lowforce_trace -- applicators/F.toml FROM_S TO_S EVERY
+use sim_host::design;
+use sim_host::rig::{Rig, RigConfig};
+use tactile_core::profile::{CommandSource, Protocol};
+
+fn main() {
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let arg = |i: usize, default: f64| a.get(i).and_then(|v| v.parse().ok()).unwrap_or(default);
+    let mut config = RigConfig {
+        scan_array: false,
+        ..Default::default()
+    };
+    let file = a.first().map_or("applicators/memo.toml", |s| s.as_str());
+    config.applicator = sim_host::error::read_applicator(std::path::Path::new(file))
+        .unwrap_or_else(|e| panic!("{file}: {e}"));
+    config.firmware.tracking = Some(
+        design::design_for_rig(&config)
+            .expect("design")
+            .design
+            .config,
+    );
+    let (from_s, to_s, every) = (arg(1, 3.9), arg(2, 5.4), arg(3, 10.0) as usize);
+    let mut rig = Rig::new(config).expect("rig");
+    let mut source = CommandSource::new(Protocol::LowForce { hold_s: 3.0 });
+    for k in 0..(to_s * 1e3) as usize {
+        let t_s = k as f64 * 1e-3;
+        let command_g = source.command_g(t_s as f32);
+        let r = rig.tick(command_g, |_, _| {});
+        if t_s >= from_s && k % every.max(1) == 0 {
+            let (tip_m, motor_m) = rig.hardware.positions_m();
+            println!(
+                "{t_s:7.3} cmd {command_g:4.1} drive {:6.2} true {:6.2} sensed {:6.2} tip {:7.3} mm motor {:7.3} mm",
+                r.adjusted_g,
+                r.true_force_g,
+                r.sensed_g,
+                tip_m * 1e3,
+                motor_m * 1e3
+            );
+        }
+    }
+}
