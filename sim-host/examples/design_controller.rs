@@ -7,7 +7,9 @@
 //! `ANALYTIC=1`: design on the simulator's own plant linearized at each load instead of the
 //! identified models (what the design would do with a perfect identification).
 //! `SEED=N`: the rig's seed (1). `FF_ONLY=1`: the feed-forward alone (no feedback). `ONLY=1`: skip A1. `FRICTION=G`: G grams
-//! of stiction compensated instead of `design::FRICTION_SHARE` of the applicator file's.
+//! of stiction compensated instead of `design::FRICTION_SHARE` of the identified.
+//! `LEAD_MS=T`: the compensation turned T ms ahead of the reference's rate instead of
+//! `design::friction_lead_s`.
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -81,6 +83,13 @@ fn main() {
     {
         d.config.friction_g = friction_g;
     }
+    // `LEAD_MS=T`: the friction compensation turned T ms ahead instead of the design's.
+    if let Some(lead_ms) = std::env::var("LEAD_MS")
+        .ok()
+        .and_then(|v| v.parse::<f32>().ok())
+    {
+        d.config.friction_lead_s = 1e-3 * lead_ms;
+    }
     for (m, p) in d.models.iter().zip(&d.config.schedule) {
         println!(
             "{:5} g: {} | static gain {:.3}, series {:?}, feedback share {:.2}",
@@ -88,11 +97,12 @@ fn main() {
         );
     }
     println!(
-        "kp {:.3}, ki {:.1}/s, {}, friction {:.2} g ({:.1} s)",
+        "kp {:.3}, ki {:.1}/s, {}, friction {:.2} g turned {:.2} ms ahead ({:.1} s)",
         d.feedback.kp,
         d.feedback.ki_per_s,
         d.feedback.filter,
         d.config.friction_g,
+        1e3 * d.config.friction_lead_s,
         t0.elapsed().as_secs_f64()
     );
     let mut designed = config.clone();

@@ -1,7 +1,7 @@
 //! The designed controller's touch-down (issue 13): the probe starts at rest 0, 0.2 or 1 mm
 //! off the finger and the command steps from 0 to 2, 5 or 10 g; prints, per case, when the
 //! probe met the finger, the contact force's overshoot over the command and its mean over the
-//! last 0.2 s of a 2.5 s run (`metrics::touch_down`).
+//! last 0.2 s of a 3 s run (`metrics::touch_down`).
 //!
 //! cargo run --release -p sim-host --example touch_down [applicators/F.toml [STICTION_FACTOR]]
 //!
@@ -34,7 +34,7 @@ fn main() {
     cfg.firmware.tracking = Some(c);
     for gap_mm in [0.0, 0.2, 1.0] {
         for target_g in [2.0f32, 5.0, 10.0] {
-            let t = metrics::touch_down(cfg.clone(), gap_mm * 1e-3, target_g, 2.5).expect("rig");
+            let t = metrics::touch_down(cfg.clone(), gap_mm * 1e-3, target_g, 3.0).expect("rig");
             let contact = t
                 .contact_s
                 .map_or("never".into(), |s| format!("after {:4.0} ms", 1e3 * s));

@@ -24,7 +24,7 @@ use tactile_core::tracking::{InverseSeries, TrackingConfig, TRACKING_POINTS};
 
 use tactile_core::profile::Protocol;
 
-use crate::identify::{ApplicatorModel, IdentifyError, ResponsePoint};
+use crate::identify::{ApplicatorModel, IdentifyError};
 use crate::rig::{RigConfig, TICK_S};
 use crate::scenario::{run_protocol, ScenarioError};
 
@@ -123,7 +123,8 @@ pub struct Identified {
 #[derive(Clone, Debug)]
 pub struct Excited {
     pub load_g: f32,
-    pub response: Vec<ResponsePoint>,
+    /// The drive and gauge over the chirp's periods (the response is their ratio).
+    pub means: crate::identify::PeriodMeans,
     pub hold: (f64, f64),
 }
 
@@ -161,14 +162,14 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
         settle_s: tactile_core::profile::EXCITATION_SETTLE_S,
     };
     let load_g = crate::identify::preload_of_record(rec).ok_or(not_excitation)?;
-    let response = crate::identify::frequency_response_of_record(rec)
+    let means = crate::identify::period_means_of_record(rec)
         .map_err(|source| DesignError::Identify { load_g, source })?;
     let hold = crate::identify::hold_means_of_record(rec).ok_or(DesignError::NotExcitation {
         settle_s: tactile_core::profile::EXCITATION_SETTLE_S,
     })?;
     Ok(Excited {
         load_g,
-        response,
+        means,
         hold,
     })
 }
@@ -191,7 +192,12 @@ pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
     let fits: Vec<Option<ApplicatorModel>> = std::thread::scope(|scope| {
         let handles: Vec<_> = excited
             .iter()
-            .map(|e| scope.spawn(|| crate::identify::fit_model(&e.response)))
+            .map(|e| {
+                scope.spawn(move || {
+                    let less = e.means.less_friction(stiction_g);
+                    crate::identify::fit_model(&less.response().ok()?)
+                })
+            })
             .collect();
         handles
             .into_iter()
@@ -240,18 +246,17 @@ pub fn excited_of_run(
             source: IdentifyError::NotTheExcitation,
         });
     };
-    let response =
-        crate::identify::frequency_response(ticks, protocol, actuator).map_err(|source| {
-            DesignError::Identify {
-                load_g: preload_g,
-                source,
-            }
-        })?;
+    let means = crate::identify::period_means(ticks, protocol, actuator).map_err(|source| {
+        DesignError::Identify {
+            load_g: preload_g,
+            source,
+        }
+    })?;
     let hold = crate::identify::hold_means(ticks, actuator)
         .ok_or(DesignError::NoModel { load_g: preload_g })?;
     Ok(Excited {
         load_g: preload_g,
-        response,
+        means,
         hold,
     })
 }
@@ -750,6 +755,7 @@ pub fn design(
         schedule,
         points: models.len().min(TRACKING_POINTS) as u8,
         friction_g,
+        friction_lead_s: friction_lead_s(identified_models) as f32,
         held_friction_g: (HELD_FRICTION_SHARE * f64::from(stiction_g)) as f32,
         kp: feedback.kp as f32,
         ki_per_s: feedback.ki_per_s as f32,
@@ -792,7 +798,20 @@ pub fn design(
 /// heavy rig's sine stays stuck at 25 Hz (−42.6 dB), its 20 g step overshoots 1.34 g and the
 /// light rig's 90 g step takes 57 ms (a quarter: 0.94 g, 45 ms). Stiction against a small fast
 /// sine wants more than a share fixed for every rig: left open (issue 13).
-pub const FRICTION_SHARE: f64 = 0.25;
+pub const FRICTION_SHARE: f64 = 1.0;
+
+/// How far ahead of the reference's rate the friction compensation turns, s
+/// (`TrackingConfig::friction_lead_s`): what the drive takes to reach the motor, the identified
+/// models' lag at low frequency (the amplifier's pole and the fitted delay, 1/(2πf_p) + τ,
+/// averaged over the loads) and a tick and a half (the drive computed from the last tick's
+/// reading, held over the next).
+pub fn friction_lead_s(models: &[LoadModel]) -> f64 {
+    let lag_s = |m: &LoadModel| {
+        (1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz) + m.model.delay_s).max(0.0)
+    };
+    let mean_s = models.iter().map(lag_s).sum::<f64>() / models.len().max(1) as f64;
+    mean_s + 1.5 * TICK_S
+}
 
 /// The share of the identified stiction held, once the reference stops, in the direction it
 /// last moved (`TrackingConfig::held_friction_g`). Measured on the three rigs of

@@ -64,6 +64,16 @@ pub fn frequency_response(
     protocol: Protocol,
     actuator: &ActuatorConfig,
 ) -> Result<Vec<ResponsePoint>, IdentifyError> {
+    period_means(ticks, protocol, actuator)?.response()
+}
+
+/// The drive and gauge of an excitation run over its analysed periods ([`PeriodMeans`]), the
+/// run checked as [`frequency_response`] checks it.
+pub fn period_means(
+    ticks: &[TickRecord],
+    protocol: Protocol,
+    actuator: &ActuatorConfig,
+) -> Result<PeriodMeans, IdentifyError> {
     let Protocol::Excitation { .. } = protocol else {
         return Err(IdentifyError::NotTheExcitation);
     };
@@ -82,7 +92,7 @@ pub fn frequency_response(
         .map(|t| f64::from(actuator.force_g(AdcCode(t.dac_code))))
         .collect();
     let gauge: Vec<f64> = ticks.iter().map(|t| f64::from(t.sensed_g)).collect();
-    response_of(&drive, &gauge, TICK_S)
+    PeriodMeans::of(&drive, &gauge, TICK_S)
 }
 
 /// The mean drive and gauge force (g) of the still hold at the preload before the chirp (its
@@ -152,6 +162,12 @@ fn analysed_from(dt_s: f64) -> usize {
 pub fn frequency_response_of_record(
     rec: &tactile_record::Record,
 ) -> Result<Vec<ResponsePoint>, IdentifyError> {
+    period_means_of_record(rec)?.response()
+}
+
+/// [`period_means`] of a record of the excitation, checked as
+/// [`frequency_response_of_record`] checks it.
+pub fn period_means_of_record(rec: &tactile_record::Record) -> Result<PeriodMeans, IdentifyError> {
     let drive = rec.column("drive_g").ok_or(IdentifyError::NoDriveColumn)?;
     let dt_s = record_dt_s(rec).ok_or(IdentifyError::TooFewPeriods { have: 0 })?;
     let per = f64::from(EXCITATION_PERIOD_S) / dt_s;
@@ -176,50 +192,98 @@ pub fn frequency_response_of_record(
     {
         return Err(IdentifyError::LostContact { t_s: rec.t_s[i] });
     }
-    response_of(drive, &rec.force_g, dt_s)
+    PeriodMeans::of(drive, &rec.force_g, dt_s)
 }
 
-/// The response from whole periods of drive and gauge sampled every `dt_s`.
-fn response_of(
-    drive: &[f64],
-    gauge: &[f64],
-    dt_s: f64,
-) -> Result<Vec<ResponsePoint>, IdentifyError> {
-    let per = (f64::from(EXCITATION_PERIOD_S) / dt_s).round() as usize;
-    let start = analysed_from(dt_s);
-    let periods = drive.len().min(gauge.len()).saturating_sub(start) / per;
-    if periods < 2 {
-        return Err(IdentifyError::TooFewPeriods { have: periods });
-    }
-    let lo = EXCITATION_START_HZ.ceil() as usize;
-    let hi = (EXCITATION_END_HZ as usize).min(per / 2 - 1);
-    let mut out = Vec::new();
-    for bin in lo..hi {
-        let w = 2.0 * std::f64::consts::PI * bin as f64 / per as f64;
-        let twiddle: Vec<Complex64> = (0..per)
-            .map(|i| Complex64::from_polar(1.0, -w * i as f64))
-            .collect();
-        let dft = |x: &[f64]| -> Complex64 { x.iter().zip(&twiddle).map(|(v, t)| t * v).sum() };
-        // Each period's spectrum, summed: the mean's ratio is the same as the sums'.
-        let (mut u, mut y) = (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0));
-        for p in 0..periods {
-            let range = start + p * per..start + (p + 1) * per;
-            u += dft(&drive[range.clone()]);
-            y += dft(&gauge[range]);
+/// The drive and the gauge averaged over the whole periods of the chirp analysed, one period
+/// of each, g: what the response is the ratio of (noise that is not periodic averages out).
+#[derive(Clone, Debug, Serialize)]
+pub struct PeriodMeans {
+    pub drive_g: Vec<f64>,
+    pub gauge_g: Vec<f64>,
+    pub dt_s: f64,
+}
+
+impl PeriodMeans {
+    /// Whole periods of drive and gauge sampled every `dt_s`, averaged.
+    pub fn of(drive: &[f64], gauge: &[f64], dt_s: f64) -> Result<Self, IdentifyError> {
+        let per = (f64::from(EXCITATION_PERIOD_S) / dt_s).round() as usize;
+        let start = analysed_from(dt_s);
+        let periods = drive.len().min(gauge.len()).saturating_sub(start) / per;
+        if periods < 2 {
+            return Err(IdentifyError::TooFewPeriods { have: periods });
         }
-        if u.norm() < 1e-9 * (per * periods) as f64 {
-            return Err(IdentifyError::NoDrive {
+        let mean = |x: &[f64]| -> Vec<f64> {
+            (0..per)
+                .map(|i| (0..periods).map(|p| x[start + p * per + i]).sum::<f64>() / periods as f64)
+                .collect()
+        };
+        Ok(Self {
+            drive_g: mean(drive),
+            gauge_g: mean(gauge),
+            dt_s,
+        })
+    }
+
+    /// The drive less the motor's Coulomb friction, `stiction_g` against the motor's motion,
+    /// referred to the drive: what the linear part of the plant was driven with. A chirp small
+    /// enough to keep the probe on the finger moves the motor little, and the friction it
+    /// meets reads as damping of the modes in the plain ratio (the memo rig's inertia–finger
+    /// mode at 10 g: ζ 0.14 plain, 0.08 less the friction, 0.07 linearized without it); a
+    /// feed-forward built on the plain ratio carries that damping, and with its friction
+    /// compensation counted the friction twice (a quarter of the stiction was all it could
+    /// take, and a 2 g sine about 10 g stuck from 25 Hz).
+    ///
+    /// The motor's motion is read from the gauge: below the beam's mode the motor and the tip
+    /// move together and the gauge follows the contact, above it the tip hardly moves and the
+    /// gauge follows the motor; either way the motor moves as the gauge's force changes. The
+    /// direction is the gauge's change over the next two samples (the friction acts on the
+    /// motor at once; the drive reaches it through the amplifier's pole a tick later).
+    pub fn less_friction(&self, stiction_g: f64) -> Self {
+        let n = self.gauge_g.len();
+        let drive_g = (0..n)
+            .map(|i| {
+                let change = self.gauge_g[(i + 2) % n] - self.gauge_g[i];
+                self.drive_g[i] - stiction_g * change.signum()
+            })
+            .collect();
+        Self {
+            drive_g,
+            gauge_g: self.gauge_g.clone(),
+            dt_s: self.dt_s,
+        }
+    }
+
+    /// The response from drive to gauge at each whole hertz of the chirp's band.
+    pub fn response(&self) -> Result<Vec<ResponsePoint>, IdentifyError> {
+        let per = self.drive_g.len().min(self.gauge_g.len());
+        let dt_s = self.dt_s;
+        let lo = EXCITATION_START_HZ.ceil() as usize;
+        let hi = (EXCITATION_END_HZ as usize).min(per / 2 - 1);
+        let mut out = Vec::new();
+        for bin in lo..hi {
+            let w = 2.0 * std::f64::consts::PI * bin as f64 / per as f64;
+            let dft = |x: &[f64]| -> Complex64 {
+                x.iter()
+                    .enumerate()
+                    .map(|(i, v)| Complex64::from_polar(*v, -w * i as f64))
+                    .sum()
+            };
+            let (u, y) = (dft(&self.drive_g), dft(&self.gauge_g));
+            if u.norm() < 1e-9 * per as f64 {
+                return Err(IdentifyError::NoDrive {
+                    hz: bin as f64 / (per as f64 * dt_s),
+                });
+            }
+            let g = y / u;
+            out.push(ResponsePoint {
                 hz: bin as f64 / (per as f64 * dt_s),
+                re: g.re,
+                im: g.im,
             });
         }
-        let g = y / u;
-        out.push(ResponsePoint {
-            hz: bin as f64 / (per as f64 * dt_s),
-            re: g.re,
-            im: g.im,
-        });
+        Ok(out)
     }
-    Ok(out)
 }
 
 /// A resonance of the measured response.

@@ -224,3 +224,52 @@ fn the_design_reads_excitation_records_and_refuses_others() {
     let e = excited_of_record(&tactile_record::read_record(&path).unwrap()).unwrap_err();
     assert!(matches!(e, DesignError::NotExcitation { .. }), "{e}");
 }
+
+#[test]
+fn the_drive_less_the_stiction_gives_the_linear_plants_damping() {
+    // The design's chirp (4 g at 10 g, 8 periods) on the memo's rig: the motor's 1.1 g of
+    // Coulomb friction reads as damping of the inertia–finger mode in the plain ratio of
+    // gauge to drive. Taken against the drive less the friction (the motor's direction read
+    // from the gauge), the fitted damping comes to the linearization's (the plant without
+    // friction fitted by the same form): measured ζ 0.143 plain, 0.081 less the friction,
+    // 0.073 linearized.
+    let p = rig("memo.toml");
+    let config = RigConfig {
+        seed: 5,
+        scan_array: false,
+        applicator: p,
+        ..Default::default()
+    };
+    let actuator = config.firmware.actuator;
+    let protocol = Protocol::design_excitation(10.0);
+    let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();
+    let means = sim_host::identify::period_means(&run.ticks, protocol, &actuator).unwrap();
+    let stiction_g = p.static_friction_nm / p.arm_m / NEWTONS_PER_GRAM;
+    let plain = fit_model(&means.response().unwrap()).unwrap();
+    let less = fit_model(&means.less_friction(stiction_g).response().unwrap()).unwrap();
+    let linear: Vec<ResponsePoint> = (2..300)
+        .map(|hz| {
+            let g = plant(&p, 10.0, f64::from(hz));
+            ResponsePoint {
+                hz: f64::from(hz),
+                re: g.re,
+                im: g.im,
+            }
+        })
+        .collect();
+    let linear = fit_model(&linear).unwrap();
+    let zeta = |m: &sim_host::identify::ApplicatorModel| m.modes[0].damping_ratio;
+    eprintln!(
+        "ζ plain {:.3}, less the friction {:.3}, linearized {:.3}",
+        zeta(&plain),
+        zeta(&less),
+        zeta(&linear)
+    );
+    assert!(zeta(&plain) > 1.5 * zeta(&linear), "{plain:?} {linear:?}");
+    assert!(
+        (zeta(&less) - zeta(&linear)).abs() < 0.4 * zeta(&linear),
+        "{less:?} {linear:?}"
+    );
+    // The mode itself where it was (within 5 %).
+    assert!((less.modes[0].hz / linear.modes[0].hz - 1.0).abs() < 0.05);
+}
