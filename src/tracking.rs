@@ -113,9 +113,10 @@ pub struct TrackingConfig {
     /// The motor's Coulomb friction at the probe, g: added in the direction the force is
     /// moving (the motor moves with it), reached at [`FRICTION_RATE_G_PER_S`].
     pub friction_g: f32,
-    /// How far ahead of the reference's rate the friction compensation turns, s (the
-    /// amplifier's lag and a tick: turned with the rate itself, a whole compensation on the
-    /// memo's rig peaked a 2 g sine about 10 g +2.8 dB at 30 Hz; 2.5 ms ahead, +1.4 dB).
+    /// How far ahead of the reference's rate the friction compensation turns, s (what the drive
+    /// takes to reach the motor: turned with the rate itself, the memo's rig peaked a 2 g sine
+    /// about 10 g +3.4 dB at 30 Hz and 10 g about 50 g +2.4 dB at 40 Hz; 2.2 ms ahead, +0.1
+    /// and +1.3 dB).
     pub friction_lead_s: f32,
     /// Friction held once the reference stops, g, in the direction it last moved: a motor
     /// that stuck short of a step's end sits anywhere within its stiction band, and the

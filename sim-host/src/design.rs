@@ -790,14 +790,16 @@ pub fn design(
 }
 
 /// The share of the identified stiction the feed-forward pushes against, in the direction the
-/// reference moves. Measured (`FRICTION=G ONLY=1 cargo run --release -p sim-host --example
-/// design_controller [applicators/FILE.toml]`) with the touch-down mode, whose overshoot stays
-/// at 0.21 g or less at every share: on the memo's rig (1.01 g identified) a quarter leaves a
-/// 2 g sine about 10 g stuck from 30 Hz (−24.9 dB), a half keeps it within +1.5/−0.3 dB to
-/// 30 Hz, three quarters and a whole push it over (+5.1, +8.5 dB at 30 Hz); but at a half the
-/// heavy rig's sine stays stuck at 25 Hz (−42.6 dB), its 20 g step overshoots 1.34 g and the
-/// light rig's 90 g step takes 57 ms (a quarter: 0.94 g, 45 ms). Stiction against a small fast
-/// sine wants more than a share fixed for every rig: left open (issue 13).
+/// reference moves ([`friction_lead_s`] ahead): all of it, now that the models are fitted to
+/// the drive less the friction ([`crate::identify::PeriodMeans::less_friction`]). Near the
+/// inertia–finger mode a sine needs less drive than the stiction, and only a compensation of
+/// the whole moves the motor there. Measured (`FRICTION=G ONLY=1 cargo run --release -p
+/// sim-host --example design_controller [applicators/FILE.toml]`): with models fitted to the
+/// plain ratio, which read the friction as the modes' damping, a quarter was all the
+/// feed-forward could take (a half overshot the heavy rig's 20 g step by 1.34 g, a whole
+/// peaked the memo rig's 2 g sine about 10 g +8.5 dB at 30 Hz), and that quarter left the
+/// sine stuck from 25 Hz (−24.9 dB at 30 Hz on the memo's rig; −70 dB on the heavy rig's);
+/// now within −0.61…+0.43 dB to 40 Hz on the memo's rig, −3.2…+0.9 dB on the heavy rig's.
 pub const FRICTION_SHARE: f64 = 1.0;
 
 /// How far ahead of the reference's rate the friction compensation turns, s
