@@ -1046,10 +1046,19 @@ mod tests {
             feedback: 0.5,
         };
         cfg.held_friction_g = 0.3;
+        cfg.friction_lead_s = 2.2e-3;
         let bytes = cfg.encode().unwrap();
         assert_eq!(TrackingConfig::decode(&bytes), Ok(cfg));
-        // 8 + 4·(18 + 9·6) + 4 bytes.
-        assert_eq!(bytes.len(), 300);
+        // 8 + 4·(19 + 9·6) + 4 bytes.
+        assert_eq!(bytes.len(), 304);
+        let behind = TrackingConfig {
+            friction_lead_s: -1e-3,
+            ..cfg
+        };
+        assert_eq!(
+            behind.encode(),
+            Err(TrackingError::Invalid("friction_lead_s"))
+        );
         let mut bad = bytes;
         bad[20] ^= 1;
         assert!(matches!(
