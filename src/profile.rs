@@ -84,7 +84,8 @@ pub enum Protocol {
     /// gets `periods` periods of a chirp of `amplitude_g` added after the loop's filter
     /// ([`CommandSource::drive_excitation_g`]), sweeping linearly from [`EXCITATION_START_HZ`]
     /// to [`EXCITATION_END_HZ`] in [`EXCITATION_PERIOD_S`]: periodic, so each period's
-    /// spectrum has every whole hertz of the band and no leakage.
+    /// spectrum has every whole hertz of the band and no leakage. Its amplitude rises above
+    /// [`EXCITATION_KNEE_HZ`] (the response is a ratio: the shape of the drive drops out).
     Excitation {
         preload_g: f32,
         amplitude_g: f32,
@@ -103,6 +104,19 @@ pub const EXCITATION_PERIOD_S: f32 = 1.0;
 /// past the beam modes of lighter rigs (near 250 Hz) and under the loop's Nyquist rate.
 pub const EXCITATION_START_HZ: f32 = 1.0;
 pub const EXCITATION_END_HZ: f32 = 301.0;
+/// Above this the chirp's amplitude rises with its frequency, Hz, up to
+/// [`EXCITATION_RISE_MAX`] times the protocol's: the amplifier's pole and the motor's stiction
+/// take the torque of a flat chirp below what slides the motor at high frequency, and the
+/// response read there was the friction's, not the plant's. Measured (`cargo run --release -p
+/// sim-host --example design_controller FILE`): on the memo's rig with an 80 Hz amplifier and
+/// 1.5× the stiction a flat chirp read the response 20 dB low at random phase from 55 Hz, and
+/// the fits put the amplifier's pole at 29 Hz with a 2.4 ms lead (102 % RMS): the loop built
+/// on them peaked +6.2 dB at 40 Hz and overshot a 20 g step by 2.4 g. Rising, the pole fits at
+/// 67–73 Hz (42–17 % RMS); the memo rig's fits went from 54–23 % to 38–10 % RMS.
+pub const EXCITATION_KNEE_HZ: f32 = 60.0;
+/// The most the chirp's amplitude rises: more, the light rig's beam mode near 260 Hz moved the
+/// gauge by over 40 g in a tick (the supervisor's implausible slew) at 10–35 g.
+pub const EXCITATION_RISE_MAX: f32 = 3.0;
 
 /// Preloads the applicator is identified at for the controller's design, g
 /// ([`Protocol::design_excitation`]).
@@ -454,7 +468,9 @@ impl CommandSource {
         let cycles = EXCITATION_START_HZ * tau + sweep * tau * tau / (2.0 * EXCITATION_PERIOD_S);
         // Whole cycles taken off before the sine: its argument stays small in f32.
         let phase = 2.0 * core::f32::consts::PI * (cycles - libm::floorf(cycles));
-        amplitude_g * crate::trig::sinf(phase)
+        let hz = EXCITATION_START_HZ + sweep * tau / EXCITATION_PERIOD_S;
+        let rise = (hz / EXCITATION_KNEE_HZ).clamp(1.0, EXCITATION_RISE_MAX);
+        amplitude_g * rise * crate::trig::sinf(phase)
     }
 
     fn sines(&self, offset_g: f32, amplitude_g: f32, t_s: f32) -> f32 {
@@ -513,7 +529,8 @@ mod tests {
         assert_eq!(s.command_g(1.0), 50.0);
         assert_eq!(s.command_g(3.3), 50.0);
         assert_eq!(s.drive_excitation_g(1.0), 0.0);
-        // One period sampled at 1 kHz, twice: the same samples (periodic), within ±3 g, mean 0.
+        // One period sampled at 1 kHz, twice: the same samples (periodic), within ±3 g below
+        // the knee and ±9 g above it, mean 0.
         let period = |s: &CommandSource, start: f32| -> Vec<f32> {
             (0..1000)
                 .map(|i| s.drive_excitation_g(start + i as f32 * 1e-3))
@@ -522,8 +539,15 @@ mod tests {
         let (a, b) = (period(&s, 2.5), period(&s, 3.5));
         for (x, y) in a.iter().zip(&b) {
             assert!((x - y).abs() < 0.02, "{x} vs {y}");
-            assert!(x.abs() <= 3.0 + 1e-4);
+            assert!(x.abs() <= 9.0 + 1e-3);
         }
+        let below_knee = (EXCITATION_KNEE_HZ - EXCITATION_START_HZ) / 300.0;
+        for (i, x) in a.iter().enumerate() {
+            if (i as f32) < 1000.0 * below_knee {
+                assert!(x.abs() <= 3.0 + 1e-4, "{i} ms: {x}");
+            }
+        }
+        assert!(a.iter().any(|x| x.abs() > 8.5), "the amplitude rises to 9 g");
         let mean = a.iter().sum::<f32>() / 1000.0;
         assert!(mean.abs() < 0.1, "{mean}");
         // By hand: 0.1 s into a period the chirp is at 1 + 300·0.1 = 31 Hz and has turned
@@ -531,6 +555,10 @@ mod tests {
         let x = s.drive_excitation_g(1.5 + 0.1);
         let expected = 3.0 * (2.0 * core::f32::consts::PI * 0.6).sin();
         assert!((x - expected).abs() < 1e-3, "{x} vs {expected}");
+        // 0.3 s in: 91 Hz, 0.3 + 150·0.09 = 13.8 cycles, the amplitude 3·91/60.
+        let x = s.drive_excitation_g(1.5 + 0.3);
+        let expected = 3.0 * 91.0 / 60.0 * (2.0 * core::f32::consts::PI * 0.8).sin();
+        assert!((x - expected).abs() < 2e-3, "{x} vs {expected}");
         assert_eq!(s.drive_excitation_g(5.6), 0.0);
         assert_eq!(s.command_g(5.6), 0.0);
         // Every other protocol leaves the drive alone.

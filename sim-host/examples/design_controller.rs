@@ -9,7 +9,8 @@
 //! `SEED=N`: the rig's seed (1). `FF_ONLY=1`: the feed-forward alone (no feedback). `ONLY=1`: skip A1. `FRICTION=G`: G grams
 //! of stiction compensated instead of `design::FRICTION_SHARE` of the identified.
 //! `LEAD_MS=T`: the compensation turned T ms ahead of the reference's rate instead of
-//! `design::friction_lead_s`.
+//! `design::friction_lead_s`. `HELD=S`: S times the stiction compensated held once the
+//! reference stops instead of `design::HELD_FRICTION_SHARE`.
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -89,6 +90,13 @@ fn main() {
         .and_then(|v| v.parse::<f32>().ok())
     {
         d.config.friction_lead_s = 1e-3 * lead_ms;
+    }
+    // `HELD=S`: S times the identified stiction held once the reference stops.
+    if let Some(share) = std::env::var("HELD")
+        .ok()
+        .and_then(|v| v.parse::<f32>().ok())
+    {
+        d.config.held_friction_g = share * d.config.friction_g;
     }
     for (m, p) in d.models.iter().zip(&d.config.schedule) {
         println!(

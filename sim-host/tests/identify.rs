@@ -44,10 +44,12 @@ fn check(name: &str, p: ApplicatorParams, load_g: f32, amplitude_g: f32, good_fi
     let model = fit_model(&response).unwrap();
     eprintln!("{name} at {load_g} g: plant's resonances {want:.1?} Hz, identified {model:.3?}");
     assert_eq!(want.len(), 2, "{want:?}");
-    // The fitted modes at the plant's: the inertia–finger mode within 8 % (stiction and the
-    // swing about the load move it: 50.4, 37.3 and 73.4 Hz measured for 49.5, 35.5 and
-    // 70.2), the beam's within 5 % (189.9, 150.6, 257.1 for 188.2, 150.5, 255.2).
-    for ((w, f), share) in want.iter().zip(&model.modes).zip([0.08, 0.05]) {
+    // The fitted modes at the plant's: the inertia–finger mode within 10 % (stiction and the
+    // swing about the load move it: 50.1, 36.2 and 76.9 Hz measured for 49.5, 35.5 and
+    // 70.2; the light rig's was 73.4 Hz with a flat chirp of 15 g, which its rise now takes
+    // past the supervisor's slew), the beam's within 5 % (189.6, 154.1, 257.9 for 188.2,
+    // 150.5, 255.2).
+    for ((w, f), share) in want.iter().zip(&model.modes).zip([0.10, 0.05]) {
         assert!((f.hz - w).abs() < share * w, "{name}: {w:.1} Hz vs {f:?}");
     }
     // Both lightly damped, and the anti-resonance (the tip on the finger alone) between them.
@@ -59,8 +61,9 @@ fn check(name: &str, p: ApplicatorParams, load_g: f32, amplitude_g: f32, good_fi
         z > model.modes[0].hz && z < model.modes[1].hz,
         "{name}: {model:?}"
     );
-    // The model follows what was measured (where the chirp is large enough for the motor's
-    // stiction: the heavy rig's 2.5 g chirp is distorted by it, its fit error is near 1).
+    // The model follows what was measured (the chirp rising above 60 Hz keeps the motor
+    // sliding: with a flat one the heavy rig's 2.5 g was distorted by the stiction, its fit
+    // error near 1; now 0.21).
     if good_fit {
         assert!(model.rms_log_error < 0.3, "{name}: {model:?}");
     }
@@ -101,15 +104,17 @@ fn the_applicators_resonances_are_identified_from_the_excitation() {
         rig("heavy-motor-soft-beam.toml"),
         50.0,
         2.5,
-        false,
+        true,
     );
     // A light motor with twice the stiction, the beam's mode near 255 Hz: a chirp of 5 g
-    // hardly moves the motor (|G| 0.5–1.1 of the plant's below 60 Hz), so 15 g.
+    // hardly moves the motor (|G| 0.5–1.1 of the plant's below 60 Hz; its first mode read
+    // 11 % high), so 6 g (one of 7 g, rising threefold above 60 Hz, swings the gauge past
+    // the supervisor's plausible slew near 300 Hz).
     check(
         "light motor",
         rig("light-motor-stiff-beam.toml"),
         50.0,
-        15.0,
+        6.0,
         true,
     );
 }

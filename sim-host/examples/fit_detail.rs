@@ -1,0 +1,57 @@
+//! One preload's excitation on the simulated rig, as the design reads it: the measured response
+//! (the drive less the stiction, and the plain ratio) beside the plant's own friction-free
+//! linearization and the fitted model, every 5 Hz.
+//!
+//! `cargo run --release -p sim-host --example fit_detail [APPLICATOR.toml] [PRELOAD_G]
+//! [STICTION_G]` (defaults: the memo's rig, 10 g, 1 g).
+use sim_host::design;
+use sim_host::rig::RigConfig;
+use sim_host::scenario::run_protocol;
+use tactile_core::profile::Protocol;
+
+fn main() {
+    let mut config = RigConfig {
+        scan_array: false,
+        ..Default::default()
+    };
+    let arg = |i: usize| std::env::args().nth(i);
+    if let Some(path) = arg(1) {
+        config.applicator =
+            sim_host::error::read_applicator(std::path::Path::new(&path)).expect("applicator");
+    }
+    let load_g: f32 = arg(2).and_then(|v| v.parse().ok()).unwrap_or(10.0);
+    let stiction_g: f64 = arg(3).and_then(|v| v.parse().ok()).unwrap_or(1.0);
+    let protocol = Protocol::design_excitation(load_g);
+    let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).expect("run");
+    let e = design::excited_of_run(&run.ticks, protocol, &config.firmware.actuator)
+        .expect("an excitation record");
+    let less = e.means.less_friction(stiction_g).response().expect("response");
+    let plain = e.means.response().expect("response");
+    let fit = sim_host::identify::fit_model(&less).expect("a fit");
+    println!("fit: {fit}");
+    let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
+    let db = |c: num_complex::Complex64| 20.0 * c.norm().log10();
+    let deg = |c: num_complex::Complex64| c.arg().to_degrees();
+    for (p, q) in less.iter().zip(&plain).filter(|(p, _)| p.hz as usize % 5 == 0) {
+        let w = 2.0 * std::f64::consts::PI * p.hz;
+        let lin = sim_host::analysis::applicator_response(
+            &config.applicator,
+            &law,
+            f64::from(load_g),
+            w,
+        );
+        let m = fit.response(p.hz);
+        println!(
+            "{:5.0} Hz less friction {:+6.2} dB {:+7.1}° | plain {:+6.2} dB {:+7.1}° | plant {:+6.2} dB {:+7.1}° | fit {:+6.2} dB {:+7.1}°",
+            p.hz,
+            db(p.value()),
+            deg(p.value()),
+            db(q.value()),
+            deg(q.value()),
+            db(lin),
+            deg(lin),
+            db(m),
+            deg(m)
+        );
+    }
+}
