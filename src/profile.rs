@@ -547,7 +547,10 @@ mod tests {
                 assert!(x.abs() <= 3.0 + 1e-4, "{i} ms: {x}");
             }
         }
-        assert!(a.iter().any(|x| x.abs() > 8.5), "the amplitude rises to 9 g");
+        assert!(
+            a.iter().any(|x| x.abs() > 8.5),
+            "the amplitude rises to 9 g"
+        );
         let mean = a.iter().sum::<f32>() / 1000.0;
         assert!(mean.abs() < 0.1, "{mean}");
         // By hand: 0.1 s into a period the chirp is at 1 + 300·0.1 = 31 Hz and has turned

@@ -25,21 +25,25 @@ fn main() {
     let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).expect("run");
     let e = design::excited_of_run(&run.ticks, protocol, &config.firmware.actuator)
         .expect("an excitation record");
-    let less = e.means.less_friction(stiction_g).response().expect("response");
+    let less = e
+        .means
+        .less_friction(stiction_g)
+        .response()
+        .expect("response");
     let plain = e.means.response().expect("response");
     let fit = sim_host::identify::fit_model(&less).expect("a fit");
     println!("fit: {fit}");
     let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
     let db = |c: num_complex::Complex64| 20.0 * c.norm().log10();
     let deg = |c: num_complex::Complex64| c.arg().to_degrees();
-    for (p, q) in less.iter().zip(&plain).filter(|(p, _)| p.hz as usize % 5 == 0) {
+    for (p, q) in less
+        .iter()
+        .zip(&plain)
+        .filter(|(p, _)| p.hz as usize % 5 == 0)
+    {
         let w = 2.0 * std::f64::consts::PI * p.hz;
-        let lin = sim_host::analysis::applicator_response(
-            &config.applicator,
-            &law,
-            f64::from(load_g),
-            w,
-        );
+        let lin =
+            sim_host::analysis::applicator_response(&config.applicator, &law, f64::from(load_g), w);
         let m = fit.response(p.hz);
         println!(
             "{:5.0} Hz less friction {:+6.2} dB {:+7.1}° | plain {:+6.2} dB {:+7.1}° | plant {:+6.2} dB {:+7.1}° | fit {:+6.2} dB {:+7.1}°",
