@@ -39,7 +39,7 @@ fn main() {
     for (p, q) in less
         .iter()
         .zip(&plain)
-        .filter(|(p, _)| p.hz as usize % 5 == 0)
+        .filter(|(p, _)| (p.hz as usize).is_multiple_of(5))
     {
         let w = 2.0 * std::f64::consts::PI * p.hz;
         let lin =
