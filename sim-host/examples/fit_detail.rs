@@ -3,7 +3,7 @@
 //! linearization and the fitted model, every 5 Hz.
 //!
 //! `cargo run --release -p sim-host --example fit_detail [APPLICATOR.toml] [PRELOAD_G]
-//! [STICTION_G]` (defaults: the memo's rig, 10 g, 1 g).
+//! [STICTION_G] [AMPLITUDE_G]` (defaults: the memo's rig, 10 g, 1 g, the design's chirp).
 use sim_host::design;
 use sim_host::rig::RigConfig;
 use sim_host::scenario::run_protocol;
@@ -21,7 +21,12 @@ fn main() {
     }
     let load_g: f32 = arg(2).and_then(|v| v.parse().ok()).unwrap_or(10.0);
     let stiction_g: f64 = arg(3).and_then(|v| v.parse().ok()).unwrap_or(1.0);
-    let protocol = Protocol::design_excitation(load_g);
+    let mut protocol = Protocol::design_excitation(load_g);
+    if let (Some(a), Protocol::Excitation { amplitude_g, .. }) =
+        (arg(4).and_then(|v| v.parse::<f32>().ok()), &mut protocol)
+    {
+        *amplitude_g = a;
+    }
     let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).expect("run");
     let e = design::excited_of_run(&run.ticks, protocol, &config.firmware.actuator)
         .expect("an excitation record");

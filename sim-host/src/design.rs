@@ -5,7 +5,8 @@
 //! - the feed-forward's schedule: at each preload, the inverse of the model's path to the
 //!   contact force as a series in s up to s³ (the delay left out: no controller can undo it),
 //!   over the static gain of the holds before the chirps ([`crate::identify::static_line`],
-//!   which also gives the stiction compensated); below the lightest identified load, models
+//!   which also gives the stiction compensated); below the lightest identified load (and above
+//!   the heaviest, where a design load gave no model), models
 //!   extrapolated by the modes' power law in load ([`extrapolate`]);
 //! - the feedback: integral action (and a proportional term) on the error through a biquad
 //!   ([`ErrorFilter`]: none, a notch at the beam's mode, or a double pole), the gains as large
@@ -281,14 +282,17 @@ fn excite(config: RigConfig, load_g: f32) -> Result<Excited, DesignError> {
     }
 }
 
-/// The model at `load_g`, below the identified loads: the inertia–finger mode and the
+/// The model at `load_g`, outside the identified loads: the inertia–finger mode and the
 /// anti-resonance (the tip on the finger) move with the contact's stiffness, which a soft
 /// finger's spring makes a power of the load; the power is fitted to the identified loads
-/// (ln f against ln load, least squares), the rest is the lightest identified model's. On the
+/// (ln f against ln load, least squares), the rest is the nearest identified model's. On the
 /// memo's finger the analytic modes follow it to 1 %: 25.8 and 30.9 Hz at 2 and 5 g from
 /// 35.7–57.5 Hz at 10–100 g.
 pub fn extrapolate(models: &[LoadModel], load_g: f32) -> Option<LoadModel> {
-    let lightest = models.iter().min_by(|a, b| a.load_g.total_cmp(&b.load_g))?;
+    let distance = |m: &LoadModel| (f64::from(m.load_g).ln() - f64::from(load_g).ln()).abs();
+    let nearest = models
+        .iter()
+        .min_by(|a, b| distance(a).total_cmp(&distance(b)))?;
     let slope = |hz: &dyn Fn(&ApplicatorModel) -> f64| -> Option<f64> {
         let (ln_load, ln_hz): (Vec<f64>, Vec<f64>) = models
             .iter()
@@ -296,8 +300,8 @@ pub fn extrapolate(models: &[LoadModel], load_g: f32) -> Option<LoadModel> {
             .unzip();
         Some(tactile_ident::stats::line(&ln_load, &ln_hz)?.1)
     };
-    let ratio = f64::from(load_g) / f64::from(lightest.load_g);
-    let mut model = lightest.model;
+    let ratio = f64::from(load_g) / f64::from(nearest.load_g);
+    let mut model = nearest.model;
     let b_mode = slope(&|m| m.modes[0].hz)?;
     let b_anti = slope(&|m| m.anti_resonance.hz)?;
     model.modes[0].hz *= ratio.powf(b_mode);
@@ -305,7 +309,7 @@ pub fn extrapolate(models: &[LoadModel], load_g: f32) -> Option<LoadModel> {
     Some(LoadModel {
         load_g,
         model,
-        static_gain: lightest.static_gain,
+        static_gain: nearest.static_gain,
     })
 }
 
@@ -616,14 +620,19 @@ pub fn design(
     drive_range_g: (f32, f32),
 ) -> Result<Design, DesignError> {
     let friction_g = (FRICTION_SHARE * f64::from(stiction_g)) as f32;
-    // The identified models and, below the lightest, the extrapolated ones.
+    // The identified models and, outside them, the extrapolated ones.
     let lightest = models
         .iter()
         .map(|m| m.load_g)
         .fold(f32::INFINITY, f32::min);
+    let heaviest = models.iter().map(|m| m.load_g).fold(0.0, f32::max);
+    // Above the heaviest, the design's loads whose excitation gave no model (the heavy rig's
+    // 100 g chirp leaves the gauge's range: the 75 g model ran to 110 g, and a 10 g sine
+    // about 100 g peaked +4.4 dB at 40 Hz, at that load's own mode).
     let mut all: Vec<LoadModel> = EXTRAPOLATED_LOADS_G
         .iter()
         .filter(|l| **l < lightest)
+        .chain(DESIGN_LOADS_G.iter().filter(|l| **l > heaviest))
         .filter_map(|l| extrapolate(models, *l))
         .chain(models.iter().copied())
         .collect();
@@ -633,7 +642,7 @@ pub fn design(
     // its margins allow.
     let grid = loop_grid_hz();
     let family = |m: &LoadModel| -> Vec<Vec<Complex64>> {
-        variants(&m.model, m.load_g < lightest)
+        variants(&m.model, m.load_g < lightest || m.load_g > heaviest)
             .iter()
             .map(|v| grid.iter().map(|hz| v.response(*hz)).collect())
             .collect()
@@ -935,6 +944,48 @@ mod tests {
                 c[k],
                 expected[k]
             );
+        }
+    }
+
+    #[test]
+    fn extrapolation_follows_the_modes_power_law_from_the_nearest_model() {
+        // Modes on an exact power law, f₁ = 10·L^¼ and f_z = 20·L^0.3 Hz, at 10, 20 and 50 g; the
+        // beam's mode marks which model the rest comes from.
+        let at = |load_g: f64| LoadModel {
+            load_g: load_g as f32,
+            model: ApplicatorModel {
+                gain: 1.0,
+                anti_resonance: Resonance {
+                    hz: 20.0 * load_g.powf(0.3),
+                    damping_ratio: 0.1,
+                },
+                modes: [
+                    Resonance {
+                        hz: 10.0 * load_g.powf(0.25),
+                        damping_ratio: 0.1,
+                    },
+                    Resonance {
+                        hz: 100.0 + load_g,
+                        damping_ratio: 0.05,
+                    },
+                ],
+                pole_hz: 160.0,
+                delay_s: 0.0,
+                rms_log_error: 0.0,
+            },
+            static_gain: 1.0,
+        };
+        let models = [at(10.0), at(20.0), at(50.0)];
+        // 15 g is nearer 20 g than 10 g in ratio (4/3 against 3/2).
+        for (load_g, beam_hz) in [(2.0f64, 110.0), (100.0, 150.0), (15.0, 120.0)] {
+            let m = extrapolate(&models, load_g as f32).unwrap().model;
+            let (f1, fz) = (10.0 * load_g.powf(0.25), 20.0 * load_g.powf(0.3));
+            assert!((m.modes[0].hz - f1).abs() < 1e-6 * f1, "{load_g} g: {m:?}");
+            assert!(
+                (m.anti_resonance.hz - fz).abs() < 1e-6 * fz,
+                "{load_g} g: {m:?}"
+            );
+            assert_eq!(m.modes[1].hz, beam_hz, "{load_g} g");
         }
     }
 
