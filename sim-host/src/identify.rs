@@ -78,14 +78,16 @@ pub fn period_means(
         return Err(IdentifyError::NotTheExcitation);
     };
     let start = analysed_from(TICK_S);
-    if let Some(t) = ticks.iter().skip(start).find(|t| !t.faults.is_empty()) {
+    let faulted: Vec<bool> = ticks.iter().map(|t| !t.faults.is_empty()).collect();
+    if let Some(i) = first_of_run_into(&faulted, start) {
         return Err(IdentifyError::Faulted {
-            t_s: t.t_s,
-            faults: format!("{:?}", t.faults),
+            t_s: ticks[i].t_s,
+            faults: format!("{:?}", ticks[i].faults),
         });
     }
-    if let Some(t) = ticks.iter().skip(start).find(|t| !t.in_contact) {
-        return Err(IdentifyError::LostContact { t_s: t.t_s });
+    let off: Vec<bool> = ticks.iter().map(|t| !t.in_contact).collect();
+    if let Some(i) = first_of_run_into(&off, start) {
+        return Err(IdentifyError::LostContact { t_s: ticks[i].t_s });
     }
     let drive: Vec<f64> = ticks
         .iter()
@@ -176,9 +178,9 @@ pub fn period_means_of_record(rec: &tactile_record::Record) -> Result<PeriodMean
         return Err(IdentifyError::SampleRate { hz: 1.0 / dt_s });
     }
     let start = analysed_from(dt_s);
-    let after = |i: &usize| *i >= start;
     if let Some(faults) = rec.column("faults") {
-        if let Some(i) = (0..faults.len()).filter(after).find(|&i| faults[i] != 0.0) {
+        let faulted: Vec<bool> = faults.iter().map(|f| *f != 0.0).collect();
+        if let Some(i) = first_of_run_into(&faulted, start) {
             let flags = tactile_core::telemetry::FaultFlags::from_bits_retain(faults[i] as u16);
             return Err(IdentifyError::Faulted {
                 t_s: rec.t_s[i],
@@ -186,13 +188,22 @@ pub fn period_means_of_record(rec: &tactile_record::Record) -> Result<PeriodMean
             });
         }
     }
-    if let Some(i) = rec
-        .column("contact")
-        .and_then(|c| (0..c.len()).filter(after).find(|&i| c[i] == 0.0))
-    {
+    if let Some(i) = rec.column("contact").and_then(|c| {
+        let off: Vec<bool> = c.iter().map(|v| *v == 0.0).collect();
+        first_of_run_into(&off, start)
+    }) {
         return Err(IdentifyError::LostContact { t_s: rec.t_s[i] });
     }
     PeriodMeans::of(drive, &rec.force_g, dt_s)
+}
+
+/// Where the run of `set` samples that reaches into the analysed part (from `start`) began:
+/// what an error names (a fault latched in the first, settling period is reported when it
+/// happened, not where the analysis starts).
+fn first_of_run_into(set: &[bool], start: usize) -> Option<usize> {
+    let first = (start..set.len()).find(|&i| set[i])?;
+    let began = (0..first).rev().take_while(|&i| set[i]).last();
+    Some(began.unwrap_or(first))
 }
 
 /// The drive and the gauge averaged over the whole periods of the chirp analysed, one period
@@ -601,6 +612,17 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_error_names_where_its_run_began() {
+        // A fault from sample 4 on, latched, the analysis from 5: named at 4; one that came
+        // and went before the analysis is not named.
+        let set = [false, true, false, false, true, true, true];
+        assert_eq!(first_of_run_into(&set, 5), Some(4));
+        assert_eq!(first_of_run_into(&set, 2), Some(4));
+        assert_eq!(first_of_run_into(&set, 1), Some(1));
+        assert_eq!(first_of_run_into(&set[..4], 2), None);
+    }
 
     #[test]
     fn the_static_line_of_holds_from_below_is_gain_and_stiction() {

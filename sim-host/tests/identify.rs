@@ -109,7 +109,7 @@ fn the_applicators_resonances_are_identified_from_the_excitation() {
     // A light motor with twice the stiction, the beam's mode near 255 Hz: a chirp of 5 g
     // hardly moves the motor (|G| 0.5–1.1 of the plant's below 60 Hz; its first mode read
     // 11 % high), so 6 g (one of 7 g, rising threefold above 60 Hz, swings the gauge past
-    // the supervisor's plausible slew near 300 Hz).
+    // the supervisor's plausible slew at the beam's mode, 256 Hz).
     check(
         "light motor",
         rig("light-motor-stiff-beam.toml"),
