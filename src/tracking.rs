@@ -475,7 +475,14 @@ pub struct Tracking {
     ramping: bool,
     /// The direction the reference last moved (−1, 0 before any move, 1).
     moved: f32,
+    /// Ticks the reference has been still (its rate under a tenth of the friction's), up to
+    /// [`REST_TICKS`].
+    still_ticks: u8,
 }
+
+/// Ticks the reference must be still before a move counts as one from rest (20 ms: a sine's
+/// reversal is not a rest).
+pub const REST_TICKS: u8 = 20;
 
 /// What one tick of the controller decided, besides the drive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -503,6 +510,7 @@ impl Tracking {
             head: 0,
             integral_g: 0.0,
             moved: 0.0,
+            still_ticks: 0,
             filter_state: [0.0; 2],
             landed: false,
             approach_tick: 0,
@@ -558,6 +566,7 @@ impl Tracking {
             self.history = [force_g; HISTORY];
             self.filter_state = [0.0; 2];
             self.moved = 0.0;
+            self.still_ticks = 0;
         }
     }
 
@@ -628,7 +637,18 @@ impl Tracking {
                 let carried = crate::limit(self.integral_g * self.moved, 0.0, c.held_friction_g);
                 self.integral_g -= carried * self.moved;
             }
+            // NOTE: a move from rest: what the integral pushed against this direction while
+            // the motor stood, up to the stiction, held the motor in the friction's band (a
+            // step that stopped 0.3 g past its target left 0.9 g against the next step's
+            // direction, which stopped it 1 g short): dropped.
+            if self.still_ticks >= REST_TICKS {
+                let against = crate::limit(-self.integral_g * now, 0.0, c.friction_g);
+                self.integral_g += against * now;
+            }
             self.moved = now;
+            self.still_ticks = 0;
+        } else if rate.abs() < 0.1 {
+            self.still_ticks = self.still_ticks.saturating_add(1).min(REST_TICKS);
         }
         let still = (1.0 - 2.0 * rate.abs()).max(0.0);
         // NOTE: the compensation reaches the motor through the amplifier a tick after it is
@@ -1034,6 +1054,65 @@ mod tests {
             drive = t.update(5.0, 0.98 * drive, true).force_g;
         }
         assert!(t.integral_g > 0.05, "{}", t.integral_g);
+    }
+
+    #[test]
+    fn a_move_from_rest_drops_what_the_integral_pushed_against_it() {
+        // A unit plant that stood 0.3 g above its drive after moving up to 10 g (a step that
+        // stopped past its target, held there by the friction): the integral learned
+        // 10 − 0.3 − 10 − 0.5 (held) = −0.8 g, pushing down.
+        let cfg = TrackingConfig {
+            friction_g: 1.0,
+            held_friction_g: 0.5,
+            ..TrackingConfig::UNIT_PLANT
+        };
+        let settled = || {
+            let mut t = Tracking::new(cfg).unwrap();
+            let mut drive = 0.0;
+            for k in 0..5000 {
+                let stuck = if k > 100 { 0.3 } else { 0.0 };
+                drive = t.update(10.0, drive + stuck, true).force_g;
+            }
+            assert!((t.integral_g + 0.8).abs() < 1e-3, "{}", t.integral_g);
+            (t, drive)
+        };
+        // The next step up: the −0.8 g is dropped as the reference leaves rest (the integral
+        // alone, 20/s on an error of a gram, would unwind 0.02 g a tick).
+        let (mut t, mut drive) = settled();
+        let mut dropped = None;
+        for k in 0..20 {
+            let before = t.integral_g;
+            drive = t.update(15.0, drive + 0.3, true).force_g;
+            if t.integral_g - before > 0.7 {
+                dropped = Some(k);
+                break;
+            }
+        }
+        assert!(dropped.is_some(), "{}", t.integral_g);
+        // A step down, the integral's direction: kept (it moves at the integral's rate, 20/s
+        // on the step's error, under 0.15 g a tick).
+        let (mut t, mut drive) = settled();
+        for _ in 0..20 {
+            let before = t.integral_g;
+            drive = t.update(5.0, drive + 0.3, true).force_g;
+            assert!((t.integral_g - before).abs() < 0.3, "{}", t.integral_g);
+        }
+        // A 5 g sine about 10 g at 2 Hz leaves rest once (its start counts) and never rests
+        // again: nothing dropped at its turns.
+        let (mut t, mut drive) = settled();
+        for k in 0..2000 {
+            let command_g =
+                10.0 + 5.0 * crate::trig::sinf(2.0 * core::f32::consts::PI * 0.002 * k as f32);
+            let before = t.integral_g;
+            drive = t.update(command_g, drive + 0.3, true).force_g;
+            if k > 100 {
+                assert!(
+                    (t.integral_g - before).abs() < 0.3,
+                    "tick {k}: {}",
+                    t.integral_g
+                );
+            }
+        }
     }
 
     #[test]

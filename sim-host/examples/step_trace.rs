@@ -5,6 +5,10 @@ use sim_host::scenario::{run_named, ScenarioOptions};
 fn main() {
     let mut config = RigConfig {
         scan_array: false,
+        seed: std::env::var("SEED")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(1),
         ..Default::default()
     };
     if let Some(path) = std::env::args().nth(1) {
