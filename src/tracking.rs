@@ -630,21 +630,18 @@ impl Tracking {
         let rate = self.x[1] / FRICTION_RATE_G_PER_S;
         if rate.abs() >= 0.5 {
             let now = rate.signum();
-            // NOTE: a reversal turns the friction round. What the integral carried in the
-            // last direction, up to the friction the held share leaves (stiction less the
-            // held share, at most the held share), now pushes the wrong way: dropped.
-            if self.moved != 0.0 && now != self.moved {
-                let carried = crate::limit(self.integral_g * self.moved, 0.0, c.held_friction_g);
-                self.integral_g -= carried * self.moved;
-            }
-            // NOTE: a move from rest: what the integral pushed against this direction while
-            // the motor stood, up to the stiction, held the motor in the friction's band (a
-            // step that stopped 0.3 g past its target left 0.9 g against the next step's
-            // direction, which stopped it 1 g short): dropped.
-            if self.still_ticks >= REST_TICKS {
-                let against = crate::limit(-self.integral_g * now, 0.0, c.friction_g);
-                self.integral_g += against * now;
-            }
+            // NOTE: what the integral pushes against the direction the motor now takes is the
+            // friction's, and dropped, up to: at a reversal, which turns the friction round,
+            // what the held share leaves of it (stiction less the held share, at most the
+            // held share); on a move from rest, the stiction (a step that stopped 0.3 g past
+            // its target left 0.9 g against the next step's direction, which stopped it 1 g
+            // short). Both at once: the sum.
+            let reversal = self.moved != 0.0 && now != self.moved;
+            let from_rest = self.still_ticks >= REST_TICKS;
+            let bound = if reversal { c.held_friction_g } else { 0.0 }
+                + if from_rest { c.friction_g } else { 0.0 };
+            let against = crate::limit(-self.integral_g * now, 0.0, bound);
+            self.integral_g += against * now;
             self.moved = now;
             self.still_ticks = 0;
         } else if rate.abs() < 0.1 {

@@ -808,7 +808,7 @@ pub fn design(
 /// feed-forward could take (a half overshot the heavy rig's 20 g step by 1.34 g, a whole
 /// peaked the memo rig's 2 g sine about 10 g +8.5 dB at 30 Hz), and that quarter left the
 /// sine stuck from 25 Hz (−24.9 dB at 30 Hz on the memo's rig; −70 dB on the heavy rig's);
-/// now within −0.61…+0.43 dB to 40 Hz on the memo's rig, −3.2…+0.9 dB on the heavy rig's.
+/// now within −0.86…+0.72 dB to 40 Hz on the memo's rig, −3.3…+1.0 dB on the heavy rig's.
 pub const FRICTION_SHARE: f64 = 1.0;
 
 /// How far ahead of the reference's rate the friction compensation turns, s

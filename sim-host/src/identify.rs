@@ -274,12 +274,11 @@ impl PeriodMeans {
         let mut out = Vec::new();
         for bin in lo..hi {
             let w = 2.0 * std::f64::consts::PI * bin as f64 / per as f64;
-            let dft = |x: &[f64]| -> Complex64 {
-                x.iter()
-                    .enumerate()
-                    .map(|(i, v)| Complex64::from_polar(*v, -w * i as f64))
-                    .sum()
-            };
+            // One twiddle per sample, for the drive's and the gauge's transforms alike.
+            let twiddle: Vec<Complex64> = (0..per)
+                .map(|i| Complex64::from_polar(1.0, -w * i as f64))
+                .collect();
+            let dft = |x: &[f64]| -> Complex64 { x.iter().zip(&twiddle).map(|(v, t)| t * v).sum() };
             let (u, y) = (dft(&self.drive_g), dft(&self.gauge_g));
             if u.norm() < 1e-9 * per as f64 {
                 return Err(IdentifyError::NoDrive {
