@@ -4,6 +4,8 @@
 //! heavy rig's first rest throwing the probe 9.5 mm off the finger.
 //!
 //! cargo run --release -p sim-host --example lowforce_trace -- applicators/F.toml FROM_S TO_S EVERY
+//!
+//! `STEPS=1`: `force-steps` instead.
 use sim_host::design;
 use sim_host::rig::{Rig, RigConfig};
 use tactile_core::profile::{CommandSource, Protocol};
@@ -26,7 +28,13 @@ fn main() {
     );
     let (from_s, to_s, every) = (arg(1, 3.9), arg(2, 5.4), arg(3, 10.0) as usize);
     let mut rig = Rig::new(config).expect("rig");
-    let mut source = CommandSource::new(Protocol::LowForce { hold_s: 3.0 });
+    // `STEPS=1`: the force steps instead.
+    let protocol = if std::env::var("STEPS").is_ok() {
+        Protocol::FORCE_STEPS_MEMO
+    } else {
+        Protocol::LowForce { hold_s: 3.0 }
+    };
+    let mut source = CommandSource::new(protocol);
     for k in 0..(to_s * 1e3) as usize {
         let t_s = k as f64 * 1e-3;
         let command_g = source.command_g(t_s as f32);
