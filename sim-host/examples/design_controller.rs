@@ -10,7 +10,8 @@
 //! of stiction compensated instead of `design::FRICTION_SHARE` of the identified.
 //! `LEAD_MS=T`: the compensation turned T ms ahead of the reference's rate instead of
 //! `design::friction_lead_s`. `HELD=S`: S times the stiction compensated held once the
-//! reference stops instead of `design::HELD_FRICTION_SHARE`.
+//! reference stops instead of `design::HELD_FRICTION_SHARE`. `SINES=L:A,…`: sines of A g
+//! about L g instead of 2 about 10, 10 about 50 and 10 about 100.
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -126,7 +127,7 @@ fn main() {
     }
     for (name, cfg) in runs {
         println!("== {name}");
-        for (load, amp) in [(10.0, 2.0), (50.0, 10.0), (100.0, 10.0)] {
+        for (load, amp) in sines() {
             let g: Vec<String> = [0.5, 5.0, 10.0, 20.0, 25.0, 30.0, 40.0]
                 .iter()
                 .map(|hz| {
@@ -169,4 +170,19 @@ fn main() {
             );
         }
     }
+}
+
+/// The closed loop's sines, (load, amplitude) in g: `SINES=L:A,…` or the three.
+fn sines() -> Vec<(f64, f64)> {
+    std::env::var("SINES")
+        .ok()
+        .map(|v| {
+            v.split(',')
+                .filter_map(|p| {
+                    let (l, a) = p.split_once(':')?;
+                    Some((l.trim().parse().ok()?, a.trim().parse().ok()?))
+                })
+                .collect()
+        })
+        .unwrap_or_else(|| vec![(10.0, 2.0), (50.0, 10.0), (100.0, 10.0)])
 }

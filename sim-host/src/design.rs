@@ -812,19 +812,24 @@ pub fn design(
 pub const FRICTION_SHARE: f64 = 1.0;
 
 /// How far ahead of the reference's rate the friction compensation turns, s
-/// (`TrackingConfig::friction_lead_s`): what the drive takes to reach the motor, the lightest
-/// identified model's lag at low frequency (the amplifier's pole and the fitted delay,
-/// 1/(2πf_p) + τ: the compensation is most of the drive where the load and its sines are
-/// light) and a tick and a half (the drive computed from the last tick's reading, held over the
-/// next). Measured on the memo's rig, 2 g about 10 g at 25–30 Hz (`LEAD_MS=T ONLY=1 cargo run
-/// --release -p sim-host --example design_controller`): 2.0 ms −0.50 dB, 2.2 ms (this) −0.6 dB,
-/// 2.33 ms (the lag averaged over the loads) −1.08 dB, 2.7 ms −1.89 dB.
+/// (`TrackingConfig::friction_lead_s`): the lightest identified model's lag at low frequency,
+/// 1/(2πf_p) + τ (the amplifier's pole and the fitted delay; the compensation is most of the
+/// drive where the load and its sines are light). The feed-forward's series already undoes the
+/// amplifier for the force, so the force, and the motor's velocity with it, follow the
+/// reference by the loop's own delay; the compensation, added after the series, must make up
+/// the amplifier's lag alone to meet the motor when it moves. Measured on the memo's rig
+/// (lightest model 154 Hz, −0.31 ms: 0.72 ms), 10 g about 50 and 100 g at 40 Hz (`LEAD_MS=T
+/// ONLY=1 cargo run --release -p sim-host --example design_controller`): 0.7 ms +0.00 / −0.04
+/// dB, 1.3 ms −0.25 / −0.24, 2.2 ms −0.68 / −0.53; on the slow amplifier's (72 Hz, −0.57 ms:
+/// 1.65 ms) 0.7 ms +0.52 / +0.68, 1.7 ms +0.05 / +0.29, 2.2 ms −0.24 / +0.06. (With the
+/// third derivative taken at the tick's end, 37° early at 40 Hz, the best lead had been a
+/// tick and a half more.)
 pub fn friction_lead_s(models: &[LoadModel]) -> f64 {
     let lag_s = |m: &LoadModel| {
         (1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz) + m.model.delay_s).max(0.0)
     };
     let lightest = models.iter().min_by(|a, b| a.load_g.total_cmp(&b.load_g));
-    lightest.map_or(0.0, lag_s) + 1.5 * TICK_S
+    lightest.map_or(0.0, lag_s)
 }
 
 /// The share of the identified stiction held, once the reference stops, in the direction it
