@@ -676,13 +676,14 @@ impl Tracking {
             // NOTE: what the integral pushes against the direction the motor now takes is the
             // friction's, and dropped, up to: at a reversal, which turns the friction round,
             // what the held share leaves of it (stiction less the held share, at most the
-            // held share); on a move from rest, the stiction (a step that stopped 0.3 g past
-            // its target left 0.9 g against the next step's direction, which stopped it 1 g
-            // short). Both at once: the sum.
+            // held share); on a move from rest, twice the stiction, the band the integral of
+            // a stuck motor winds across (a step that stopped 0.3 g past its target left 0.9 g
+            // against the next step's direction, which stopped it 1 g short; 0.26 g past on
+            // the light rig left 3.1 g). Both at once: the sum.
             let reversal = self.moved != 0.0 && now != self.moved;
             let from_rest = self.still_ticks >= REST_TICKS;
             let bound = if reversal { c.held_friction_g } else { 0.0 }
-                + if from_rest { c.friction_g } else { 0.0 };
+                + if from_rest { 2.0 * c.friction_g } else { 0.0 };
             let against = crate::limit(-self.integral_g * now, 0.0, bound);
             self.integral_g += against * now;
             self.moved = now;
@@ -859,7 +860,10 @@ mod tests {
             let db = 20.0 * (third.0.hypot(third.1) / ideal.0.hypot(ideal.1)).log10();
             let deg = (third.1.atan2(third.0) - ideal.1.atan2(ideal.0)).to_degrees();
             let deg = (deg + 540.0) % 360.0 - 180.0;
-            assert!(db.abs() < 0.3 && deg.abs() < 1.0, "{hz} Hz: {db} dB, {deg}°");
+            assert!(
+                db.abs() < 0.3 && deg.abs() < 1.0,
+                "{hz} Hz: {db} dB, {deg}°"
+            );
         }
     }
 
@@ -1175,16 +1179,32 @@ mod tests {
             held_friction_g: 0.5,
             ..TrackingConfig::UNIT_PLANT
         };
-        let settled = || {
+        let settled_at = |over_g: f32| {
             let mut t = Tracking::new(cfg).unwrap();
             let mut drive = 0.0;
             for k in 0..5000 {
-                let stuck = if k > 100 { 0.3 } else { 0.0 };
+                let stuck = if k > 100 { over_g } else { 0.0 };
                 drive = t.update(10.0, drive + stuck, true).force_g;
             }
-            assert!((t.integral_g + 0.8).abs() < 1e-3, "{}", t.integral_g);
+            assert!(
+                (t.integral_g + over_g + 0.5).abs() < 1e-3,
+                "{}",
+                t.integral_g
+            );
             (t, drive)
         };
+        let settled = || settled_at(0.3);
+        // Stuck 1.5 g over, the integral wound to −2.0 g: up to twice the stiction is dropped
+        // (the band a stuck motor's integral can wind across: with the stiction alone, the
+        // light rig's 20 → 30 g step kept 0.95 g against it and stopped 1.5 g short for 34 ms).
+        let (mut t, mut drive) = settled_at(1.5);
+        let mut jump = 0.0f32;
+        for _ in 0..20 {
+            let before = t.integral_g;
+            drive = t.update(15.0, drive + 1.5, true).force_g;
+            jump = jump.max(t.integral_g - before);
+        }
+        assert!(jump > 1.9, "{jump}");
         // The next step up: the −0.8 g is dropped as the reference leaves rest (the integral
         // alone, 20/s on an error of a gram, would unwind 0.02 g a tick).
         let (mut t, mut drive) = settled();

@@ -14,7 +14,14 @@ fn main() {
     if let Some(path) = std::env::args().nth(1) {
         config.applicator = sim_host::error::read_applicator(std::path::Path::new(&path)).unwrap();
     }
-    let d = design::design_for_rig(&config).unwrap().design;
+    let mut d = design::design_for_rig(&config).unwrap().design;
+    // `LEAD_MS=T`: the friction compensation turned T ms ahead instead of the design's.
+    if let Some(lead_ms) = std::env::var("LEAD_MS")
+        .ok()
+        .and_then(|v| v.parse::<f32>().ok())
+    {
+        d.config.friction_lead_s = 1e-3 * lead_ms;
+    }
     config.firmware.tracking = Some(d.config);
     let run = run_named("force-steps", &ScenarioOptions::default(), config, |_| {}).unwrap();
     let at: f64 = std::env::args()

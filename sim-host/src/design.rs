@@ -350,14 +350,17 @@ pub fn inverse_series(load: &LoadModel) -> [f64; 4] {
             let [a, b, c] = quadratic(r);
             a + b * s + c * s * s
         };
-        q(m.modes[0]) * q(m.modes[1]) * (1.0 + s / (2.0 * std::f64::consts::PI * m.pole_hz))
+        q(m.modes[0])
+            * q(m.modes[1])
+            * (1.0 + s / (2.0 * std::f64::consts::PI * m.pole_hz))
             * (s * tau).exp()
             / load.static_gain
     };
     let c0 = 1.0 / load.static_gain;
     // Normal equations: real part Σw·ω⁴·c₂ = Σw·ω²(c₀ − A); imaginary part
     // [Σwω², −Σwω⁴; −Σwω⁴, Σwω⁶]·(c₁, c₃) = (ΣwωB, −Σwω³B).
-    let (mut r11, mut r1, mut i11, mut i13, mut i33, mut i1, mut i3) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut r11, mut r1, mut i11, mut i13, mut i33, mut i1, mut i3) =
+        (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     let steps = (SERIES_BAND_HZ / SERIES_STEP_HZ).round() as usize;
     for k in 1..=steps {
         let hz = k as f64 * SERIES_STEP_HZ;
@@ -841,24 +844,31 @@ pub fn design(
 pub const FRICTION_SHARE: f64 = 1.0;
 
 /// How far ahead of the reference's rate the friction compensation turns, s
-/// (`TrackingConfig::friction_lead_s`): the lightest identified model's lag at low frequency,
-/// 1/(2πf_p) + τ (the amplifier's pole and the fitted delay; the compensation is most of the
-/// drive where the load and its sines are light). The feed-forward's series already undoes the
-/// amplifier for the force, so the force, and the motor's velocity with it, follow the
-/// reference by the loop's own delay; the compensation, added after the series, must make up
-/// the amplifier's lag alone to meet the motor when it moves. Measured on the memo's rig
-/// (lightest model 154 Hz, −0.31 ms: 0.72 ms), 10 g about 50 and 100 g at 40 Hz (`LEAD_MS=T
-/// ONLY=1 cargo run --release -p sim-host --example design_controller`): 0.7 ms +0.00 / −0.04
-/// dB, 1.3 ms −0.25 / −0.24, 2.2 ms −0.68 / −0.53; on the slow amplifier's (72 Hz, −0.57 ms:
-/// 1.65 ms) 0.7 ms +0.52 / +0.68, 1.7 ms +0.05 / +0.29, 2.2 ms −0.24 / +0.06. (With the
-/// third derivative taken at the tick's end, 37° early at 40 Hz, the best lead had been a
-/// tick and a half more.)
+/// (`TrackingConfig::friction_lead_s`): the identified models' lag at low frequency,
+/// 1/(2πf_p) + τ (the amplifier's pole and the fitted delay), their median over the loads (the
+/// amplifier is one whatever the load; the light loads' fits scatter most: the light rig's
+/// 10 g model put the pole at 309 Hz, the others at 126–182 Hz). The feed-forward's series
+/// already undoes the amplifier for the force, so the force, and the motor's velocity with it,
+/// follow the reference by the loop's own delay; the compensation, added after the series, must
+/// make up the amplifier's lag alone to meet the motor when it moves. Measured (`LEAD_MS=T
+/// ONLY=1 cargo run --release -p sim-host --example design_controller FILE`): on the memo's
+/// rig 10 g about 50 and 100 g at 40 Hz within 0.05 dB at 0.7–1.0 ms, −0.68 / −0.53 dB at
+/// 2.2 ms; on the slow amplifier's 0.7 ms +0.52 / +0.68, 1.7 ms +0.05 / +0.29, 2.2 ms −0.24 /
+/// +0.06; on the light rig, the 20 → 30 g step at seeds 1–3 took 29, 21, 49 ms with its
+/// lightest model's 0.43 ms, 19–20 ms with 1.0 ms (it stopped 1.5 g short in the stiction's
+/// band). With the third derivative taken at the tick's end, 37° early at 40 Hz, the best lead
+/// had been a tick and a half more.
 pub fn friction_lead_s(models: &[LoadModel]) -> f64 {
-    let lag_s = |m: &LoadModel| {
-        (1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz) + m.model.delay_s).max(0.0)
-    };
-    let lightest = models.iter().min_by(|a, b| a.load_g.total_cmp(&b.load_g));
-    lightest.map_or(0.0, lag_s)
+    let mut lags: Vec<f64> = models
+        .iter()
+        .map(|m| (1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz) + m.model.delay_s).max(0.0))
+        .collect();
+    lags.sort_by(f64::total_cmp);
+    match lags.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => lags[n / 2],
+        n => 0.5 * (lags[n / 2 - 1] + lags[n / 2]),
+    }
 }
 
 /// The share of the identified stiction held, once the reference stops, in the direction it
