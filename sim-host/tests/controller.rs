@@ -7,6 +7,7 @@
 use sim_host::design::{self, Design};
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
+use sim_host::rig::TickRecord;
 use sim_host::scenario::{run_named, ScenarioOptions};
 
 fn rig() -> RigConfig {
@@ -14,6 +15,13 @@ fn rig() -> RigConfig {
         scan_array: false,
         ..Default::default()
     }
+}
+
+/// The ticks of the named protocol on `cfg`.
+fn ticks(protocol: &str, cfg: &RigConfig) -> Vec<TickRecord> {
+    run_named(protocol, &ScenarioOptions::default(), cfg.clone(), |_| {})
+        .unwrap()
+        .ticks
 }
 
 /// The rigs of `applicators/`: the memo's, a heavy motor on a soft beam, a light motor with
@@ -166,10 +174,7 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     // 90 g before a reversal dropped what the integral carried against the friction, 53 ms
     // before the friction held at rest; A1 takes up to 69 ms); overshoot within the target's
     // 1 g (measured ≤ 0.28 g; 0.60 g with a quarter of the stiction; A1's up to 4.4 g).
-    let o = ScenarioOptions::default();
-    let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
-        .unwrap()
-        .ticks;
+    let steps = ticks("force-steps", &cfg);
     let settle = metrics::settling_after_first_s(&steps);
     eprintln!("settling after the first step: {settle:?}");
     assert!(settle.last().is_some_and(|t| *t <= 0.030), "{settle:?}");
@@ -178,10 +183,10 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     }
 
     // Touch-down after a rest (low-force): 8, 6, 4, 2 g overshoot by at most the target's 1 g
-    // (measured 0.06–0.09 g; 0.7–2.5 g before the touch-down and its ramp), where A1
+    // (measured 0.05–0.14 g; 0.7–2.5 g before the touch-down and its ramp), where A1
     // overshoots 6 g by about 20 g.
     let touch = |c: &RigConfig| {
-        let ticks = run_named("low-force", &o, c.clone(), |_| {}).unwrap().ticks;
+        let ticks = ticks("low-force", c);
         metrics::step_overshoots_g(&ticks)
             .into_iter()
             .filter(|(level, _)| *level > 0.0)
@@ -277,14 +282,7 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         // throughout, worst 0.04–0.22 g. Before a rest drove nothing, the heavy rig's held
         // friction and integral threw the probe 9.5 mm off at the first rest, and its 6, 4 and
         // 2 g holds never met the finger).
-        let low = run_named(
-            "low-force",
-            &ScenarioOptions::default(),
-            cfg.clone(),
-            |_| {},
-        )
-        .unwrap()
-        .ticks;
+        let low = ticks("low-force", &cfg);
         let (landed, held) = (
             metrics::hold_quality(&low, 0.5),
             metrics::hold_quality(&low, 1.0),
@@ -293,9 +291,7 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         assert_eq!(landed.len(), 4, "{file}: {landed:?}");
         assert!(landed.iter().all(|h| h.1 == 0.0), "{file}: {landed:?}");
         assert!(held.iter().all(|h| h.2 <= 0.5), "{file}: {held:?}");
-        let steps = run_named("force-steps", &ScenarioOptions::default(), cfg, |_| {})
-            .unwrap()
-            .ticks;
+        let steps = ticks("force-steps", &cfg);
         let settle = metrics::settling_after_first_s(&steps);
         eprintln!("{file}: settling after the first step {settle:?}");
         assert!(
@@ -326,14 +322,7 @@ fn a_rig_with_light_friction_lands_from_rest_on_the_finger() {
         cfg.applicator = sim_host::error::read_applicator(&root.join("memo.toml")).unwrap();
         cfg.applicator.static_friction_nm *= share;
         cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
-        let steps = run_named(
-            "force-steps",
-            &ScenarioOptions::default(),
-            cfg.clone(),
-            |_| {},
-        )
-        .unwrap()
-        .ticks;
+        let steps = ticks("force-steps", &cfg);
         let first = metrics::step_settling_s(&steps).first().and_then(|s| s.1);
         let later = metrics::settling_after_first_s(&steps);
         eprintln!("{share} of the stiction: first step {first:?}, later {later:?}");
@@ -342,9 +331,7 @@ fn a_rig_with_light_friction_lands_from_rest_on_the_finger() {
             later.last().is_some_and(|t| *t <= 0.030),
             "{share}: {later:?}"
         );
-        let low = run_named("low-force", &ScenarioOptions::default(), cfg, |_| {})
-            .unwrap()
-            .ticks;
+        let low = ticks("low-force", &cfg);
         let landed = metrics::hold_quality(&low, 0.5);
         assert!(
             landed.len() == 4 && landed.iter().all(|h| h.1 == 0.0),
