@@ -181,6 +181,34 @@ pub fn mean(xs: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
+/// The steady-state error at each of `levels_g`, held `hold_s` each in turn from rest: the
+/// mean of the contact force less the command over each hold's second half, g (the gauge's
+/// noise averages out; a motor the stiction holds off the command does not).
+pub fn steady_errors_g(
+    config: crate::rig::RigConfig,
+    levels_g: &[f32],
+    hold_s: f64,
+) -> Result<Vec<(f32, f32)>, crate::rig::RigError> {
+    let mut rig = crate::rig::Rig::new(config)?;
+    let n = (hold_s / crate::rig::TICK_S).round() as usize;
+    Ok(levels_g
+        .iter()
+        .map(|&level_g| {
+            let sum: f32 = (0..n)
+                .map(|k| {
+                    let t = rig.tick(level_g, |_, _| {});
+                    if k >= n / 2 {
+                        t.true_force_g - level_g
+                    } else {
+                        0.0
+                    }
+                })
+                .sum();
+            (level_g, sum / (n - n / 2).max(1) as f32)
+        })
+        .collect())
+}
+
 /// Closed-loop magnitude (true force over command) at `hz`: a stepped sine of `amplitude_g`
 /// about `offset_g` on the rig, lock-in over whole periods after a settling second.
 pub fn closed_loop_gain(
