@@ -475,7 +475,6 @@ pub struct Tracking {
     landed: bool,
     /// The tick within the current pulse (push, then brake), 0 to 2·[`APPROACH_TICKS`] − 1.
     approach_tick: u16,
-    /// The last readings, for the contact test.
     /// The last [`CYCLE_TICKS`] readings, for the contact tests.
     recent_g: [f32; CYCLE_TICKS],
     recent_head: usize,
