@@ -95,9 +95,12 @@ pub struct LoadModel {
 }
 
 /// Whether a fitted model is one the design can use: the inertia–finger mode under the chirp's
-/// band and less than critically damped, the beam mode above it, the amplifier's pole and the
-/// delay where an amplifier and a 1 kHz loop put them. On the heavy rig the 100 g fit ran to
-/// ζ 5.4 and a pole at 879 Hz (122 % RMS), and the loop built on it lost the finger.
+/// band and less than critically damped, the anti-resonance (the tip alone on the finger, far
+/// lighter than the motor) and the beam mode above it, the amplifier's pole and the delay where
+/// an amplifier and a 1 kHz loop put them. On the heavy rig the 100 g fit ran to ζ 5.4 and a
+/// pole at 879 Hz (122 % RMS), and the loop built on it lost the finger; on a light motor with
+/// 2.8 g of stiction the 100 g fit put the anti-resonance at 52 Hz under a mode at 69 Hz and the
+/// pole at 30 Hz (the other loads: 167–230 Hz), and the loop peaked +3.1 dB at 40 Hz there.
 pub fn plausible(m: &ApplicatorModel) -> bool {
     let [a, b] = m.modes;
     m.gain.is_finite()
@@ -105,9 +108,29 @@ pub fn plausible(m: &ApplicatorModel) -> bool {
         && a.damping_ratio < 0.7
         && a.hz > 5.0
         && b.hz > a.hz
+        && m.anti_resonance.hz > a.hz
         && (20.0..500.0).contains(&m.pole_hz)
         && m.delay_s.abs() < 3e-3
 }
+
+/// The amplifier is one whatever the load: of the plausible models, those whose pole is within
+/// a factor [`POLE_SPREAD`] of their median pole.
+pub fn one_amplifier(models: &[LoadModel]) -> Vec<LoadModel> {
+    let mut poles: Vec<f64> = models.iter().map(|m| m.model.pole_hz).collect();
+    poles.sort_by(f64::total_cmp);
+    let Some(&median) = poles.get(poles.len() / 2) else {
+        return Vec::new();
+    };
+    models
+        .iter()
+        .filter(|m| (m.model.pole_hz / median).ln().abs() <= POLE_SPREAD.ln())
+        .copied()
+        .collect()
+}
+
+/// How far a load's fitted amplifier pole may be from the others' median, as a factor (the
+/// four rigs' fits spread 126–309 Hz about medians of 130–160 Hz).
+pub const POLE_SPREAD: f64 = 2.5;
 
 /// What the excitation at several preloads identified.
 #[derive(Clone, Debug, Serialize)]
@@ -215,11 +238,12 @@ pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
         });
     }
     models.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
-    let kept: Vec<LoadModel> = models
+    let plausible_models: Vec<LoadModel> = models
         .iter()
         .filter(|m| plausible(&m.model))
         .copied()
         .collect();
+    let kept = one_amplifier(&plausible_models);
     if kept.len() < 2 {
         let load_g = models
             .iter()
@@ -1053,6 +1077,40 @@ mod tests {
                 assert!(db(cut) > 1.5, "truncated {:+.2} dB", db(cut));
             }
         }
+    }
+
+    #[test]
+    fn a_fit_against_the_physics_or_the_other_loads_amplifier_is_left_out() {
+        // The light motor with 2.8 g of stiction at 75 g (kept) and its 100 g fit: the
+        // anti-resonance under the inertia–finger mode and the pole at 30 Hz.
+        let mode = |hz: f64, damping_ratio: f64| Resonance { hz, damping_ratio };
+        let fit = |load_g: f32, first: f64, anti: f64, pole_hz: f64| LoadModel {
+            load_g,
+            model: ApplicatorModel {
+                gain: 0.73,
+                anti_resonance: mode(anti, 0.1),
+                modes: [mode(first, 0.32), mode(292.0, 0.21)],
+                pole_hz,
+                delay_s: -0.86e-3,
+                rms_log_error: 0.25,
+            },
+            static_gain: 1.0,
+        };
+        let kept = fit(75.0, 88.6, 119.4, 167.0);
+        assert!(plausible(&kept.model));
+        assert!(!plausible(&fit(100.0, 69.4, 51.9, 167.0).model));
+        // A pole more than 2.5× off the loads' median (223 Hz) is another amplifier's: 30 Hz
+        // goes, 400 Hz (1.8×) stays.
+        let loads = [
+            fit(20.0, 60.0, 80.6, 223.0),
+            fit(35.0, 66.0, 96.2, 230.0),
+            fit(50.0, 84.3, 113.7, 173.0),
+            kept,
+            fit(100.0, 97.0, 130.0, 30.0),
+            fit(120.0, 99.0, 135.0, 400.0),
+        ];
+        let one: Vec<f32> = one_amplifier(&loads).iter().map(|m| m.load_g).collect();
+        assert_eq!(one, vec![20.0, 35.0, 50.0, 75.0, 120.0]);
     }
 
     #[test]
