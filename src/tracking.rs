@@ -619,23 +619,20 @@ impl Tracking {
             })
             .filter(|v| **v >= contact_g)
             .count();
-        let cycle_mean_g = self.recent_g.iter().sum::<f32>() / CYCLE_TICKS as f32;
         if self.landed && command_g <= 0.0 && above == 0 {
             self.lift();
         }
         if !self.landed {
-            let pressed = usize::from(self.readings) >= CYCLE_TICKS
-                && cycle_mean_g >= CONTACT_MEAN_SHARE * contact_g;
+            // The cycle's mean, once the readings since the lift span a whole cycle.
+            let cycle_mean_g = (usize::from(self.readings) >= CYCLE_TICKS)
+                .then(|| self.recent_g.iter().sum::<f32>() / CYCLE_TICKS as f32);
+            let pressed = cycle_mean_g.is_some_and(|m| m >= CONTACT_MEAN_SHARE * contact_g);
             if command_g > 0.0 && (above >= CONTACT_COUNT || pressed) {
                 // Force control from the cycle's mean reading (the last reading rings with the
                 // free beam: the slow-amplifier rig landed reading 1.06 g on 0.21 g, and the
                 // reference's 0.85 g head start pushed the motor to 3.1 g, where it stuck),
                 // the command ramping up from it.
-                let from_g = if usize::from(self.readings) >= CYCLE_TICKS {
-                    cycle_mean_g
-                } else {
-                    sensed_g
-                };
+                let from_g = cycle_mean_g.unwrap_or(sensed_g);
                 self.landed = true;
                 self.restart_from(from_g);
                 self.ramp_g = from_g;

@@ -116,9 +116,7 @@ pub fn plausible(m: &ApplicatorModel) -> bool {
 /// The amplifier is one whatever the load: of the plausible models, those whose pole is within
 /// a factor [`POLE_SPREAD`] of their median pole.
 pub fn one_amplifier(models: &[LoadModel]) -> Vec<LoadModel> {
-    let mut poles: Vec<f64> = models.iter().map(|m| m.model.pole_hz).collect();
-    poles.sort_by(f64::total_cmp);
-    let Some(&median) = poles.get(poles.len() / 2) else {
+    let Some(median) = upper_median(models.iter().map(|m| m.model.pole_hz).collect()) else {
         return Vec::new();
     };
     models
@@ -126,6 +124,12 @@ pub fn one_amplifier(models: &[LoadModel]) -> Vec<LoadModel> {
         .filter(|m| (m.model.pole_hz / median).ln().abs() <= POLE_SPREAD.ln())
         .copied()
         .collect()
+}
+
+/// The middle value, the upper of the two for an even count (`None` for none).
+fn upper_median(mut values: Vec<f64>) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied()
 }
 
 /// How far a load's fitted amplifier pole may be from the others' median, as a factor (the
@@ -725,12 +729,13 @@ pub fn design(
         .map(|m| grid.iter().map(|hz| m.model.response(*hz)).collect())
         .collect();
     // The notches sit at the beam's mode (the models' highest), its median over the loads.
-    let mut beam: Vec<f64> = identified_models
-        .iter()
-        .map(|m| m.model.modes[1].hz)
-        .collect();
-    beam.sort_by(f64::total_cmp);
-    let beam_hz = beam.get(beam.len() / 2).copied().unwrap_or(f64::NAN);
+    let beam_hz = upper_median(
+        identified_models
+            .iter()
+            .map(|m| m.model.modes[1].hz)
+            .collect(),
+    )
+    .unwrap_or(f64::NAN);
     let mut filters = vec![ErrorFilter::Pass];
     if beam_hz.is_finite() && beam_hz < 0.45 / TICK_S {
         filters.extend(NOTCH_DAMPINGS.iter().map(|&damping| ErrorFilter::Notch {
