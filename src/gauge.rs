@@ -75,7 +75,8 @@ pub struct GaugeConfig {
     pub grams_per_volt: f32,
     /// Gauge output with the probe unloaded (bridge offset), in volts.
     pub zero_v: f32,
-    /// Physical range of the applicator; an average outside it is a fault.
+    /// Physical range of the gauge; an average outside it is a fault (the memo's −30 to 135 g
+    /// is −2.1 to 9.6 V: the converter's span less a margin at the top).
     pub force_min_g: f32,
     pub force_max_g: f32,
 }
@@ -88,6 +89,25 @@ impl GaugeConfig {
         force_min_g: -30.0,
         force_max_g: 135.0,
     };
+
+    /// The memo's converter and range in volts, with a gauge of `grams_per_volt` (a gauge half
+    /// as sensitive reads twice the force over the same volts).
+    ///
+    /// ```
+    /// use tactile_core::gauge::GaugeConfig;
+    /// let g = GaugeConfig::with_scale(28.0);
+    /// assert_eq!((g.force_min_g, g.force_max_g), (-60.0, 270.0));
+    /// assert_eq!(g.force_g(1.0), 28.0);
+    /// ```
+    pub fn with_scale(grams_per_volt: f32) -> GaugeConfig {
+        let k = grams_per_volt / Self::MEMO.grams_per_volt;
+        GaugeConfig {
+            grams_per_volt,
+            force_min_g: Self::MEMO.force_min_g * k,
+            force_max_g: Self::MEMO.force_max_g * k,
+            ..Self::MEMO
+        }
+    }
 
     /// Grams for a gauge voltage.
     #[inline]

@@ -16,8 +16,9 @@ fn main() {
     };
     let arg = |i: usize| std::env::args().nth(i);
     if let Some(path) = arg(1) {
-        config.applicator =
-            sim_host::error::read_applicator(std::path::Path::new(&path)).expect("applicator");
+        config.set_applicator(
+            sim_host::error::read_applicator(std::path::Path::new(&path)).expect("applicator"),
+        );
     }
     let load_g: f32 = arg(2).and_then(|v| v.parse().ok()).unwrap_or(10.0);
     let stiction_g: f64 = arg(3).and_then(|v| v.parse().ok()).unwrap_or(1.0);

@@ -18,8 +18,10 @@ fn main() {
         ..Default::default()
     };
     let file = a.first().map_or("applicators/memo.toml", |s| s.as_str());
-    config.applicator = sim_host::error::read_applicator(std::path::Path::new(file))
-        .unwrap_or_else(|e| panic!("{file}: {e}"));
+    config.set_applicator(
+        sim_host::error::read_applicator(std::path::Path::new(file))
+            .unwrap_or_else(|e| panic!("{file}: {e}")),
+    );
     config.firmware.tracking = Some(
         design::design_for_rig(&config)
             .expect("design")

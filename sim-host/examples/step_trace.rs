@@ -12,7 +12,8 @@ fn main() {
         ..Default::default()
     };
     if let Some(path) = std::env::args().nth(1) {
-        config.applicator = sim_host::error::read_applicator(std::path::Path::new(&path)).unwrap();
+        config
+            .set_applicator(sim_host::error::read_applicator(std::path::Path::new(&path)).unwrap());
     }
     let mut d = design::design_for_rig(&config).unwrap().design;
     // `LEAD_MS=T`: the friction compensation turned T ms ahead instead of the design's.

@@ -20,8 +20,10 @@ fn main() {
         scan_array: false,
         ..Default::default()
     };
-    cfg.applicator = sim_host::error::read_applicator(std::path::Path::new(&file))
-        .unwrap_or_else(|e| panic!("{file}: {e}"));
+    cfg.set_applicator(
+        sim_host::error::read_applicator(std::path::Path::new(&file))
+            .unwrap_or_else(|e| panic!("{file}: {e}")),
+    );
     if let Some(f) = args.get(1).and_then(|f| f.parse::<f64>().ok()) {
         cfg.applicator.static_friction_nm *= f;
     }

@@ -68,7 +68,7 @@ pub fn measured_response(
         ..*p
     };
     let contact = Contact::new(&p, *law, 0.0);
-    let volts_per_g = 1.0 / p.grams_per_volt();
+    let volts_per_g = 1.0 / p.drive_g_per_v();
     let dt = 1e-5;
     // Start at the static equilibrium of the load.
     let mut s = ApplicatorState::default();

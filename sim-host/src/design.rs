@@ -144,16 +144,18 @@ pub struct Identified {
     /// The static line of the holds: gain and stiction (g at the probe).
     pub static_gain: f64,
     pub stiction_g: f64,
+    /// The gauge's noise, RMS of one reading: the median of the holds'.
+    pub gauge_noise_g: f64,
 }
 
 /// One preload's excitation as the design reads it: the measured response and the still
-/// hold before the chirps, (mean drive, mean gauge) in g.
+/// hold before the chirps.
 #[derive(Clone, Debug)]
 pub struct Excited {
     pub load_g: f32,
     /// The drive and gauge over the chirp's periods (the response is their ratio).
     pub means: crate::identify::PeriodMeans,
-    pub hold: (f64, f64),
+    pub hold: crate::identify::Hold,
 }
 
 /// Runs the excitation at each of [`DESIGN_LOADS_G`] on a rig built from `config` (the loop
@@ -213,7 +215,12 @@ pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
             have: preloads.len(),
         });
     }
-    let holds: Vec<(f64, f64)> = excited.iter().map(|e| e.hold).collect();
+    let holds: Vec<(f64, f64)> = excited
+        .iter()
+        .map(|e| (e.hold.drive_g, e.hold.gauge_g))
+        .collect();
+    let gauge_noise_g =
+        upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
     let (static_gain, stiction_g) =
         crate::identify::static_line(&holds).ok_or(DesignError::NoModel { load_g: f32::NAN })?;
     // One fit per preload, side by side (each is a few hundred milliseconds).
@@ -259,6 +266,7 @@ pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
         models: kept,
         static_gain,
         stiction_g,
+        gauge_noise_g,
     })
 }
 
@@ -678,6 +686,7 @@ pub fn design(
     models: &[LoadModel],
     stiction_g: f32,
     drive_range_g: (f32, f32),
+    gauge_noise_g: f32,
 ) -> Result<Design, DesignError> {
     let friction_g = (FRICTION_SHARE * f64::from(stiction_g)) as f32;
     // The identified models and, outside them, the extrapolated ones.
@@ -818,7 +827,8 @@ pub fn design(
     let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32;
     // And enough to press the finger to the contact test's force against a stiction 15 % above
     // the identified (the identification reads it 4–9 % low on the three rigs).
-    let push_g = push_g.max(CONTACT_G + 0.15 * stiction_g + 0.2);
+    let contact_g = CONTACT_G.max(CONTACT_DEVIATIONS * gauge_noise_g);
+    let push_g = push_g.max(contact_g + 0.15 * stiction_g + 0.2);
     let config = TrackingConfig {
         dt_s: TICK_S as f32,
         reference_hz: REFERENCE_HZ,
@@ -842,7 +852,7 @@ pub fn design(
         // uncorrected, and the probe would never arrive; half leaves a net push of a quarter
         // of a pulse's, which the friction of any other rig takes.
         approach_brake_g: -0.5 * push_g,
-        contact_g: CONTACT_G,
+        contact_g,
         drive_min_g: drive_range_g.0,
         drive_max_g: drive_range_g.1,
     };
@@ -915,9 +925,12 @@ pub const HELD_FRICTION_SHARE: f64 = 0.75;
 pub const TOUCH_OVERSHOOT_G: f64 = 0.5;
 /// The reading that tells the probe is on the finger (`tactile_core::tracking::CONTACT_COUNT`
 /// of the last `CONTACT_TICKS` at it), g: above the tip's inertia under a push (a third of the
-/// push's net force on the memo rig), and 2.9 deviations of the gauge's 0.14 g of noise, which
-/// six readings of eight do not pass by chance.
+/// push's net force on the memo rig), and over [`CONTACT_DEVIATIONS`] of the gauge's noise.
 pub const CONTACT_G: f32 = 0.4;
+/// The contact reading in deviations of a tick's gauge noise, at least: six readings of eight
+/// do not pass 2.8 deviations by chance (0.39 g at the memo's 0.14 g, 0.78 g at a gauge half
+/// as sensitive).
+pub const CONTACT_DEVIATIONS: f32 = 2.8;
 
 /// What [`design_for_rig`] identified and designed.
 #[derive(Clone, Debug, Serialize)]
@@ -942,6 +955,7 @@ pub fn design_identified(
         &identified.models,
         identified.stiction_g as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
+        identified.gauge_noise_g as f32,
     )?;
     Ok(RigDesign { identified, design })
 }

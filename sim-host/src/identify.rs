@@ -97,10 +97,21 @@ pub fn period_means(
     PeriodMeans::of(&drive, &gauge, TICK_S)
 }
 
-/// The mean drive and gauge force (g) of the still hold at the preload before the chirp (its
-/// last 0.5 s); `None` if the hold is not in the record. Across preloads these give the
-/// applicator's static gain and its stiction ([`static_line`]).
-pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<(f64, f64)> {
+/// The still hold at the preload before the chirp (its last 0.5 s), in g.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hold {
+    /// Mean drive and mean gauge force: across preloads the applicator's static gain and its
+    /// stiction ([`static_line`]).
+    pub drive_g: f64,
+    pub gauge_g: f64,
+    /// The gauge's noise, RMS of one reading: of the readings' successive differences over
+    /// √2, which a slow drift of the held force (the finger creeping under a stuck motor)
+    /// leaves out and white noise keeps (a difference of two draws has twice the variance).
+    pub noise_g: f64,
+}
+
+/// The hold before the chirp; `None` if it is not in the record.
+pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<Hold> {
     let drive: Vec<f64> = ticks
         .iter()
         .map(|t| f64::from(actuator.force_g(AdcCode(t.dac_code))))
@@ -110,7 +121,7 @@ pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<(f6
 }
 
 /// [`hold_means`] of a record of the excitation (its `drive_g` column and gauge force).
-pub fn hold_means_of_record(rec: &tactile_record::Record) -> Option<(f64, f64)> {
+pub fn hold_means_of_record(rec: &tactile_record::Record) -> Option<Hold> {
     hold_means_of(rec.column("drive_g")?, &rec.force_g, record_dt_s(rec)?)
 }
 
@@ -124,12 +135,22 @@ pub fn preload_of_record(rec: &tactile_record::Record) -> Option<f32> {
     (still && command.is_finite() && command > 0.0).then_some(command as f32)
 }
 
-fn hold_means_of(drive: &[f64], gauge: &[f64], dt_s: f64) -> Option<(f64, f64)> {
+fn hold_means_of(drive: &[f64], gauge: &[f64], dt_s: f64) -> Option<Hold> {
     let end = (f64::from(EXCITATION_SETTLE_S) / dt_s).round() as usize;
     let start = end.checked_sub((0.5 / dt_s) as usize)?;
     let (drive, gauge) = (drive.get(start..end)?, gauge.get(start..end)?);
     let n = drive.len() as f64;
-    Some((drive.iter().sum::<f64>() / n, gauge.iter().sum::<f64>() / n))
+    let steps = gauge.windows(2).map(|w| (w[1] - w[0]).powi(2));
+    let noise_g = (steps.sum::<f64>() / (2.0 * (n - 1.0).max(1.0))).sqrt();
+    let hold = Hold {
+        drive_g: drive.iter().sum::<f64>() / n,
+        gauge_g: gauge.iter().sum::<f64>() / n,
+        noise_g,
+    };
+    [hold.drive_g, hold.gauge_g, noise_g]
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(hold)
 }
 
 /// A record's sample period from its first and last times.
@@ -611,6 +632,27 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_holds_noise_is_the_readings_not_the_held_forces_drift() {
+        // A 1.5 s record at 1 kHz: 0.3 g of white noise on 50 g creeping 2 g over the hold's
+        // 0.5 s (the drift alone has an RMS of 2/√12 = 0.58 g about its mean). The estimate
+        // from 499 differences is within 5 % (its own spread is 1/√(2·499) ≈ 3.2 %; the
+        // drift adds (4 µg per tick)², nothing).
+        let mut noise = crate::noise::Noise::new(7);
+        let n = 1500;
+        let gauge: Vec<f64> = (0..n)
+            .map(|k| 50.0 + 4e-3 * k as f64 + 0.3 * noise.gaussian())
+            .collect();
+        let drive = vec![51.0; n];
+        let hold = hold_means_of(&drive, &gauge, 1e-3).unwrap();
+        assert!((hold.noise_g / 0.3 - 1.0).abs() < 0.05, "{hold:?}");
+        // The means are the last 0.5 s's: 50 + 4e-3·1249.5 = 55.0 g.
+        assert!((hold.gauge_g - 55.0).abs() < 0.05, "{hold:?}");
+        assert_eq!(hold.drive_g, 51.0);
+        // A record cut before the hold's end has none.
+        assert!(hold_means_of(&drive[..1000], &gauge[..1000], 1e-3).is_none());
+    }
 
     #[test]
     fn an_error_names_where_its_run_began() {

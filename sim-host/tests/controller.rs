@@ -37,7 +37,7 @@ fn rigs() -> [(&'static str, RigConfig); 4] {
     ]
     .map(|file| {
         let mut cfg = rig();
-        cfg.applicator = sim_host::error::read_applicator(&root.join(file)).unwrap();
+        cfg.set_applicator(sim_host::error::read_applicator(&root.join(file)).unwrap());
         (file, cfg)
     })
 }
@@ -251,10 +251,18 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         let r = design::design_for_rig(&cfg).expect("design");
         let id = &r.identified;
         eprintln!(
-            "{file}: static gain {:.3}, stiction {:.2} g",
-            id.static_gain, id.stiction_g
+            "{file}: static gain {:.3}, stiction {:.2} g, gauge noise {:.3} g",
+            id.static_gain, id.stiction_g, id.gauge_noise_g
         );
         assert!((id.static_gain - 1.0).abs() < 0.02, "{file}: {id:?}");
+        // The gauge's noise from the holds, the file's within 10 % (the light rig's gauge is
+        // half as sensitive: 0.28 g).
+        let noise_g = cfg.applicator.gauge_noise_g;
+        assert!(
+            (id.gauge_noise_g / noise_g - 1.0).abs() < 0.1,
+            "{file}: {} g of noise for {noise_g}",
+            id.gauge_noise_g
+        );
         assert!(
             (id.stiction_g - stiction_g).abs() < 0.15 * stiction_g,
             "{file}: {} g",
@@ -319,7 +327,7 @@ fn a_rig_with_light_friction_lands_from_rest_on_the_finger() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../applicators");
     for share in [0.25, 0.1] {
         let mut cfg = rig();
-        cfg.applicator = sim_host::error::read_applicator(&root.join("memo.toml")).unwrap();
+        cfg.set_applicator(sim_host::error::read_applicator(&root.join("memo.toml")).unwrap());
         cfg.applicator.static_friction_nm *= share;
         cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
         let steps = ticks("force-steps", &cfg);

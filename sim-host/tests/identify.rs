@@ -12,15 +12,21 @@ use sim_host::scenario::run_protocol;
 use tactile_core::profile::Protocol;
 use tactile_core::viscoelastic::NonlinearMk;
 
+/// The simulated rig with `applicator`, without the array's scan.
+fn rig_config(seed: u64, applicator: ApplicatorParams) -> RigConfig {
+    let mut config = RigConfig {
+        seed,
+        scan_array: false,
+        ..Default::default()
+    };
+    config.set_applicator(applicator);
+    config
+}
+
 /// The response measured on the simulated rig with `applicator`, the probe held at
 /// `preload_g` and the drive chirped by `amplitude_g` for 24 periods.
 fn measure(applicator: ApplicatorParams, preload_g: f32, amplitude_g: f32) -> Vec<ResponsePoint> {
-    let config = RigConfig {
-        seed: 3,
-        scan_array: false,
-        applicator,
-        ..Default::default()
-    };
+    let config = rig_config(3, applicator);
     let actuator = config.firmware.actuator;
     let protocol = Protocol::Excitation {
         preload_g,
@@ -122,12 +128,7 @@ fn the_applicators_resonances_are_identified_from_the_excitation() {
 #[test]
 fn a_chirp_that_throws_the_probe_is_refused_with_the_reason() {
     // The heavy rig's sharp 35 Hz mode swings a 10 g chirp past the gauge's range about 50 g.
-    let config = RigConfig {
-        seed: 3,
-        scan_array: false,
-        applicator: rig("heavy-motor-soft-beam.toml"),
-        ..Default::default()
-    };
+    let config = rig_config(3, rig("heavy-motor-soft-beam.toml"));
     let actuator = config.firmware.actuator;
     let protocol = Protocol::Excitation {
         preload_g: 50.0,
@@ -204,10 +205,10 @@ fn the_design_reads_excitation_records_and_refuses_others() {
     let from_ticks = excited_of_run(&run.ticks, protocol, &config.firmware.actuator).unwrap();
     assert_eq!(from_record.load_g, 50.0);
     // The record rounds the gauge to 1 mg and the drive to 0.1 mg.
-    assert!((from_record.hold.0 - from_ticks.hold.0).abs() < 1e-4);
-    assert!((from_record.hold.1 - from_ticks.hold.1).abs() < 1e-3);
+    assert!((from_record.hold.drive_g - from_ticks.hold.drive_g).abs() < 1e-4);
+    assert!((from_record.hold.gauge_g - from_ticks.hold.gauge_g).abs() < 1e-3);
     assert!(
-        (from_ticks.hold.1 - 50.0).abs() < 1.0,
+        (from_ticks.hold.gauge_g - 50.0).abs() < 1.0,
         "the hold reads {:?}",
         from_ticks.hold
     );
@@ -239,12 +240,7 @@ fn the_drive_less_the_stiction_gives_the_linear_plants_damping() {
     // friction fitted by the same form): measured ζ 0.143 plain, 0.081 less the friction,
     // 0.073 linearized.
     let p = rig("memo.toml");
-    let config = RigConfig {
-        seed: 5,
-        scan_array: false,
-        applicator: p,
-        ..Default::default()
-    };
+    let config = rig_config(5, p);
     let actuator = config.firmware.actuator;
     let protocol = Protocol::design_excitation(10.0);
     let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();

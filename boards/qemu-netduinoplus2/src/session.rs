@@ -103,7 +103,7 @@ fn board_rig(run: &FilRun) -> RigConfig {
         config.firmware.calibration = &[];
     }
     if let Some(params) = cortex_m::interrupt::free(|cs| APPLICATOR.borrow(cs).get()) {
-        config.applicator = params;
+        config.set_applicator(params);
     }
     config
 }

@@ -48,6 +48,13 @@ pub struct ApplicatorParams {
     /// factors of 0.1–0.5 at tens of hertz. Its time constant with G₁ is below a millisecond,
     /// invisible in the strain records.
     pub contact_loss_factor: f64,
+    /// The strain gauge's scale: grams at the probe per volt at the converter (memo: 14). The
+    /// firmware reads the gauge with it (a user's gauge is calibrated with weights), so the
+    /// force range the converter spans is ±10 V times it.
+    pub gauge_g_per_v: f64,
+    /// The gauge's noise, grams RMS of one control tick's reading (the mean of its eight
+    /// converter samples) with the probe still: the memo's measured 0.14 g (misprint 2).
+    pub gauge_noise_g: f64,
 }
 
 impl ApplicatorParams {
@@ -66,6 +73,8 @@ impl ApplicatorParams {
         beam_damping_ratio: 0.01,
         indentation_mm_per_100pct: 9.0,
         contact_loss_factor: 0.36,
+        gauge_g_per_v: 14.0,
+        gauge_noise_g: 0.14,
     };
 
     /// Checks that the rig can exist: every value finite, masses, stiffnesses, gains and the
@@ -80,12 +89,14 @@ impl ApplicatorParams {
             ("beam_stiffness_n_per_m", self.beam_stiffness_n_per_m),
             ("tip_mass_kg", self.tip_mass_kg),
             ("indentation_mm_per_100pct", self.indentation_mm_per_100pct),
+            ("gauge_g_per_v", self.gauge_g_per_v),
         ];
         let not_negative = [
             ("static_friction_nm", self.static_friction_nm),
             ("viscous_nm_s_per_rad", self.viscous_nm_s_per_rad),
             ("beam_damping_ratio", self.beam_damping_ratio),
             ("contact_loss_factor", self.contact_loss_factor),
+            ("gauge_noise_g", self.gauge_noise_g),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -101,7 +112,7 @@ impl ApplicatorParams {
     }
 
     /// Grams at the probe per volt into the amplifier (memo: 19.2).
-    pub fn grams_per_volt(&self) -> f64 {
+    pub fn drive_g_per_v(&self) -> f64 {
         self.amplifier_a_per_v * self.torque_constant_nm_per_a / self.arm_m / NEWTONS_PER_GRAM
     }
 
@@ -130,6 +141,8 @@ impl ApplicatorParams {
             self.beam_damping_ratio,
             self.indentation_mm_per_100pct,
             self.contact_loss_factor,
+            self.gauge_g_per_v,
+            self.gauge_noise_g,
         ]
     }
 
@@ -173,6 +186,8 @@ impl ApplicatorParams {
             beam_damping_ratio: f(9),
             indentation_mm_per_100pct: f(10),
             contact_loss_factor: f(11),
+            gauge_g_per_v: f(12),
+            gauge_noise_g: f(13),
         };
         params.validate()?;
         Ok(params)
@@ -180,10 +195,11 @@ impl ApplicatorParams {
 }
 
 /// Fields of an applicator.
-const APPLICATOR_FIELDS: usize = 12;
+const APPLICATOR_FIELDS: usize = 14;
 /// The first bytes of [`ApplicatorParams::encode`]'s form.
 pub const APPLICATOR_MAGIC: [u8; 4] = *b"TAPP";
-pub const APPLICATOR_VERSION: u16 = 1;
+/// Version 2 added the gauge's scale and noise.
+pub const APPLICATOR_VERSION: u16 = 2;
 /// Bytes of [`ApplicatorParams::encode`]'s form.
 pub const APPLICATOR_BYTES: usize = 8 + 8 * APPLICATOR_FIELDS + 4;
 
@@ -214,7 +230,7 @@ pub enum ApplicatorError {
     TooShort { bytes: usize, needed: usize },
     #[error("not an applicator (its first bytes are not \"TAPP\")")]
     BadMagic,
-    #[error("applicator form version {found}; this build reads version 1")]
+    #[error("applicator form version {found}; this build reads version {APPLICATOR_VERSION}")]
     UnsupportedVersion { found: u16 },
     #[error("damaged: CRC {stored:#010x} stored, {computed:#010x} computed")]
     Checksum { stored: u32, computed: u32 },
@@ -461,7 +477,7 @@ mod tests {
 
     #[test]
     fn memo_force_per_volt_is_19_2_g() {
-        assert!((ApplicatorParams::MEMO.grams_per_volt() - 19.21).abs() < 0.01);
+        assert!((ApplicatorParams::MEMO.drive_g_per_v() - 19.21).abs() < 0.01);
     }
 
     fn linear_contact(g1: f64) -> Contact {
@@ -478,7 +494,7 @@ mod tests {
             stuck: true,
             ..Default::default()
         };
-        let volts = 50.0 / p.grams_per_volt();
+        let volts = 50.0 / p.drive_g_per_v();
         for _ in 0..50_000 {
             step(&p, &mut s, &contact, volts, 1e-4);
         }
@@ -509,7 +525,7 @@ mod tests {
             tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1,
             0.0,
         );
-        let volts = 30.0 / p.grams_per_volt();
+        let volts = 30.0 / p.drive_g_per_v();
         let run = |substeps: usize| {
             let mut s = ApplicatorState::default();
             let dt = 1e-4 / substeps as f64;

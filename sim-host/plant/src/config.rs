@@ -1,6 +1,7 @@
 //! What a simulated run is made of: the firmware's configuration and the board around it.
 
 use tactile_core::control::ForceLawConfig;
+use tactile_core::gauge::GaugeConfig;
 use tactile_core::tasks::FirmwareConfig;
 
 use crate::applicator::ApplicatorParams;
@@ -17,10 +18,9 @@ pub struct RigConfig {
     pub firmware: FirmwareConfig,
     /// Command slew limit ahead of the law, g/s (scenarios take it from their protocol).
     pub command_slew_g_per_s: f32,
+    /// The simulated rig's applicator and gauge ([`Self::set_applicator`] gives the firmware
+    /// the gauge's scale too).
     pub applicator: ApplicatorParams,
-    /// Gauge noise per converter sample, grams RMS: 0.14 g after 8× averaging (misprint 2)
-    /// is 0.14·√8 = 0.40 g per sample.
-    pub gauge_noise_g: f64,
     pub effects: Effects,
     /// The finger's read-out chain up to the taxel converter.
     pub readout: ReadoutParams,
@@ -53,6 +53,15 @@ impl RigConfig {
     };
 }
 
+impl RigConfig {
+    /// The rig with `applicator`, and the firmware reading its gauge at the gauge's scale (on a
+    /// board the user sets it from a calibration with weights).
+    pub fn set_applicator(&mut self, applicator: ApplicatorParams) {
+        self.applicator = applicator;
+        self.firmware.gauge = GaugeConfig::with_scale(applicator.gauge_g_per_v as f32);
+    }
+}
+
 impl Default for RigConfig {
     fn default() -> Self {
         Self {
@@ -60,7 +69,6 @@ impl Default for RigConfig {
             firmware: Self::SIM_FIRMWARE,
             command_slew_g_per_s: tactile_core::profile::STEP_SLEW_G_PER_S,
             applicator: ApplicatorParams::MEMO,
-            gauge_noise_g: 0.14 * libm::sqrt(8.0),
             effects: Effects::MEMO,
             readout: ReadoutParams::default(),
             scan_array: true,

@@ -68,10 +68,7 @@ impl SimHardware {
         };
         // Before the first period the converters read the unloaded gauge, noise-free (no
         // draw, so the noise stream stays the rig's).
-        let rest_code = fw.gauge.adc.code(
-            fw.gauge
-                .volts(plant.gauge_force_g(&config.applicator) as f32),
-        );
+        let rest_code = gauge_code(config, plant.gauge_force_g(&config.applicator));
         Self {
             plant,
             lumped: Lumped::new(&config.applicator, TICK_S / SUBSTEPS as f64),
@@ -135,6 +132,8 @@ impl SimHardware {
         let actuator = &self.config.firmware.actuator;
         let drive_v = f64::from(actuator.dac.volts(self.dac));
         let p = self.config.applicator;
+        // A tick's reading averages its samples: each carries √8 times the reading's noise.
+        let noise_g = p.gauge_noise_g * libm::sqrt(SAMPLES_PER_TICK as f64);
         let mut contact = Contact::new(
             &p,
             self.finger.probe_element().g1,
@@ -156,14 +155,8 @@ impl SimHardware {
                 .checked_sub(SUBSTEPS - SAMPLES_PER_TICK)
                 .and_then(|i| samples.get_mut(i))
             {
-                let force = self.plant.gauge_force_g(&p)
-                    + self.config.gauge_noise_g * self.gauge_noise.gaussian();
-                *slot = self
-                    .config
-                    .firmware
-                    .gauge
-                    .adc
-                    .code(self.config.firmware.gauge.volts(force as f32));
+                let force = self.plant.gauge_force_g(&p) + noise_g * self.gauge_noise.gaussian();
+                *slot = gauge_code(&self.config, force);
             }
         }
         if let Some(f) = fault {
@@ -257,6 +250,15 @@ impl SimHardware {
     pub fn periods(&self) -> u64 {
         self.periods
     }
+}
+
+/// The converter's code for `force_g` on the rig's gauge: the bridge's volts at the applicator's
+/// scale (the firmware reads them back at its own, [`RigConfig::set_applicator`]'s).
+fn gauge_code(config: &RigConfig, force_g: f64) -> AdcCode {
+    let gauge = &config.firmware.gauge;
+    // In f32, as the firmware's own conversion back is.
+    let volts = force_g as f32 / config.applicator.gauge_g_per_v as f32 + gauge.zero_v;
+    gauge.adc.code(volts)
 }
 
 impl ControlIo for SimHardware {

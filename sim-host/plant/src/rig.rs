@@ -51,6 +51,15 @@ pub enum RigError {
     /// A taxel index outside the array.
     #[error("taxel {0} is outside the 8×8 array")]
     Taxel(usize),
+    /// The firmware would read the gauge at another scale than the applicator's gauge has
+    /// (`applicator` set without [`RigConfig::set_applicator`]).
+    #[error(
+        "the firmware reads the gauge at {firmware_g_per_v} g/V, the applicator's gauge gives          {gauge_g_per_v} g/V (set the applicator with RigConfig::set_applicator)"
+    )]
+    GaugeScale {
+        firmware_g_per_v: f32,
+        gauge_g_per_v: f64,
+    },
 }
 
 /// The closed-loop rig.
@@ -69,6 +78,16 @@ pub struct Rig {
 
 impl Rig {
     pub fn new(config: RigConfig) -> Result<Self, RigError> {
+        let (firmware_g_per_v, gauge_g_per_v) = (
+            config.firmware.gauge.grams_per_volt,
+            config.applicator.gauge_g_per_v,
+        );
+        if firmware_g_per_v != gauge_g_per_v as f32 {
+            return Err(RigError::GaugeScale {
+                firmware_g_per_v,
+                gauge_g_per_v,
+            });
+        }
         if let Some(FaultInjection {
             fault: InjectedFault::TaxelOpen { index },
             ..

@@ -388,7 +388,7 @@ fn run(command: Command) -> Result<(), Error> {
                 ..Default::default()
             };
             if let Some(path) = &applicator {
-                config.applicator = sim_host::error::read_applicator(path)?;
+                config.set_applicator(sim_host::error::read_applicator(path)?);
             }
             for effect in effects {
                 effect.apply(&mut config.effects);
@@ -465,7 +465,7 @@ fn run(command: Command) -> Result<(), Error> {
                 ..Default::default()
             };
             if let Some(path) = &applicator {
-                config.applicator = sim_host::error::read_applicator(path)?;
+                config.set_applicator(sim_host::error::read_applicator(path)?);
             }
             let r = if records.is_empty() {
                 sim_host::design::design_for_rig(&config)
@@ -484,9 +484,10 @@ fn run(command: Command) -> Result<(), Error> {
             .map_err(|e| Error::Failed(format!("design: {e}")))?;
             let id = &r.identified;
             outln!(
-                "static line of the holds: gain {:.3}, stiction {:.2} g",
+                "static line of the holds: gain {:.3}, stiction {:.2} g; gauge noise {:.2} g",
                 id.static_gain,
-                id.stiction_g
+                id.stiction_g,
+                id.gauge_noise_g
             );
             let d = &r.design;
             for ((m, p), mg) in d.models.iter().zip(&d.config.schedule).zip(&d.margins) {
