@@ -92,7 +92,7 @@ impl ForceLaw {
 
     /// One tick: `command_g` is f_c(k+1), `sensed_g` the gauge force f_s(k) of the last tick.
     #[inline]
-    pub fn update(&mut self, command_g: f32, sensed_g: f32) -> Adjusted {
+    pub fn update(&mut self, command_g: f32, sensed_g: f32, feedback: bool) -> Adjusted {
         if !command_g.is_finite() || !sensed_g.is_finite() {
             return Adjusted {
                 force_g: 0.0,
@@ -104,7 +104,13 @@ impl ForceLaw {
         let error_g = command_g - sensed_g;
         let derivative = c.kd_s * (error_g - self.previous_error_g) / c.dt_s;
         self.previous_error_g = error_g;
-        let raw = command_g + c.gain_scale(command_g) * (c.kp * error_g + derivative);
+        // Off, the error is still followed (no derivative kick when it comes back on).
+        let gain = if feedback {
+            c.gain_scale(command_g)
+        } else {
+            0.0
+        };
+        let raw = command_g + gain * (c.kp * error_g + derivative);
         let force_g = crate::limit(raw, c.adjusted_min_g, c.adjusted_max_g);
         Adjusted {
             force_g,
@@ -199,26 +205,34 @@ mod tests {
         let mut law = ForceLaw::new(ForceLawConfig::MEMO);
         // Tick 1: f_c = 50, f_s = 40 → e = 10, e_prev = 0.
         // f_a = 50 + 0.5 (2·10 + 0.03·(10 − 0)/0.001) = 50 + 0.5 (20 + 300) = 210 → saturated at 192.
-        let a = law.update(50.0, 40.0);
+        let a = law.update(50.0, 40.0, true);
         assert_eq!(a.force_g, 192.0);
         assert!(a.saturated);
         // Tick 2: f_c = 50, f_s = 48 → e = 2, e_prev = 10.
         // f_a = 50 + 0.5 (4 + 30·(2 − 10)) = 50 + 0.5 (4 − 240) = −68.
-        let a = law.update(50.0, 48.0);
+        let a = law.update(50.0, 48.0, true);
         assert!((a.force_g - (-68.0)).abs() < 1e-4, "{}", a.force_g);
         assert!(!a.saturated);
         // Tick 3: f_c = 20, f_s = 19.5 → e = 0.5, e_prev = 2.
         // f_a = 20 + 0.2 (1 + 30·(0.5 − 2)) = 20 + 0.2 (1 − 45) = 11.2.
-        let a = law.update(20.0, 19.5);
+        let a = law.update(20.0, 19.5, true);
         assert!((a.force_g - 11.2).abs() < 1e-4, "{}", a.force_g);
         assert_eq!(law.previous_error_g(), 0.5);
+        // Feedback off (an excitation on the drive): the command alone, the error followed.
+        let a = law.update(20.0, 17.0, false);
+        assert_eq!(a.force_g, 20.0);
+        assert_eq!(law.previous_error_g(), 3.0);
+        // On again, the derivative from the last error (3 → 2.5), not from before the pause:
+        // f_a = 20 + 0.2 (5 + 30·(2.5 − 3)) = 20 + 0.2 (5 − 15) = 18.
+        let a = law.update(20.0, 17.5, true);
+        assert!((a.force_g - 18.0).abs() < 1e-4, "{}", a.force_g);
     }
 
     #[test]
     fn zero_command_has_exactly_zero_feedback() {
         let mut law = ForceLaw::new(ForceLawConfig::MEMO);
         for sensed in [-1e6f32, -3.0, 0.0, 0.25, 17.0, 1e6] {
-            let a = law.update(0.0, sensed);
+            let a = law.update(0.0, sensed, true);
             assert_eq!(a.force_g, 0.0, "sensed {sensed}");
         }
     }
@@ -230,11 +244,11 @@ mod tests {
             ..ForceLawConfig::MEMO
         });
         // First tick from reset: f_a = 5 + 1·(2·1 + 30·1) = 37.
-        let a = fixed.update(5.0, 4.0);
+        let a = fixed.update(5.0, 4.0, true);
         assert!((a.force_g - 37.0).abs() < 1e-4);
         let mut scheduled = ForceLaw::new(ForceLawConfig::MEMO);
         // Same inputs with A1: f_a = 5 + 0.05·32 = 6.6.
-        let a = scheduled.update(5.0, 4.0);
+        let a = scheduled.update(5.0, 4.0, true);
         assert!((a.force_g - 6.6).abs() < 1e-4);
     }
 
@@ -246,7 +260,7 @@ mod tests {
             (10.0, f32::INFINITY),
             (f32::NEG_INFINITY, 0.0),
         ] {
-            let a = law.update(c, s);
+            let a = law.update(c, s, true);
             assert_eq!(a.force_g, 0.0);
             assert!(a.invalid_input);
         }
@@ -288,7 +302,7 @@ mod tests {
         ) {
             let mut law = ForceLaw::new(ForceLawConfig::MEMO);
             for (c, s) in commands.iter().zip(sensed.iter()) {
-                let a = law.update(*c, *s);
+                let a = law.update(*c, *s, true);
                 proptest::prop_assert!(a.force_g.is_finite());
                 proptest::prop_assert!((-192.0..=192.0).contains(&a.force_g));
             }

@@ -454,14 +454,16 @@ impl CommandSource {
 
 impl CommandSource {
     /// What the protocol adds to the drive after the loop's filter at time `t_s`, g: the
-    /// excitation's chirp ([`Protocol::Excitation`]); 0 for every other protocol.
-    pub fn drive_excitation_g(&self, t_s: f32) -> f32 {
+    /// excitation's chirp ([`Protocol::Excitation`]) while it runs, when the loop's feedback is
+    /// off (see `ForceLoop::set_drive_excitation`); `None` before and after it and for every
+    /// other protocol.
+    pub fn drive_excitation_g(&self, t_s: f32) -> Option<f32> {
         let Protocol::Excitation { amplitude_g, .. } = self.protocol else {
-            return 0.0;
+            return None;
         };
         let t = t_s - EXCITATION_SETTLE_S;
         if t < 0.0 || t_s >= self.protocol.duration_s() {
-            return 0.0;
+            return None;
         }
         let tau = t - libm::floorf(t / EXCITATION_PERIOD_S) * EXCITATION_PERIOD_S;
         let sweep = EXCITATION_END_HZ - EXCITATION_START_HZ;
@@ -470,7 +472,7 @@ impl CommandSource {
         let phase = 2.0 * core::f32::consts::PI * (cycles - libm::floorf(cycles));
         let hz = EXCITATION_START_HZ + sweep * tau / EXCITATION_PERIOD_S;
         let rise = (hz / EXCITATION_KNEE_HZ).clamp(1.0, EXCITATION_RISE_MAX);
-        amplitude_g * rise * crate::trig::sinf(phase)
+        Some(amplitude_g * rise * crate::trig::sinf(phase))
     }
 
     fn sines(&self, offset_g: f32, amplitude_g: f32, t_s: f32) -> f32 {
@@ -528,12 +530,12 @@ mod tests {
         assert!((s.command_g(0.375) - 25.0).abs() < 1e-4);
         assert_eq!(s.command_g(1.0), 50.0);
         assert_eq!(s.command_g(3.3), 50.0);
-        assert_eq!(s.drive_excitation_g(1.0), 0.0);
+        assert_eq!(s.drive_excitation_g(1.0), None);
         // One period sampled at 1 kHz, twice: the same samples (periodic), within ±3 g below
         // the knee and ±9 g above it, mean 0.
         let period = |s: &CommandSource, start: f32| -> Vec<f32> {
             (0..1000)
-                .map(|i| s.drive_excitation_g(start + i as f32 * 1e-3))
+                .map(|i| s.drive_excitation_g(start + i as f32 * 1e-3).unwrap())
                 .collect()
         };
         let (a, b) = (period(&s, 2.5), period(&s, 3.5));
@@ -555,19 +557,19 @@ mod tests {
         assert!(mean.abs() < 0.1, "{mean}");
         // By hand: 0.1 s into a period the chirp is at 1 + 300·0.1 = 31 Hz and has turned
         // 1·0.1 + 150·0.01 = 1.6 cycles: 3·sin(2π·0.6).
-        let x = s.drive_excitation_g(1.5 + 0.1);
+        let x = s.drive_excitation_g(1.5 + 0.1).unwrap();
         let expected = 3.0 * (2.0 * core::f32::consts::PI * 0.6).sin();
         assert!((x - expected).abs() < 1e-3, "{x} vs {expected}");
         // 0.3 s in: 91 Hz, 0.3 + 150·0.09 = 13.8 cycles, the amplitude 3·91/60.
-        let x = s.drive_excitation_g(1.5 + 0.3);
+        let x = s.drive_excitation_g(1.5 + 0.3).unwrap();
         let expected = 3.0 * 91.0 / 60.0 * (2.0 * core::f32::consts::PI * 0.8).sin();
         assert!((x - expected).abs() < 2e-3, "{x} vs {expected}");
-        assert_eq!(s.drive_excitation_g(5.6), 0.0);
+        assert_eq!(s.drive_excitation_g(5.6), None);
         assert_eq!(s.command_g(5.6), 0.0);
         // Every other protocol leaves the drive alone.
         assert_eq!(
             CommandSource::new(Protocol::CALIBRATION).drive_excitation_g(10.0),
-            0.0
+            None
         );
     }
 

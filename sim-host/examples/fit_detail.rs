@@ -28,7 +28,21 @@ fn main() {
     {
         *amplitude_g = a;
     }
+    if let Some(ke) = std::env::var("KE").ok().and_then(|v| v.parse::<f32>().ok()) {
+        config.firmware.law.ke = ke;
+    }
     let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).expect("run");
+    let (lo, hi) = run.ticks.iter().fold((f32::MAX, f32::MIN), |(lo, hi), t| {
+        (lo.min(t.sensed_g), hi.max(t.sensed_g))
+    });
+    let worst = run
+        .ticks
+        .iter()
+        .max_by(|a, b| a.sensed_g.total_cmp(&b.sensed_g));
+    println!(
+        "gauge {lo:.1}..{hi:.1} g (highest at {:.3} s)",
+        worst.map_or(0.0, |t| t.t_s)
+    );
     let e = design::excited_of_run(&run.ticks, protocol, &config.firmware.actuator)
         .expect("an excitation record");
     let less = e

@@ -50,12 +50,14 @@ fn check(name: &str, p: ApplicatorParams, load_g: f32, amplitude_g: f32, good_fi
     let model = fit_model(&response).unwrap();
     eprintln!("{name} at {load_g} g: plant's resonances {want:.1?} Hz, identified {model:.3?}");
     assert_eq!(want.len(), 2, "{want:?}");
-    // The fitted modes at the plant's: the inertia–finger mode within 10 % (stiction and the
-    // swing about the load move it: 50.1, 36.2 and 76.9 Hz measured for 49.5, 35.5 and
-    // 70.2; the light rig's was 73.4 Hz with a flat chirp of 15 g, which its rise now takes
-    // past the supervisor's slew), the beam's within 5 % (189.6, 154.1, 257.9 for 188.2,
-    // 150.5, 255.2).
-    for ((w, f), share) in want.iter().zip(&model.modes).zip([0.10, 0.05]) {
+    // The fitted modes at the plant's: the inertia–finger mode within 12 % (stiction and the
+    // swing about the load move it: 50.3, 35.2 and 78.5 Hz measured for 49.5, 35.5 and
+    // 70.2; in this plain ratio the light rig's 2.2 g of stiction against a 6 g chirp stiffens
+    // the motor — 76.9 Hz while A1's feedback ran through the chirp, 78.5 Hz since the chirp
+    // runs without it, 77.8 Hz at 6.5 g, and 7 g trips the supervisor's slew at the beam's
+    // mode; the design fits the drive less the stiction), the beam's within 5 % (189.6,
+    // 154.1, 257.9 for 188.2, 150.5, 255.2).
+    for ((w, f), share) in want.iter().zip(&model.modes).zip([0.12, 0.05]) {
         assert!((f.hz - w).abs() < share * w, "{name}: {w:.1} Hz vs {f:?}");
     }
     // Both lightly damped, and the anti-resonance (the tip on the finger alone) between them.
@@ -127,12 +129,14 @@ fn the_applicators_resonances_are_identified_from_the_excitation() {
 
 #[test]
 fn a_chirp_that_throws_the_probe_is_refused_with_the_reason() {
-    // The heavy rig's sharp 35 Hz mode swings a 10 g chirp past the gauge's range about 50 g.
+    // The heavy rig's sharp 35 Hz mode swings a 20 g chirp about 50 g until the probe leaves
+    // the finger (15 g stays on it: within 0–112 g; `cargo run --release -p sim-host --example
+    // fit_detail applicators/heavy-motor-soft-beam.toml 50 1 A`).
     let config = rig_config(3, rig("heavy-motor-soft-beam.toml"));
     let actuator = config.firmware.actuator;
     let protocol = Protocol::Excitation {
         preload_g: 50.0,
-        amplitude_g: 10.0,
+        amplitude_g: 20.0,
         periods: 24,
     };
     let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();

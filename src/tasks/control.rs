@@ -140,7 +140,7 @@ impl ControlLoop {
     }
 
     /// Grams added to the drive after the filter (see [`ForceLoop::set_drive_excitation`]).
-    pub fn set_drive_excitation(&mut self, drive_g: f32) {
+    pub fn set_drive_excitation(&mut self, drive_g: Option<f32>) {
         self.force_loop.set_drive_excitation(drive_g);
     }
 

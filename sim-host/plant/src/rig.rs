@@ -130,8 +130,8 @@ impl Rig {
     }
 
     /// Grams added to the drive after the loop's filter from the next tick on (the excitation
-    /// protocol's chirp; see `ForceLoop::set_drive_excitation`).
-    pub fn set_drive_excitation(&mut self, drive_g: f32) {
+    /// protocol's chirp, A1's feedback off meanwhile; see `ForceLoop::set_drive_excitation`).
+    pub fn set_drive_excitation(&mut self, drive_g: Option<f32>) {
         self.control.set_drive_excitation(drive_g);
     }
 
