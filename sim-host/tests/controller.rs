@@ -395,3 +395,29 @@ fn the_committed_controller_table_is_what_tactile_design_writes() {
         Ok(d.config)
     );
 }
+
+#[test]
+fn a_gauge_twice_as_sensitive_is_identified_within_its_range() {
+    // The memo's rig with a gauge of 7 g/V (0.07 g of noise): the converter reads up to
+    // 67.5 g, and the 75 g preload's hold alone put it at its rail, which refused the whole
+    // design. The preloads within 90 % of the range are identified (10–50 g), the heavier
+    // loads extrapolated, and the loop about 10 and 50 g is as flat as on the memo's gauge
+    // (measured: 2 g about 10 g −0.76…+0.40 dB, 10 g about 50 g −0.36…+0.52 dB, 0.5–40 Hz).
+    let mut cfg = rig();
+    let mut p = sim_host::applicator::ApplicatorParams::MEMO;
+    p.gauge_g_per_v = 7.0;
+    p.gauge_noise_g = 0.07;
+    cfg.set_applicator(p);
+    let r = design::design_for_rig(&cfg).expect("design");
+    let loads: Vec<f32> = r.identified.models.iter().map(|m| m.load_g).collect();
+    assert_eq!(loads, [10.0, 20.0, 35.0, 50.0], "{loads:?}");
+    assert!((r.identified.gauge_noise_g - 0.07).abs() < 0.01, "{r:?}");
+    cfg.firmware.tracking = Some(r.design.config);
+    for (offset_g, amplitude_g) in [(10.0, 2.0), (50.0, 10.0)] {
+        for hz in [5.0, 20.0, 30.0, 40.0] {
+            let g = metrics::closed_loop_gain(cfg.clone(), offset_g, amplitude_g, hz).unwrap();
+            let db = 20.0 * g.log10();
+            assert!(db.abs() <= 1.0, "{offset_g} g, {hz} Hz: {db:+.2} dB");
+        }
+    }
+}
