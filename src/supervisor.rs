@@ -225,8 +225,9 @@ impl ForceLoop {
     /// K_e = 0.07 its loop has a gain margin of 2.6 at 100 g and amplified the chirp at the
     /// plant's mode. On the heavy rig (mode 40 Hz at 100 g) a 5 g chirp swung the gauge from
     /// −21 to 139 g, out of its range, and the 100 g model had to be extrapolated from 75 g;
-    /// without the feedback it stays within 0–117 g and fits to 11 % RMS (`KE=0.07` / `KE=0`
-    /// `cargo run --release -p sim-host --example fit_detail
+    /// without the feedback it stays within 0–117 g and fits to 11 % RMS (measured before this
+    /// rule, at commit 2746f79, with A1's K_e for the whole run at 0.07 and at 0: `KE=0.07` /
+    /// `KE=0 cargo run --release -p sim-host --example fit_detail
     /// applicators/heavy-motor-soft-beam.toml 100 1 5`). The designed controller keeps its own.
     pub fn set_drive_excitation(&mut self, drive_g: Option<f32>) {
         self.drive_excitation_g = drive_g.map(|g| if g.is_finite() { g } else { 0.0 });

@@ -4,6 +4,8 @@
 //!
 //! `cargo run --release -p sim-host --example fit_detail [APPLICATOR.toml] [PRELOAD_G]
 //! [STICTION_G] [AMPLITUDE_G]` (defaults: the memo's rig, 10 g, 1 g, the design's chirp).
+//! `KE=K`: A1's error gain K (the simulator's 0.07) for the hold before the chirp, which runs
+//! without A1's feedback. Prints the gauge's range over the run.
 use sim_host::design;
 use sim_host::rig::RigConfig;
 use sim_host::scenario::run_protocol;
