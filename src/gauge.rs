@@ -95,11 +95,13 @@ impl GaugeConfig {
     ///
     /// ```
     /// use tactile_core::gauge::GaugeConfig;
-    /// let g = GaugeConfig::with_scale(28.0);
+    /// // A const: a board's configuration is one (`tactile_firmware::BOARD`).
+    /// const G: GaugeConfig = GaugeConfig::with_scale(28.0);
+    /// let g = G;
     /// assert_eq!((g.force_min_g, g.force_max_g), (-60.0, 270.0));
     /// assert_eq!(g.force_g(1.0), 28.0);
     /// ```
-    pub fn with_scale(grams_per_volt: f32) -> GaugeConfig {
+    pub const fn with_scale(grams_per_volt: f32) -> GaugeConfig {
         let k = grams_per_volt / Self::MEMO.grams_per_volt;
         GaugeConfig {
             grams_per_volt,
