@@ -217,8 +217,6 @@ impl ForceLoop {
         }
     }
 
-    /// One tick: `command_g` from the command source, `reading` the gauge path's result for the
-    /// last period, `overrun` the board timer's verdict on the last deadline.
     /// Grams added to the drive after the filter from the next tick on (`None`: none; a value
     /// that is not finite counts as 0). The safe output stays at zero. While a drive is added
     /// A1 runs without its feedback (its command alone holds the probe on the finger): at
@@ -233,6 +231,8 @@ impl ForceLoop {
         self.drive_excitation_g = drive_g.map(|g| if g.is_finite() { g } else { 0.0 });
     }
 
+    /// One tick: `command_g` from the command source, `reading` the gauge path's result for the
+    /// last period, `overrun` the board timer's verdict on the last deadline.
     pub fn tick(
         &mut self,
         command_g: f32,

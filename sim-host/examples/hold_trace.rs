@@ -23,12 +23,9 @@ fn main() {
         a[2].parse().unwrap(),
         a[3].parse().unwrap(),
     );
-    let levels = [
-        2.0f32, 5.0, 10.0, 20.0, 50.0, 100.0, 120.0, 60.0, 20.0, 5.0, 2.0,
-    ];
     let mut rig = Rig::new(config).unwrap();
-    let n = 3000;
-    for (i, level) in levels.iter().enumerate() {
+    let n = (sim_host::metrics::STEADY_HOLD_S / sim_host::rig::TICK_S).round() as usize;
+    for (i, level) in sim_host::metrics::STEADY_LEVELS_G.iter().enumerate() {
         for k in 0..n {
             let t = rig.tick(*level, |_, _| {});
             let ts = (i * n + k) as f64 * 1e-3;

@@ -181,6 +181,14 @@ pub fn mean(xs: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
+/// The levels the steady-state error is measured at, g: 2–120 g up from rest and back down
+/// (the range), each held [`STEADY_HOLD_S`].
+pub const STEADY_LEVELS_G: [f32; 11] = [
+    2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 120.0, 60.0, 20.0, 5.0, 2.0,
+];
+/// Each level's hold, s (`low-force`'s).
+pub const STEADY_HOLD_S: f64 = 3.0;
+
 /// The steady-state error at each of `levels_g`, held `hold_s` each in turn from rest: the
 /// mean of the contact force less the command over each hold's second half, g (the gauge's
 /// noise averages out; a motor the stiction holds off the command does not).

@@ -359,15 +359,14 @@ fn the_steady_state_error_is_within_the_gauges_noise_from_2_to_120_g() {
     // rig's 5 g hold after 20 g sat 0.26 g under, its motor stuck past the target and its
     // integral slow to free it; of 1 s holds the mean of the second half was off by up to
     // 0.18 g after the 120 → 60 g step on three rigs and 0.49 g at the heavy rig's 5 g).
-    let levels = [
-        2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 120.0, 60.0, 20.0, 5.0, 2.0,
-    ];
     let all: Vec<(&str, Vec<(f32, f32)>)> = rigs()
         .into_iter()
         .map(|(file, mut cfg)| {
             cfg.firmware.tracking =
                 Some(design::design_for_rig(&cfg).expect("design").design.config);
-            let errors = metrics::steady_errors_g(cfg, &levels, 3.0).unwrap();
+            let errors =
+                metrics::steady_errors_g(cfg, &metrics::STEADY_LEVELS_G, metrics::STEADY_HOLD_S)
+                    .unwrap();
             eprintln!("{file}: {errors:?}");
             (file, errors)
         })

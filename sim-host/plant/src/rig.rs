@@ -54,7 +54,8 @@ pub enum RigError {
     /// The firmware would read the gauge at another scale than the applicator's gauge has
     /// (`applicator` set without [`RigConfig::set_applicator`]).
     #[error(
-        "the firmware reads the gauge at {firmware_g_per_v} g/V, the applicator's gauge gives          {gauge_g_per_v} g/V (set the applicator with RigConfig::set_applicator)"
+        "the firmware reads the gauge at {firmware_g_per_v} g/V, the applicator's gauge gives \
+         {gauge_g_per_v} g/V (set the applicator with RigConfig::set_applicator)"
     )]
     GaugeScale {
         firmware_g_per_v: f32,
