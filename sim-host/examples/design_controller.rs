@@ -77,6 +77,9 @@ fn main() {
             "static gain {:.3}, stiction {:.2} g, gauge noise {:.2} g (identified from the holds)",
             r.identified.static_gain, r.identified.stiction_g, r.identified.gauge_noise_g
         );
+        for left in &r.identified.left_out {
+            println!("left out {left}");
+        }
         r.design
     };
     // `FRICTION=G`: the same models, G grams of stiction compensated.

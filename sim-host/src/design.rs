@@ -80,12 +80,17 @@ pub enum DesignError {
         #[source]
         source: IdentifyError,
     },
-    #[error("no model converged on the response measured at {load_g} g")]
-    NoModel { load_g: f32 },
+    #[error("the holds before the chirps give no static line: their drive and gauge do not rise together")]
+    NoStaticLine,
     #[error("not a record of the excitation: no drive_g column, or no command holding a preload at the end of the first {settle_s} s")]
     NotExcitation { settle_s: f32 },
-    #[error("the static line needs the excitation at two preloads or more; {have} distinct given (the holds' drive and gauge give the gain and the stiction)")]
-    TooFewPreloads { have: usize },
+    #[error("the static line needs the excitation at two preloads or more; {have} distinct given (the holds' drive and gauge give the gain and the stiction){}", left_out_list(left_out))]
+    TooFewPreloads { have: usize, left_out: Vec<LeftOut> },
+    #[error(
+        "the design needs models at two preloads or more; {have} usable{}",
+        left_out_list(left_out)
+    )]
+    TooFewModels { have: usize, left_out: Vec<LeftOut> },
     #[error("no integral gain gives the margins at every load (the model at {load_g} g has a gain margin of {margin:.2} with none)")]
     NoMargin { load_g: f32, margin: f64 },
 }
@@ -152,6 +157,31 @@ pub struct Identified {
     pub stiction_g: f64,
     /// The gauge's noise, RMS of one reading: the median of the holds'.
     pub gauge_noise_g: f64,
+    /// The preloads whose excitation gave no model the design could use, and why: the design
+    /// extrapolates past them or interpolates across them.
+    pub left_out: Vec<LeftOut>,
+}
+
+/// A preload the design left out, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LeftOut {
+    pub load_g: f32,
+    pub why: String,
+}
+
+impl std::fmt::Display for LeftOut {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} g: {}", self.load_g, self.why)
+    }
+}
+
+/// "; left out: A; B" for an error's message ("" for none).
+fn left_out_list(left_out: &[LeftOut]) -> String {
+    if left_out.is_empty() {
+        return String::new();
+    }
+    let each: Vec<String> = left_out.iter().map(ToString::to_string).collect();
+    format!("; left out: {}", each.join("; "))
 }
 
 /// One preload's excitation as the design reads it: the measured response and the still
@@ -166,7 +196,8 @@ pub struct Excited {
 
 /// Runs the excitation at each of [`DESIGN_LOADS_G`] the gauge's range leaves room for
 /// ([`PRELOAD_GAUGE_SHARE`]) on a rig built from `config` (the loop that holds the preload is
-/// the one `config` has) and identifies the applicator from them ([`identified_from`]).
+/// the one `config` has) and identifies the applicator from them ([`identified_from`]); a
+/// preload whose excitation cannot be identified, even with its chirp halved, is left out.
 pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
     let top_g = PRELOAD_GAUGE_SHARE * config.firmware.gauge.force_max_g;
     let runs: Vec<Result<Excited, DesignError>> = std::thread::scope(|scope| {
@@ -185,11 +216,35 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
             .into_iter()
             .map(|h| {
                 h.join()
-                    .unwrap_or(Err(DesignError::NoModel { load_g: f32::NAN }))
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
             })
             .collect()
     });
-    identified_from(&runs.into_iter().collect::<Result<Vec<_>, _>>()?)
+    let (mut excited, mut left_out) = (Vec::new(), Vec::new());
+    for run in runs {
+        match run {
+            Ok(e) => excited.push(e),
+            Err(e) => left_out.push(left_out_of(e)?),
+        }
+    }
+    identified_from(&excited, left_out)
+}
+
+/// What a preload's failed excitation says for the design: a [`LeftOut`] where the excitation
+/// ran and gave no response to identify (the probe left the finger, the supervisor stopped it,
+/// too short a record), the error itself where it did not run or was not the excitation.
+pub fn left_out_of(e: DesignError) -> Result<LeftOut, DesignError> {
+    match e {
+        DesignError::Identify { load_g, source }
+            if !matches!(source, IdentifyError::NotTheExcitation) =>
+        {
+            Ok(LeftOut {
+                load_g,
+                why: source.to_string(),
+            })
+        }
+        other => Err(other),
+    }
 }
 
 /// The design's reading of one record of the excitation (a board's, or the QEMU firmware's
@@ -202,8 +257,9 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
     let load_g = crate::identify::preload_of_record(rec).ok_or(not_excitation)?;
     let means = crate::identify::period_means_of_record(rec)
         .map_err(|source| DesignError::Identify { load_g, source })?;
-    let hold = crate::identify::hold_means_of_record(rec).ok_or(DesignError::NotExcitation {
-        settle_s: tactile_core::profile::EXCITATION_SETTLE_S,
+    let hold = crate::identify::hold_means_of_record(rec).ok_or(DesignError::Identify {
+        load_g,
+        source: IdentifyError::NoHold,
     })?;
     Ok(Excited {
         load_g,
@@ -213,14 +269,20 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
 }
 
 /// The models fitted at each preload, with the static gain and stiction of the holds; loads
-/// whose fit is not [`plausible`] are left out (at least two must remain).
-pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
+/// whose fit does not converge, is not [`plausible`] or puts the amplifier elsewhere than the
+/// others' ([`one_amplifier`]) are left out, after those the caller left out (`left_out`); at
+/// least two must remain.
+pub fn identified_from(
+    excited: &[Excited],
+    mut left_out: Vec<LeftOut>,
+) -> Result<Identified, DesignError> {
     let mut preloads: Vec<f32> = excited.iter().map(|e| e.load_g).collect();
     preloads.sort_by(f32::total_cmp);
     preloads.dedup();
     if preloads.len() < 2 {
         return Err(DesignError::TooFewPreloads {
             have: preloads.len(),
+            left_out,
         });
     }
     let holds: Vec<(f64, f64)> = excited
@@ -230,7 +292,7 @@ pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
     let gauge_noise_g =
         upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
     let (static_gain, stiction_g) =
-        crate::identify::static_line(&holds).ok_or(DesignError::NoModel { load_g: f32::NAN })?;
+        crate::identify::static_line(&holds).ok_or(DesignError::NoStaticLine)?;
     // One fit per preload, side by side (each is a few hundred milliseconds).
     let fits: Vec<Option<ApplicatorModel>> = std::thread::scope(|scope| {
         let handles: Vec<_> = excited
@@ -249,32 +311,49 @@ pub fn identified_from(excited: &[Excited]) -> Result<Identified, DesignError> {
     });
     let mut models = Vec::with_capacity(excited.len());
     for (e, model) in excited.iter().zip(fits) {
-        let model = model.ok_or(DesignError::NoModel { load_g: e.load_g })?;
-        models.push(LoadModel {
-            load_g: e.load_g,
-            model,
-            static_gain,
-        });
+        match model {
+            Some(model) if plausible(&model) => models.push(LoadModel {
+                load_g: e.load_g,
+                model,
+                static_gain,
+            }),
+            Some(model) => left_out.push(LeftOut {
+                load_g: e.load_g,
+                why: format!("the fitted model is not an applicator's ({model})"),
+            }),
+            None => left_out.push(LeftOut {
+                load_g: e.load_g,
+                why: "no model converged on its response".into(),
+            }),
+        }
     }
     models.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
-    let plausible_models: Vec<LoadModel> = models
+    let kept = one_amplifier(&models);
+    for m in models
         .iter()
-        .filter(|m| plausible(&m.model))
-        .copied()
-        .collect();
-    let kept = one_amplifier(&plausible_models);
+        .filter(|m| !kept.iter().any(|k| k.load_g == m.load_g))
+    {
+        left_out.push(LeftOut {
+            load_g: m.load_g,
+            why: format!(
+                "its amplifier's pole at {:.0} Hz is over {POLE_SPREAD}× off the other loads'",
+                m.model.pole_hz
+            ),
+        });
+    }
+    left_out.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
     if kept.len() < 2 {
-        let load_g = models
-            .iter()
-            .find(|m| !plausible(&m.model))
-            .map_or(f32::NAN, |m| m.load_g);
-        return Err(DesignError::NoModel { load_g });
+        return Err(DesignError::TooFewModels {
+            have: kept.len(),
+            left_out,
+        });
     }
     Ok(Identified {
         models: kept,
         static_gain,
         stiction_g,
         gauge_noise_g,
+        left_out,
     })
 }
 
@@ -297,8 +376,10 @@ pub fn excited_of_run(
             source,
         }
     })?;
-    let hold = crate::identify::hold_means(ticks, actuator)
-        .ok_or(DesignError::NoModel { load_g: preload_g })?;
+    let hold = crate::identify::hold_means(ticks, actuator).ok_or(DesignError::Identify {
+        load_g: preload_g,
+        source: IdentifyError::NoHold,
+    })?;
     Ok(Excited {
         load_g: preload_g,
         means,

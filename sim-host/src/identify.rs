@@ -38,6 +38,8 @@ pub enum IdentifyError {
     Faulted { t_s: f64, faults: String },
     #[error("the record has no drive_g column: the drive is what the response is taken against (the simulator's and the decoder's records carry it)")]
     NoDriveColumn,
+    #[error("no still hold before the chirp: the record is shorter than the settling, or its drive or gauge is not finite there")]
+    NoHold,
     #[error("the record is sampled at {hz:.1} Hz: identification needs whole samples in the chirp's 1 s period and the chirp's 301 Hz under half the rate (record at 1000 Hz)")]
     SampleRate { hz: f64 },
 }

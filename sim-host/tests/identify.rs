@@ -218,8 +218,8 @@ fn the_design_reads_excitation_records_and_refuses_others() {
     );
     let twice = [from_record.clone(), from_record];
     assert!(matches!(
-        identified_from(&twice),
-        Err(DesignError::TooFewPreloads { have: 1 })
+        identified_from(&twice, Vec::new()),
+        Err(DesignError::TooFewPreloads { have: 1, .. })
     ));
     let steps = run_protocol(
         "force-steps",
@@ -277,4 +277,71 @@ fn the_drive_less_the_stiction_gives_the_linear_plants_damping() {
     );
     // The mode itself where it was (within 5 %).
     assert!((less.modes[0].hz / linear.modes[0].hz - 1.0).abs() < 0.05);
+}
+
+/// `tactile design --records` leaves out a preload whose chirp lifted the probe off the finger
+/// and designs on the rest, naming the record and why; with one usable preload left it refuses
+/// and names the one left out. The 10 g record's chirp is 12 g, so the probe must leave the
+/// finger; the others are the design's own excitations on the memo's rig.
+#[test]
+fn the_design_from_records_leaves_out_a_preload_that_lost_the_finger() {
+    let config = RigConfig {
+        scan_array: false,
+        ..Default::default()
+    };
+    let dir = std::env::temp_dir().join(format!("design-left-out-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let record = |load_g: f32, amplitude_g: Option<f32>| {
+        let mut protocol = Protocol::design_excitation(load_g);
+        if let (Some(a), Protocol::Excitation { amplitude_g, .. }) = (amplitude_g, &mut protocol) {
+            *amplitude_g = a;
+        }
+        let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).unwrap();
+        let path = dir.join(format!("excitation-{load_g}g.csv"));
+        tactile_record::write_record(&path, &[], &run.ticks, 1).unwrap();
+        path
+    };
+    let lifted = record(10.0, Some(12.0));
+    let good: Vec<_> = [20.0, 35.0, 50.0].map(|l| record(l, None)).into();
+    let tactile = |records: &[&std::path::Path]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_tactile"))
+            .arg("design")
+            .arg("--records")
+            .args(records)
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    // The chirp throws the probe off the finger, and the gauge's slew as it strikes back
+    // trips the supervisor: either reason names the record.
+    let named = format!("10 g: {}: the ", lifted.display());
+    let why = |text: &str| {
+        text.contains(&format!("{named}probe left the finger"))
+            || text.contains(&format!("{named}supervisor stopped the drive"))
+    };
+    let mut all: Vec<&std::path::Path> = good.iter().map(|p| p.as_path()).collect();
+    all.insert(0, &lifted);
+    let (ok, stdout, stderr) = tactile(&all);
+    assert!(ok, "{stdout}\n{stderr}");
+    assert!(stdout.contains("left out 10 g") && why(&stdout), "{stdout}");
+    for load in [
+        "20 g (identified)",
+        "35 g (identified)",
+        "50 g (identified)",
+    ] {
+        assert!(stdout.contains(load), "{load} in {stdout}");
+    }
+    // The loads under the lightest model are extrapolated; 10 g is not a model of its own.
+    assert!(stdout.contains("5 g (extrapolated)"), "{stdout}");
+    assert!(!stdout.contains("  10 g ("), "{stdout}");
+    let (ok, stdout, stderr) = tactile(&[&lifted, &good[2]]);
+    assert!(!ok, "{stdout}");
+    assert!(
+        stderr.contains("two preloads or more; 1 distinct given") && why(&stderr),
+        "{stderr}"
+    );
 }

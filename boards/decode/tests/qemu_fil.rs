@@ -791,7 +791,7 @@ fn the_controller_is_designed_from_the_firmwares_excitation() {
         from_csv.push(excited_of_record(&rec).unwrap_or_else(|e| panic!("{}: {e}", run.name)));
     }
     let design = |e: &[Excited]| {
-        design_identified(identified_from(e).expect("identified"), &rig)
+        design_identified(identified_from(e, Vec::new()).expect("identified"), &rig)
             .expect("designed")
             .design
             .config

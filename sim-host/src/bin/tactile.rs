@@ -470,15 +470,23 @@ fn run(command: Command) -> Result<(), Error> {
             let r = if records.is_empty() {
                 sim_host::design::design_for_rig(&config)
             } else {
-                let mut excited = Vec::new();
+                let (mut excited, mut left_out) = (Vec::new(), Vec::new());
                 for file in &records {
                     let rec = tactile_record::read_record(file)?;
-                    excited.push(
-                        sim_host::design::excited_of_record(&rec)
-                            .map_err(|e| Error::Failed(format!("{}: {e}", file.display())))?,
-                    );
+                    match sim_host::design::excited_of_record(&rec)
+                        .map_err(sim_host::design::left_out_of)
+                    {
+                        Ok(e) => excited.push(e),
+                        Err(Ok(mut left)) => {
+                            left.why = format!("{}: {}", file.display(), left.why);
+                            left_out.push(left);
+                        }
+                        Err(Err(e)) => {
+                            return Err(Error::Failed(format!("{}: {e}", file.display())))
+                        }
+                    }
                 }
-                sim_host::design::identified_from(&excited)
+                sim_host::design::identified_from(&excited, left_out)
                     .and_then(|id| sim_host::design::design_identified(id, &config))
             }
             .map_err(|e| Error::Failed(format!("design: {e}")))?;
@@ -489,6 +497,9 @@ fn run(command: Command) -> Result<(), Error> {
                 id.stiction_g,
                 id.gauge_noise_g
             );
+            for left in &id.left_out {
+                outln!("left out {left}");
+            }
             let d = &r.design;
             for ((m, p), mg) in d.models.iter().zip(&d.config.schedule).zip(&d.margins) {
                 let source = if id.models.iter().any(|i| i.load_g == m.load_g) {
