@@ -74,6 +74,9 @@ pub const REFERENCE_HZ: f32 = 200.0;
 pub enum DesignError {
     #[error(transparent)]
     Run(#[from] ScenarioError),
+    /// What the record is not, before any preload is read from it.
+    #[error(transparent)]
+    Record(IdentifyError),
     #[error("identification at {load_g} g: {source}")]
     Identify {
         load_g: f32,
@@ -82,7 +85,7 @@ pub enum DesignError {
     },
     #[error("the holds before the chirps give no static line: their drive and gauge do not rise together")]
     NoStaticLine,
-    #[error("not a record of the excitation: no drive_g column, or no command holding a preload at the end of the first {settle_s} s")]
+    #[error("not a record of the excitation: no command_g column holding a preload from half the first {settle_s} s on")]
     NotExcitation { settle_s: f32 },
     #[error("the static line needs the excitation at two preloads or more; {have} distinct given (the holds' drive and gauge give the gain and the stiction){}", left_out_list(left_out))]
     TooFewPreloads { have: usize, left_out: Vec<LeftOut> },
@@ -231,12 +234,20 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
 }
 
 /// What a preload's failed excitation says for the design: a [`LeftOut`] where the excitation
-/// ran and gave no response to identify (the probe left the finger, the supervisor stopped it,
-/// too short a record), the error itself where it did not run or was not the excitation.
+/// ran and gave nothing to identify (the probe left the finger, the supervisor stopped it, the
+/// drive did not move, the hold was not at the preload), the error itself where the record is
+/// not one of the excitation (no drive column, cut short, another rate or protocol).
 pub fn left_out_of(e: DesignError) -> Result<LeftOut, DesignError> {
     match e {
         DesignError::Identify { load_g, source }
-            if !matches!(source, IdentifyError::NotTheExcitation) =>
+            if matches!(
+                source,
+                IdentifyError::LostContact { .. }
+                    | IdentifyError::Faulted { .. }
+                    | IdentifyError::NoDrive { .. }
+                    | IdentifyError::HoldOffPreload { .. }
+                    | IdentifyError::HoldDrive { .. }
+            ) =>
         {
             Ok(LeftOut {
                 load_g,
@@ -254,13 +265,16 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
     let not_excitation = DesignError::NotExcitation {
         settle_s: tactile_core::profile::EXCITATION_SETTLE_S,
     };
+    if rec.column("drive_g").is_none() {
+        return Err(DesignError::Record(IdentifyError::NoDriveColumn));
+    }
     let load_g = crate::identify::preload_of_record(rec).ok_or(not_excitation)?;
     let means = crate::identify::period_means_of_record(rec)
         .map_err(|source| DesignError::Identify { load_g, source })?;
-    let hold = crate::identify::hold_means_of_record(rec).ok_or(DesignError::Identify {
-        load_g,
-        source: IdentifyError::NoHold,
-    })?;
+    let hold = crate::identify::hold_means_of_record(rec)
+        .ok_or(IdentifyError::NoHold)
+        .and_then(|h| h.at_preload(load_g))
+        .map_err(|source| DesignError::Identify { load_g, source })?;
     Ok(Excited {
         load_g,
         means,
@@ -365,10 +379,7 @@ pub fn excited_of_run(
     actuator: &tactile_core::control::ActuatorConfig,
 ) -> Result<Excited, DesignError> {
     let Protocol::Excitation { preload_g, .. } = protocol else {
-        return Err(DesignError::Identify {
-            load_g: f32::NAN,
-            source: IdentifyError::NotTheExcitation,
-        });
+        return Err(DesignError::Record(IdentifyError::NotTheExcitation));
     };
     let means = crate::identify::period_means(ticks, protocol, actuator).map_err(|source| {
         DesignError::Identify {
@@ -376,10 +387,13 @@ pub fn excited_of_run(
             source,
         }
     })?;
-    let hold = crate::identify::hold_means(ticks, actuator).ok_or(DesignError::Identify {
-        load_g: preload_g,
-        source: IdentifyError::NoHold,
-    })?;
+    let hold = crate::identify::hold_means(ticks, actuator)
+        .ok_or(IdentifyError::NoHold)
+        .and_then(|h| h.at_preload(preload_g))
+        .map_err(|source| DesignError::Identify {
+            load_g: preload_g,
+            source,
+        })?;
     Ok(Excited {
         load_g: preload_g,
         means,

@@ -38,6 +38,14 @@ pub enum IdentifyError {
     Faulted { t_s: f64, faults: String },
     #[error("the record has no drive_g column: the drive is what the response is taken against (the simulator's and the decoder's records carry it)")]
     NoDriveColumn,
+    #[error("the gauge reads {gauge_g:.2} g during the hold before the chirp, not the {preload_g} g commanded (within {tolerance_g:.1} g): a loop that did not hold the preload, or a gauge that does not read the force")]
+    HoldOffPreload {
+        preload_g: f32,
+        gauge_g: f64,
+        tolerance_g: f64,
+    },
+    #[error("the hold before the chirp drives {drive_g:.2} g for {gauge_g:.2} g at the gauge: an applicator's static gain is near 1 (0.5–2), so the drive column is not the drive")]
+    HoldDrive { drive_g: f64, gauge_g: f64 },
     #[error("no still hold before the chirp: the record is shorter than the settling, or its drive or gauge is not finite there")]
     NoHold,
     #[error("the record is sampled at {hz:.1} Hz: identification needs whole samples in the chirp's 1 s period and the chirp's 301 Hz under half the rate (record at 1000 Hz)")]
@@ -111,6 +119,32 @@ pub struct Hold {
     /// leaves out and white noise keeps (a difference of two draws has twice the variance).
     pub noise_g: f64,
 }
+
+impl Hold {
+    /// The hold if it is what holding `preload_g` looks like: the gauge within
+    /// [`HOLD_TOLERANCE`] of it (2 g and a fifth: A1's steady error, no integral, is under
+    /// 1 g), the drive within a factor 2 of the gauge.
+    pub fn at_preload(self, preload_g: f32) -> Result<Hold, IdentifyError> {
+        let tolerance_g = HOLD_TOLERANCE.0 + HOLD_TOLERANCE.1 * f64::from(preload_g);
+        if (self.gauge_g - f64::from(preload_g)).abs() > tolerance_g {
+            return Err(IdentifyError::HoldOffPreload {
+                preload_g,
+                gauge_g: self.gauge_g,
+                tolerance_g,
+            });
+        }
+        if !(0.5..=2.0).contains(&(self.gauge_g / self.drive_g)) {
+            return Err(IdentifyError::HoldDrive {
+                drive_g: self.drive_g,
+                gauge_g: self.gauge_g,
+            });
+        }
+        Ok(self)
+    }
+}
+
+/// How far the hold's gauge may be from the preload: grams, and a share of the preload.
+pub const HOLD_TOLERANCE: (f64, f64) = (2.0, 0.2);
 
 /// The hold before the chirp; `None` if it is not in the record.
 pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<Hold> {

@@ -79,6 +79,14 @@ fn a_bad_file_is_refused_with_where_and_why() {
     assert!(e.contains("beam_damping_ratio = -1"), "{e}");
     let e = refused(&memo.replace("tip_mass_kg = 0.00261", "tip_mass_kg = nan"));
     assert!(e.contains("tip_mass_kg = NaN"), "{e}");
+    // A unit slipped: finite, positive, and no gauge's (a file with it ran and recorded −inf).
+    let e = refused(&memo.replace("gauge_g_per_v = 14.0", "gauge_g_per_v = 1e300"));
+    assert!(e.contains("gauge_g_per_v = 1e300: outside 1e-2…1e4"), "{e}");
+    let e = refused(&memo.replace("arm_m = 0.09", "arm_m = 9.0"));
+    assert!(e.contains("arm_m = 9e0: outside"), "{e}");
+    // A tip 130 times lighter: the beam rings at √(2000 N/m / 20 mg)/2π = 1592 Hz.
+    let e = refused(&memo.replace("tip_mass_kg = 0.00261", "tip_mass_kg = 0.00002"));
+    assert!(e.contains("rings at 1592 Hz, over 1000 Hz"), "{e}");
 }
 
 #[test]

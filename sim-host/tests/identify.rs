@@ -279,12 +279,13 @@ fn the_drive_less_the_stiction_gives_the_linear_plants_damping() {
     assert!((less.modes[0].hz / linear.modes[0].hz - 1.0).abs() < 0.05);
 }
 
-/// `tactile design --records` leaves out a preload whose chirp lifted the probe off the finger
-/// and designs on the rest, naming the record and why; with one usable preload left it refuses
-/// and names the one left out. The 10 g record's chirp is 12 g, so the probe must leave the
-/// finger; the others are the design's own excitations on the memo's rig.
+/// `tactile design --records` leaves out a preload whose chirp lifted the probe off the finger,
+/// or whose hold is not at its preload, and designs on the rest, naming the record and why;
+/// with one usable preload left it refuses and names the one left out; a record without its
+/// drive is refused. The 10 g record's chirp is 12 g, so the probe must leave the finger; the
+/// others are the design's own excitations on the memo's rig.
 #[test]
-fn the_design_from_records_leaves_out_a_preload_that_lost_the_finger() {
+fn the_design_from_records_leaves_out_a_preload_it_cannot_use() {
     let config = RigConfig {
         scan_array: false,
         ..Default::default()
@@ -342,6 +343,62 @@ fn the_design_from_records_leaves_out_a_preload_that_lost_the_finger() {
     assert!(!ok, "{stdout}");
     assert!(
         stderr.contains("two preloads or more; 1 distinct given") && why(&stderr),
+        "{stderr}"
+    );
+    // A copy of the 20 g record with one column changed by `change` (the header names it).
+    let altered = |name: &str, column: &str, change: fn(f64) -> f64| {
+        let text = std::fs::read_to_string(&good[0]).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        let at = header.split(',').position(|c| c == column).unwrap();
+        let mut out = format!("{header}\n");
+        for line in lines {
+            let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+            cells[at] = format!("{}", change(cells[at].parse().unwrap()));
+            out += &(cells.join(",") + "\n");
+        }
+        let path = dir.join(name);
+        std::fs::write(&path, out).unwrap();
+        path
+    };
+    // A dead gauge (force_g all zero) and a command a million times the preload: each left
+    // out for its hold, named, the design on the other two.
+    let dead = altered("dead-gauge.csv", "force_g", |_| 0.0);
+    let huge = altered("huge-command.csv", "command_g", |c| 1e6 * c);
+    let (ok, stdout, stderr) = tactile(&[&dead, &huge, &good[1], &good[2]]);
+    assert!(ok, "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains(&format!(
+            "left out 20 g: {}: the gauge reads 0.00 g during the hold before the chirp, not the 20 g commanded",
+            dead.display()
+        )),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(&format!(
+            "left out 20000000 g: {}: the gauge reads",
+            huge.display()
+        )) && stdout.contains("not the 20000000 g commanded"),
+        "{stdout}"
+    );
+    // A record without its drive is not one the design can read: refused, the file named.
+    let text = std::fs::read_to_string(&good[0]).unwrap();
+    let no_drive: String = text
+        .lines()
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            format!("{}\n", cells[..8].join(","))
+        })
+        .collect();
+    let path = dir.join("no-drive.csv");
+    std::fs::write(&path, no_drive).unwrap();
+    let (ok, _, stderr) = tactile(&[&path, &good[1], &good[2]]);
+    assert!(!ok);
+    assert!(
+        stderr.contains(&format!(
+            "{}: the record has no drive_g column",
+            path.display()
+        )),
         "{stderr}"
     );
 }

@@ -78,7 +78,9 @@ impl ApplicatorParams {
     };
 
     /// Checks that the rig can exist: every value finite, masses, stiffnesses, gains and the
-    /// arm positive, losses and friction not negative.
+    /// arm positive, losses and friction not negative, each within a range any bench
+    /// applicator is in (out of it, a unit slipped: a file with a gauge of 1e300 g/V ran, and its
+    /// record read −inf), and the beam's mode under [`MAX_BEAM_HZ`].
     pub fn validate(&self) -> Result<(), ApplicatorError> {
         let positive = [
             ("amplifier_a_per_v", self.amplifier_a_per_v),
@@ -107,6 +109,125 @@ impl ApplicatorParams {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(ApplicatorError::Negative { name, value: v });
             }
+        }
+        // Wide enough for any bench applicator; out of them, a unit is wrong.
+        let plausible = [
+            (
+                "amplifier_a_per_v",
+                self.amplifier_a_per_v,
+                1e-3,
+                1e2,
+                "current amplifiers, A/V",
+            ),
+            (
+                "amplifier_pole_hz",
+                self.amplifier_pole_hz,
+                1.0,
+                1e5,
+                "amplifier bandwidths, Hz",
+            ),
+            (
+                "torque_constant_nm_per_a",
+                self.torque_constant_nm_per_a,
+                1e-4,
+                10.0,
+                "motors' torque constants, N·m/A",
+            ),
+            (
+                "motor_inertia_kg_m2",
+                self.motor_inertia_kg_m2,
+                1e-9,
+                1e-2,
+                "rotors' inertias, kg·m²",
+            ),
+            (
+                "arm_m",
+                self.arm_m,
+                1e-3,
+                1.0,
+                "arms from shaft to probe, m",
+            ),
+            (
+                "static_friction_nm",
+                self.static_friction_nm,
+                0.0,
+                1.0,
+                "a small motor's stiction, N·m",
+            ),
+            (
+                "viscous_nm_s_per_rad",
+                self.viscous_nm_s_per_rad,
+                0.0,
+                1.0,
+                "a small motor's viscous friction, N·m·s/rad",
+            ),
+            (
+                "beam_stiffness_n_per_m",
+                self.beam_stiffness_n_per_m,
+                1.0,
+                1e7,
+                "gauge beams' stiffnesses, N/m",
+            ),
+            (
+                "tip_mass_kg",
+                self.tip_mass_kg,
+                1e-5,
+                1.0,
+                "tips and probes, kg",
+            ),
+            (
+                "beam_damping_ratio",
+                self.beam_damping_ratio,
+                0.0,
+                1.0,
+                "a beam's damping ratio",
+            ),
+            (
+                "indentation_mm_per_100pct",
+                self.indentation_mm_per_100pct,
+                0.1,
+                100.0,
+                "a skin's thickness, mm",
+            ),
+            (
+                "contact_loss_factor",
+                self.contact_loss_factor,
+                0.0,
+                2.0,
+                "rubbers' loss factors",
+            ),
+            (
+                "gauge_g_per_v",
+                self.gauge_g_per_v,
+                0.01,
+                1e4,
+                "strain-gauge scales, g/V",
+            ),
+            (
+                "gauge_noise_g",
+                self.gauge_noise_g,
+                0.0,
+                10.0,
+                "a gauge's noise, g RMS",
+            ),
+        ];
+        for (name, value, lo, hi, what) in plausible {
+            if !(lo..=hi).contains(&value) {
+                return Err(ApplicatorError::Implausible {
+                    name,
+                    value,
+                    lo,
+                    hi,
+                    what,
+                });
+            }
+        }
+        // NOTE: the simulator integrates at 10 kHz (RK4, within 0.01 g to 1 kHz): a lighter tip
+        // or a stiffer beam rings past what it resolves, and past anything a 1 kHz loop sees.
+        let beam_hz =
+            libm::sqrt(self.beam_stiffness_n_per_m / self.tip_mass_kg) / core::f64::consts::TAU;
+        if beam_hz > MAX_BEAM_HZ {
+            return Err(ApplicatorError::BeamTooFast { hz: beam_hz });
         }
         Ok(())
     }
@@ -196,6 +317,8 @@ impl ApplicatorParams {
 
 /// Fields of an applicator.
 const APPLICATOR_FIELDS: usize = 14;
+/// The highest beam mode (tip alone on the beam) the simulator takes, Hz.
+pub const MAX_BEAM_HZ: f64 = 1000.0;
 /// The first bytes of [`ApplicatorParams::encode`]'s form.
 pub const APPLICATOR_MAGIC: [u8; 4] = *b"TAPP";
 /// Version 2 added the gauge's scale and noise.
@@ -222,6 +345,16 @@ impl From<tactile_core::calibration::SealError> for ApplicatorError {
 /// Why an applicator's parameters describe no rig.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum ApplicatorError {
+    #[error("{name} = {value:e}: outside {lo:e}…{hi:e}, the range of {what}")]
+    Implausible {
+        name: &'static str,
+        value: f64,
+        lo: f64,
+        hi: f64,
+        what: &'static str,
+    },
+    #[error("the beam with the tip alone rings at {hz:.0} Hz, over {MAX_BEAM_HZ} Hz: the simulator (10 kHz steps) does not resolve it; a stiffer beam wants a heavier tip")]
+    BeamTooFast { hz: f64 },
     #[error("{name} = {value}: must be a finite number above zero")]
     NotPositive { name: &'static str, value: f64 },
     #[error("{name} = {value}: must be a finite number, zero or more")]
