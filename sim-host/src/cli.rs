@@ -303,6 +303,18 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
         );
         let _ = writeln!(s, "  tracking RMS (force − command, loaded): {track:.2} g; on-chip estimate RMS error: {est:.2} g");
     }
+    // NOTE: a rig whose supervisor latched ran the rest of the protocol with the drive off;
+    // its figures above are of that, and say nothing of why.
+    if let Some(r) = t.iter().find(|r| {
+        r.faults
+            .contains(tactile_core::telemetry::FaultFlags::LATCHED)
+    }) {
+        let _ = writeln!(
+            s,
+            "  the supervisor stopped the drive at {:.3} s ({:?}); the figures after it are of a stopped rig",
+            r.t_s, r.faults
+        );
+    }
     s
 }
 

@@ -192,3 +192,28 @@ fn the_gauge_reads_at_the_files_scale_with_the_files_noise() {
     let e = sim_host::rig::Rig::new(config).err().unwrap().to_string();
     assert!(e.contains("at 14 g/V") && e.contains("28 g/V"), "{e}");
 }
+
+/// An experiment whose supervisor latched says so beside its figures (a gauge stuck from 1 s is
+/// taken for one once the command moves while it reads the same, at the step's 2 s); a clean
+/// run says nothing of it.
+#[test]
+fn an_experiment_whose_supervisor_stopped_the_drive_says_so() {
+    let dir = std::env::temp_dir().join(format!("latched-{}", std::process::id()));
+    let run = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_tactile"))
+            .args(["experiment", "step", "--no-plot", "--out"])
+            .arg(&dir)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let stuck = run(&["--fault", "gauge-stuck@1"]);
+    assert!(
+        stuck.contains("the supervisor stopped the drive at 2.0") && stuck.contains("GAUGE_STUCK"),
+        "{stuck}"
+    );
+    let clean = run(&[]);
+    assert!(!clean.contains("supervisor"), "{clean}");
+}

@@ -206,9 +206,10 @@ impl ApplicatorParams {
             (
                 "gauge_noise_g",
                 self.gauge_noise_g,
-                0.0,
+                0.01,
                 10.0,
-                "a gauge's noise, g RMS",
+                "a gauge's noise, g RMS (a converter's code at least; a reading that never \
+                 moves is what the supervisor takes for a stuck gauge)",
             ),
         ];
         for (name, value, lo, hi, what) in plausible {
