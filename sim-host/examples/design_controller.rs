@@ -34,18 +34,23 @@ fn main() {
     let t0 = std::time::Instant::now();
     let d = if std::env::var("ANALYTIC").is_ok() {
         let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
+        // The drive's grams are the firmware's (its volts per gram): on a rig whose amplifier,
+        // motor or arm differ from the memo's, a drive gram moves the probe by this many.
+        let scale = config.applicator.drive_g_per_v()
+            / f64::from(config.firmware.actuator.grams_per_volt);
         let models: Vec<design::LoadModel> = design::DESIGN_LOADS_G
             .iter()
             .map(|&load_g| {
                 let response: Vec<sim_host::identify::ResponsePoint> = (2..300)
                     .map(|hz| {
                         let w = 2.0 * std::f64::consts::PI * f64::from(hz);
-                        let g = sim_host::analysis::applicator_response(
-                            &config.applicator,
-                            &law,
-                            f64::from(load_g),
-                            w,
-                        );
+                        let g = scale
+                            * sim_host::analysis::applicator_response(
+                                &config.applicator,
+                                &law,
+                                f64::from(load_g),
+                                w,
+                            );
                         sim_host::identify::ResponsePoint {
                             hz: f64::from(hz),
                             re: g.re,
@@ -62,7 +67,9 @@ fn main() {
             })
             .collect();
         let p = &config.applicator;
-        let stiction_g = p.static_friction_nm / p.arm_m / sim_host::applicator::NEWTONS_PER_GRAM;
+        // The stiction in drive grams.
+        let stiction_g =
+            p.static_friction_nm / p.arm_m / sim_host::applicator::NEWTONS_PER_GRAM / scale;
         let law = config.firmware.law;
         design::design(
             &models,
