@@ -18,7 +18,9 @@
 
 use heapless::Vec;
 
+use crate::estimator::TaxelEstimator;
 use crate::hysteresis::{Plays, PLAYS};
+use crate::lti::{ModelError, ModelParameter};
 use crate::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use crate::tactile::{TaxelId, TAXELS};
 use crate::viscoelastic::{MaxwellKelvin, NonlinearMk, SecondOrder};
@@ -47,6 +49,16 @@ impl EstimatorKind {
         EstimatorKind::ScheduledInverse,
         EstimatorKind::Observer,
     ];
+
+    /// The parameters of a [`TaxelModel`] this estimator runs on.
+    fn parameter(self) -> ModelParameter {
+        match self {
+            EstimatorKind::Elastic => ModelParameter::Elastic,
+            EstimatorKind::SecondOrderInverse => ModelParameter::SecondOrder,
+            EstimatorKind::ScheduledInverse => ModelParameter::ScheduleEntry,
+            EstimatorKind::Observer => ModelParameter::Observer,
+        }
+    }
 
     pub fn name(self) -> &'static str {
         match self {
@@ -235,6 +247,20 @@ impl TaxelModel {
         }
     }
 
+    /// Whether every estimator runs on this calibration: each is built as the firmware builds
+    /// it, at a nominal period (what they refuse, a parameter not finite or not positive or a
+    /// model not stable, does not depend on the period). `Err`: the parameters that cannot.
+    pub fn check(&self) -> Result<(), ModelParameter> {
+        const NOMINAL_PERIOD_S: f64 = 1e-3;
+        for kind in EstimatorKind::ALL {
+            TaxelEstimator::new(kind, self, NOMINAL_PERIOD_S).map_err(|e| match e {
+                ModelError::InvalidParameter { name } => name,
+                _ => kind.parameter(),
+            })?;
+        }
+        Ok(())
+    }
+
     /// The record's floats; `None` if a spring law cannot be tabulated.
     fn floats(&self) -> Option<[f32; RECORD_FLOATS]> {
         let mut v = [0.0f32; RECORD_FLOATS];
@@ -391,6 +417,12 @@ pub enum TableError {
     /// A record with a position off the array, a non-finite value or a bad schedule length.
     #[error("calibration table record {index}: position off the array, a non-finite value, a spring that is not a rising curve, a play of negative radius, or a bad schedule length, estimator or flag")]
     BadRecord { index: u16 },
+    /// A record whose values are well formed but on which an estimator cannot run.
+    #[error("calibration table record {index}: the {parameter} cannot run its estimator (not finite, not positive where it must be, or a model that is not stable)")]
+    BadModel {
+        index: u16,
+        parameter: ModelParameter,
+    },
     /// The output buffer is too small to hold the table.
     #[error("calibration table needs a {needed}-byte buffer")]
     BufferTooSmall { needed: usize },
@@ -443,9 +475,11 @@ impl CalibrationTable {
                 0,
                 0,
             ]);
-            let values = model.floats().ok_or(TableError::BadRecord {
-                index: index as u16,
-            })?;
+            let index = index as u16;
+            let values = model.floats().ok_or(TableError::BadRecord { index })?;
+            model
+                .check()
+                .map_err(|parameter| TableError::BadModel { index, parameter })?;
             for (slot, v) in floats.chunks_exact_mut(4).zip(values) {
                 slot.copy_from_slice(&v.to_le_bytes());
             }
@@ -479,7 +513,7 @@ pub struct TableView<'a> {
 
 impl<'a> TableView<'a> {
     /// Checks header, length, checksum and every record (positions on the array, no taxel
-    /// twice, finite values, schedule lengths).
+    /// twice, finite values, schedule lengths, models every estimator runs on).
     pub fn check(bytes: &'a [u8]) -> Result<TableView<'a>, TableError> {
         let too_short = |needed| TableError::TooShort {
             bytes: bytes.len(),
@@ -501,6 +535,10 @@ impl<'a> TableView<'a> {
         for index in 0..usize::from(count) {
             let model = view.record(index).ok_or(TableError::BadRecord {
                 index: index as u16,
+            })?;
+            model.check().map_err(|parameter| TableError::BadModel {
+                index: index as u16,
+                parameter,
             })?;
             let bit = 1u64 << model.taxel.index();
             if seen & bit != 0 {
@@ -708,6 +746,54 @@ mod tests {
             Err(TableError::BufferTooSmall { .. })
         ));
         assert!(TableError::BadMagic.to_string().contains("TCAL"));
+    }
+
+    #[test]
+    fn a_schedule_entry_whose_inverse_runs_away_is_refused_and_named() {
+        let t = table();
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        let n = t.encode(&mut buf).unwrap();
+        // Record 0's second schedule entry, a₁ = −5 (load, then a₁ a₂ b₀ b₁ b₂), checksum
+        // recomputed: well formed, finite, and the scheduled inverse would run off to infinity.
+        let a1 = HEADER_BYTES + LEAD_BYTES + 4 * (7 + 6 + 1);
+        let mut bad = buf[..n].to_vec();
+        bad[a1..a1 + 4].copy_from_slice(&(-5.0f32).to_le_bytes());
+        let crc = crc32(&bad[..n - 4]);
+        bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        let refused = CalibrationTable::decode(&bad).unwrap_err();
+        assert_eq!(
+            refused,
+            TableError::BadModel {
+                index: 0,
+                parameter: ModelParameter::ScheduleEntry
+            }
+        );
+        assert!(
+            refused
+                .to_string()
+                .contains("record 0: the schedule entry a1"),
+            "{refused}"
+        );
+        // Nor is such a model written.
+        let mut unwritable = t.clone();
+        unwritable.taxels[1].schedule[0].1.a1 = -5.0;
+        assert_eq!(
+            unwritable.encode(&mut buf),
+            Err(TableError::BadModel {
+                index: 1,
+                parameter: ModelParameter::ScheduleEntry
+            })
+        );
+        // A negative elastic spring is named as such.
+        let mut elastic = t.clone();
+        elastic.taxels[2].elastic_g_per_pct = -1.0;
+        assert_eq!(
+            elastic.encode(&mut buf),
+            Err(TableError::BadModel {
+                index: 2,
+                parameter: ModelParameter::Elastic
+            })
+        );
     }
 
     #[test]

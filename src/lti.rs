@@ -80,6 +80,8 @@ pub enum ModelParameter {
     SecondOrder,
     ScheduleLength,
     ScheduleLoad,
+    /// A schedule entry's eq. 17 coefficients.
+    ScheduleEntry,
     Observer,
     Elastic,
 }
@@ -94,6 +96,7 @@ impl core::fmt::Display for ModelParameter {
             ModelParameter::SecondOrder => "second-order a1, a2, b0, b1, b2 or dt_s",
             ModelParameter::ScheduleLength => "schedule length",
             ModelParameter::ScheduleLoad => "schedule load",
+            ModelParameter::ScheduleEntry => "schedule entry a1, a2, b0, b1, b2",
             ModelParameter::Observer => "observer N1, N2, alpha or dt_s",
             ModelParameter::Elastic => "elastic_g_per_pct",
         })

@@ -163,9 +163,15 @@ impl SecondOrder {
         self.compliance().discretize(dt_s)
     }
 
+    /// Whether the inverse, stress over strain, is stable: the compliance's zeros (the roots
+    /// of s² + a₁s + a₂) in the left half-plane, a₁, a₂ > 0. Every inverse of eq. 17 needs it.
+    pub fn inverse_is_stable(&self) -> bool {
+        self.a1 > 0.0 && self.a2 > 0.0
+    }
+
     /// Stress over strain, (b₀s² + b₁s + b₂)/(s² + a₁s + a₂); needs a₁, a₂ > 0 and b₂ > 0.
     pub fn inverse<T: Real>(&self, dt_s: f64) -> Result<Discrete2<T>, ModelError> {
-        if self.a1 <= 0.0 || self.a2 <= 0.0 {
+        if !self.inverse_is_stable() {
             return Err(ModelError::Unstable);
         }
         if self.b2 <= 0.0 {

@@ -45,6 +45,35 @@ pub enum Refusal {
     NoResponse { correlation: f64 },
 }
 
+/// Every force and strain finite and within a plausible magnitude ([`MAX_FORCE_G`],
+/// [`MAX_STRAIN_PCT`]): the first of [`Series::new`]'s checks, and the whole of it for a use
+/// that needs no variation (running the chip's estimators over a record).
+pub fn check_scale(force_g: &[f64], strain_pct: &[f64]) -> Result<(), Refusal> {
+    for (column, values, limit) in [
+        ("force_g", force_g, MAX_FORCE_G),
+        ("strain_pct", strain_pct, MAX_STRAIN_PCT),
+    ] {
+        for (index, &value) in values.iter().enumerate() {
+            if !value.is_finite() {
+                return Err(Refusal::NonFinite {
+                    column,
+                    index,
+                    value,
+                });
+            }
+            if value.abs() > limit {
+                return Err(Refusal::AbsurdScale {
+                    column,
+                    index,
+                    value,
+                    limit,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A checked record: evenly sampled force (g) and strain (%), with the samples to leave out of
 /// every fit and score (the strain at its converter's rail).
 #[derive(Clone, Debug)]
@@ -77,28 +106,7 @@ impl Series {
         } else {
             vec![false; force_g.len()]
         };
-        for (column, values, limit) in [
-            ("force_g", &force_g, MAX_FORCE_G),
-            ("strain_pct", &strain_pct, MAX_STRAIN_PCT),
-        ] {
-            for (index, &value) in values.iter().enumerate() {
-                if !value.is_finite() {
-                    return Err(Refusal::NonFinite {
-                        column,
-                        index,
-                        value,
-                    });
-                }
-                if value.abs() > limit {
-                    return Err(Refusal::AbsurdScale {
-                        column,
-                        index,
-                        value,
-                        limit,
-                    });
-                }
-            }
-        }
+        check_scale(&force_g, &strain_pct)?;
         let usable = excluded.iter().filter(|x| !**x).count();
         if usable < MIN_SAMPLES {
             return Err(Refusal::TooShort {

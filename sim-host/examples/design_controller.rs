@@ -36,8 +36,8 @@ fn main() {
         let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
         // The drive's grams are the firmware's (its volts per gram): on a rig whose amplifier,
         // motor or arm differ from the memo's, a drive gram moves the probe by this many.
-        let scale = config.applicator.drive_g_per_v()
-            / f64::from(config.firmware.actuator.grams_per_volt);
+        let scale =
+            config.applicator.drive_g_per_v() / f64::from(config.firmware.actuator.grams_per_volt);
         let models: Vec<design::LoadModel> = design::DESIGN_LOADS_G
             .iter()
             .map(|&load_g| {

@@ -528,7 +528,8 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     } else {
         (&d.model.baseline_terms, base_form)
     };
-    let table_model = if inverted {
+    // Nothing the chip can run (no form held out on it): nothing to export.
+    let table_model = if inverted || before.is_none() {
         None
     } else {
         taxel_model_of(chosen, &d, series, taxel, form)
@@ -536,7 +537,7 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     if inverted {
         summary.push_str("  on the chip: the strain falls as the force rises; the chip's estimators assume it rises, so no calibration is exported\n");
     } else if before.is_none() {
-        summary.push_str("  on the chip: the fitted model has no eq. 14 form (no elastic compliance), so no calibration is exported\n");
+        summary.push_str("  on the chip: the fitted model gives none the chip's estimators can run (no elastic compliance, or loads centred at or below zero force), so no calibration is exported\n");
     } else {
         summary.push_str(&format!(
             "  force from strain on the chip (held-out folds): observer {before_o:.3} g → {after_o:.3} g, scheduled inverse {before_s:.3} g → {after_s:.3} g\n"

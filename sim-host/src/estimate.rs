@@ -56,6 +56,11 @@ pub fn run(
     out: Option<&Path>,
 ) -> Result<String, Error> {
     let record = crate::record::read_record(file)?;
+    // The plausibility `tactile diagnose` checks first: a strain of 10²⁰⁰ % is a unit error,
+    // not a load to estimate.
+    tactile_ident::series::check_scale(&record.force_g, &record.strain_pct).map_err(|reason| {
+        Error::Failed(format!("{}: cannot be estimated: {reason}", file.display()))
+    })?;
     let dt = record.sample_period_s().ok_or_else(|| {
         Error::Failed(format!(
             "{}: too few samples to know the sample period",
@@ -135,12 +140,20 @@ pub fn run(
         table.display()
     );
     for (k, e) in chosen.iter().enumerate() {
-        let _ = writeln!(
-            text,
-            "  {:<22} RMS against the record's force {:.3} g",
-            e.kind().name(),
-            (sums[k] / record.len().max(1) as f64).sqrt()
-        );
+        let rms = (sums[k] / record.len().max(1) as f64).sqrt();
+        let _ = if rms.is_finite() {
+            writeln!(
+                text,
+                "  {:<22} RMS against the record's force {rms:.3} g",
+                e.kind().name()
+            )
+        } else {
+            writeln!(
+                text,
+                "  {:<22} RMS against the record's force: none (an estimate is not finite)",
+                e.kind().name()
+            )
+        };
     }
     let _ = writeln!(text, "  estimates: {}", out_path.display());
     Ok(text)

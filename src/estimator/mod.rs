@@ -264,6 +264,15 @@ mod tests {
             ChainStep::from_second_order(25.0, &ringing, dt),
             Err(ModelError::Unstable)
         );
+        // Nor a chain whose inverse runs away (a zero in the right half-plane).
+        let runaway = SecondOrder {
+            a1: -5.0,
+            ..SecondOrder::MEMO_FIT
+        };
+        assert_eq!(
+            ChainStep::from_second_order(25.0, &runaway, dt),
+            Err(ModelError::Unstable)
+        );
     }
 
     #[test]

@@ -23,7 +23,8 @@ impl ChainStep {
     /// Eq. 17 as an instantaneous spring and two Kelvin branches: the compliance
     /// (s² + a₁s + a₂)/(b₀s² + b₁s + b₂) = 1/b₀ + r₁/(s + p₁) + r₂/(s + p₂), discretized
     /// exactly for stress held over `dt_s`. The forward poles (roots of b₀s² + b₁s + b₂) must
-    /// be real and negative, as for any spring–dashpot network.
+    /// be real and negative, as for any spring–dashpot network, and the inverse's (the zeros)
+    /// in the left half-plane: the estimator runs the chain backwards.
     pub fn from_second_order(
         load_g: f32,
         so: &SecondOrder,
@@ -32,8 +33,11 @@ impl ChainStep {
         let c = [so.a1, so.a2, so.b0, so.b1, so.b2];
         if c.iter().any(|v| !v.is_finite()) || !dt_s.is_finite() || dt_s <= 0.0 {
             return Err(ModelError::InvalidParameter {
-                name: ModelParameter::SecondOrder,
+                name: ModelParameter::ScheduleEntry,
             });
+        }
+        if !so.inverse_is_stable() {
+            return Err(ModelError::Unstable);
         }
         if so.b0 <= 0.0 {
             return Err(ModelError::NotBiproper);

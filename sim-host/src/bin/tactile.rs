@@ -143,7 +143,8 @@ enum Command {
         /// Write plots and a report into this folder.
         #[arg(long)]
         report: Option<PathBuf>,
-        /// Write the accepted model as a calibration table for the firmware (one taxel).
+        /// Write the accepted model as a calibration table for the firmware (one taxel); where
+        /// there is nothing the chip can run, no file is written and the exit code is 1.
         #[arg(long)]
         table: Option<PathBuf>,
         /// The taxel the record is of, ROW,COL from zero (for --table).
@@ -325,11 +326,10 @@ fn print_and_write(
     Ok(())
 }
 
-/// A record read strictly and split for fitting.
+/// A record read strictly, checked as `tactile diagnose` checks it, and split for fitting.
 fn read_series(file: &Path) -> Result<sim_host::fit::Series, Error> {
-    Ok(sim_host::fit::Series::from_record(
-        &sim_host::record::read_record(file)?,
-    ))
+    sim_host::fit::Series::checked(&sim_host::record::read_record(file)?)
+        .map_err(|reason| Error::Failed(format!("{}: cannot be fitted: {reason}", file.display())))
 }
 
 /// `--taxel ROW,COL` for clap (a bad one is a usage error, exit code 2).
@@ -599,12 +599,20 @@ fn run(command: Command) -> Result<(), Error> {
             if let Some(path) = json {
                 write_json(&path, &d)?;
             }
+            // The report before the table: a table that cannot be written still leaves it.
+            if let Some(dir) = report {
+                let p = sim_host::report::diagnosis_report(&dir, &file, &series, &d)
+                    .map_err(|e| Error::Failed(format!("report {}: {e}", dir.display())))?;
+                outln!("  report: {}", p.display());
+            }
             if let Some(path) = table {
+                // A script that asks for a table learns from the exit code that none was written.
                 let model = d.table_model.clone().ok_or_else(|| {
-                    Error::Failed(
-                        "no calibration table: the diagnosed model has no on-chip form (see above)"
-                            .into(),
-                    )
+                    Error::Failed(format!(
+                        "{}: not written: the diagnosed model has no form the chip can run \
+                         (see above), so there is no calibration to export",
+                        path.display()
+                    ))
                 })?;
                 let mut t = tactile_core::calibration::CalibrationTable::default();
                 let _ = t.taxels.push(model);
@@ -620,11 +628,6 @@ fn run(command: Command) -> Result<(), Error> {
                         "the baseline's model"
                     }
                 );
-            }
-            if let Some(dir) = report {
-                let p = sim_host::report::diagnosis_report(&dir, &file, &series, &d)
-                    .map_err(|e| Error::Failed(format!("report {}: {e}", dir.display())))?;
-                outln!("  report: {}", p.display());
             }
         }
         Command::Estimate {

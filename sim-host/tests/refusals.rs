@@ -1,0 +1,211 @@
+//! The `tactile` command on records and tables it cannot use: each refused with its reason
+//! (the same reason `tactile diagnose` gives), never a panic, never a NaN or an infinity
+//! printed as a result, and nothing written that a later command would refuse.
+
+use std::path::{Path, PathBuf};
+
+use tactile_core::calibration::{CalibrationTable, TaxelModel};
+use tactile_core::tactile::TaxelId;
+
+/// A fresh path in the temporary directory (tests run in parallel).
+fn temp(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("refusals_{}_{name}", std::process::id()))
+}
+
+/// A record `t_s,force_g,strain_pct` of `n` samples every `dt_s`, from `f(t)` = (force, strain).
+fn record(name: &str, n: usize, dt_s: f64, f: impl Fn(f64) -> (f64, f64)) -> PathBuf {
+    let mut text = String::from("t_s,force_g,strain_pct\n");
+    for i in 0..n {
+        let t = i as f64 * dt_s;
+        let (force, strain) = f(t);
+        text.push_str(&format!("{t},{force:e},{strain:e}\n"));
+    }
+    let path = temp(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Exit code (None: killed by a signal), stdout, stderr.
+fn tactile(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tactile"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// No number printed as NaN or an infinity.
+fn all_finite(text: &str) -> bool {
+    !(text.contains("NaN")
+        || text.contains("inf ")
+        || text.contains("inf\n")
+        || text.contains("±inf"))
+}
+
+fn arg(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn fit_refuses_a_record_diagnose_refuses_with_the_same_reason() {
+    let constant = record("constant.csv", 2000, 0.01, |_| (5.0, 2.0));
+    let zeros = record("zeros.csv", 2000, 0.01, |_| (0.0, 0.0));
+    let huge = record("huge.csv", 2000, 0.01, |t| (1e30 * t.sin(), 1e30));
+    for (path, why) in [
+        (&constant, "the force does not vary"),
+        (&zeros, "the force does not vary"),
+        (&huge, "beyond any plausible value (|force_g| ≤ 1e7)"),
+    ] {
+        let (_, _, diagnosed) = tactile(&["diagnose", arg(path)]);
+        let reason = diagnosed
+            .split("cannot be diagnosed: ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("{diagnosed}"));
+        assert!(reason.contains(why), "{diagnosed}");
+        for model in ["mk-alpha", "elastic"] {
+            let (code, stdout, stderr) = tactile(&["fit", arg(path), "--model", model]);
+            // 1, a run refused: not 101, a panic.
+            assert_eq!(
+                code,
+                Some(1),
+                "{model} {}: {stdout}{stderr}",
+                path.display()
+            );
+            assert_eq!(
+                stderr,
+                format!("tactile: {}: cannot be fitted: {reason}", path.display()),
+                "{model}"
+            );
+        }
+    }
+}
+
+#[test]
+fn fit_says_in_words_what_it_cannot_determine_or_hold_out() {
+    // 20 s of a linear spring, the force about zero: eq. 14's dashpots run to their bounds,
+    // and the record is too short for the fourth 10 s block, the first held out.
+    let path = record("short.csv", 2000, 0.01, |t| {
+        let f = -10.0 * (10.0 * t).sin();
+        (f, 0.5 * f)
+    });
+    let json = temp("short-fit.json");
+    let (code, stdout, stderr) = tactile(&["fit", arg(&path), "--json", arg(&json)]);
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert!(all_finite(&stdout), "{stdout}");
+    assert!(
+        stdout
+            .contains("RMS_n held out: none: the record (20.0 s) is too short to hold a block out")
+            && stdout.contains("a whole one needs 40 s"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("± not determined (at the bound of its range, 1e7)"),
+        "{stdout}"
+    );
+    let fit: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(fit["held_out_rms_g"].is_null(), "{fit}");
+    assert!(
+        fit["held_out"].as_str().unwrap().contains("too short"),
+        "{fit}"
+    );
+    // N1 at its bound: no error; G1 determined.
+    let se = fit["standard_error"].as_array().unwrap();
+    assert!(se[1].is_null() && se[0].is_number(), "{fit}");
+}
+
+/// A table of the nominal model for the default taxel (3, 2), as bytes.
+fn nominal_table() -> Vec<u8> {
+    let mut t = CalibrationTable::default();
+    t.taxels
+        .push(TaxelModel::nominal(TaxelId::new(3, 2).unwrap()))
+        .unwrap();
+    let mut bytes = vec![0u8; t.encoded_len()];
+    let n = t.encode(&mut bytes).unwrap();
+    bytes.truncate(n);
+    bytes
+}
+
+#[test]
+fn estimate_refuses_an_absurd_record_and_a_table_that_would_run_away() {
+    let table = temp("nominal.bin");
+    std::fs::write(&table, nominal_table()).unwrap();
+    let good = record("good.csv", 1000, 0.01, |t| {
+        let f = 20.0 + 10.0 * (t).sin();
+        (f, f / 3.0)
+    });
+    let out = temp("estimate.csv");
+    let (code, stdout, stderr) = tactile(&[
+        "estimate",
+        arg(&good),
+        "--table",
+        arg(&table),
+        "--out",
+        arg(&out),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert!(all_finite(&stdout), "{stdout}");
+    // Finite but absurd (a strain of 10²⁰⁰ %): diagnose's plausibility check.
+    let huge = record("huge2.csv", 2000, 0.01, |t| (1e200 * t.sin(), 1e200));
+    let absurd_out = temp("absurd-estimate.csv");
+    let (code, stdout, stderr) = tactile(&[
+        "estimate",
+        arg(&huge),
+        "--table",
+        arg(&table),
+        "--out",
+        arg(&absurd_out),
+    ]);
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(
+        stderr.contains(&format!("{}: cannot be estimated: ", huge.display()))
+            && stderr.contains("beyond any plausible value (|force_g| ≤ 1e7)"),
+        "{stderr}"
+    );
+    assert!(!absurd_out.exists());
+    // The schedule's last entry's a₁ made −5 (the f32 at byte 120), the checksum mended:
+    // the scheduled inverse would print an infinite error. The table's check names it.
+    let mut bad = nominal_table();
+    bad[120..124].copy_from_slice(&(-5.0f32).to_le_bytes());
+    let n = bad.len();
+    let crc = tactile_core::calibration::crc32(&bad[..n - 4]);
+    bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    let bad_table = temp("bad-schedule.bin");
+    std::fs::write(&bad_table, bad).unwrap();
+    let (code, stdout, stderr) = tactile(&[
+        "estimate",
+        arg(&good),
+        "--table",
+        arg(&bad_table),
+        "--out",
+        arg(&out),
+    ]);
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(
+        stderr.contains("record 0: the schedule entry a1, a2, b0, b1, b2 cannot run"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn diagnose_writes_no_table_when_there_is_nothing_to_export() {
+    // A force about zero (half of it a pull): no model the chip's estimators can run.
+    let path = record("about-zero.csv", 2000, 0.01, |t| {
+        let f = -10.0 * (10.0 * t).sin();
+        (f, 0.5 * f)
+    });
+    let table = temp("about-zero.bin");
+    let (code, stdout, stderr) = tactile(&["diagnose", arg(&path), "--table", arg(&table)]);
+    assert!(stdout.contains("no calibration is exported"), "{stdout}");
+    // A script that asked for a table learns from the exit code that there is none.
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(
+        stderr.contains(&format!("{}: not written", table.display())),
+        "{stderr}"
+    );
+    assert!(!table.exists());
+}
