@@ -143,6 +143,22 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         let cells: Vec<&str> = trimmed.split(',').map(unquoted).collect();
         let Some(names) = &header else {
             let names: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
+            // A column named twice: which of the two the reader took would be a guess.
+            if let Some((i, twice)) = names
+                .iter()
+                .enumerate()
+                .find(|(i, c)| !c.is_empty() && names[..*i].contains(c))
+            {
+                return Err(err(
+                    Some(n),
+                    Some(twice.clone()),
+                    format!(
+                        "the header names this column twice (cells {} and {})",
+                        names.iter().position(|c| c == twice).map_or(0, |k| k + 1),
+                        i + 1
+                    ),
+                ));
+            }
             for (slot, want) in index.iter_mut().zip(REQUIRED) {
                 *slot = names.iter().position(|c| c == want).ok_or_else(|| {
                     err(
@@ -450,6 +466,29 @@ mod tests {
         assert_eq!(e.line, Some(5));
         let e = parse("t_s\tforce_g\tstrain_pct\n0.0\t1\t1\n").unwrap_err();
         assert!(e.message.ends_with("this header tab-separated"), "{e}");
+    }
+
+    #[test]
+    fn a_column_named_twice_is_refused_where_it_is_named() {
+        let dir = std::env::temp_dir().join(format!("record-twice-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("twice.csv");
+        std::fs::write(
+            &path,
+            "t_s,force_g,strain_pct,force_g\n0,1,1,2\n0.01,2,2,3\n",
+        )
+        .unwrap();
+        let e = read_record(&path).unwrap_err();
+        assert_eq!(
+            (e.line, e.column.as_deref()),
+            (Some(1), Some("force_g")),
+            "{e}"
+        );
+        assert!(
+            e.message
+                .contains("names this column twice (cells 2 and 4)"),
+            "{e}"
+        );
     }
 
     /// The refusal of `text` (a record read instead is not printed: it can be long).

@@ -178,6 +178,16 @@ pub fn experiment(
     plot: bool,
 ) -> Result<ExperimentOutput, crate::Error> {
     let protocol = scenario::protocol(name, options)?;
+    if let Some(f) = config
+        .fault
+        .filter(|f| f.at_s > f64::from(protocol.duration_s()))
+    {
+        return Err(crate::Error::Usage(format!(
+            "--fault at {} s: `{name}` ends at {} s, so the fault would never happen",
+            f.at_s,
+            protocol.duration_s()
+        )));
+    }
     std::fs::create_dir_all(out).map_err(crate::Error::io(out))?;
     let seed = config.seed;
     let effects = config.effects;

@@ -100,6 +100,14 @@ pub fn run(
             .unwrap_or("record");
         file.with_file_name(format!("{stem}_estimate.csv"))
     });
+    // NOTE: the estimates written over the record would replace it, its other columns lost.
+    let same = |a: &Path, b: &Path| matches!((std::fs::canonicalize(a), std::fs::canonicalize(b)), (Ok(x), Ok(y)) if x == y);
+    if same(&out_path, file) {
+        return Err(Error::Usage(format!(
+            "--out {}: that is the record being read; write the estimates elsewhere",
+            out_path.display()
+        )));
+    }
     let f = std::fs::File::create(&out_path).map_err(Error::io(&out_path))?;
     let mut w = std::io::BufWriter::new(f);
     let io = |e: std::io::Error| Error::Io {

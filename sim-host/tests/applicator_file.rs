@@ -1,6 +1,8 @@
 //! `--applicator FILE` (issue 13, item 4): the memo's rig as a file, and files that describe
 //! no rig refused with the line and column or the parameter at fault.
 
+mod common;
+
 use sim_host::applicator::ApplicatorParams;
 use sim_host::error::read_applicator;
 
@@ -200,14 +202,16 @@ fn the_gauge_reads_at_the_files_scale_with_the_files_noise() {
 fn an_experiment_whose_supervisor_stopped_the_drive_says_so() {
     let dir = std::env::temp_dir().join(format!("latched-{}", std::process::id()));
     let run = |extra: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_tactile"))
-            .args(["experiment", "step", "--no-plot", "--out"])
-            .arg(&dir)
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{out:?}");
-        String::from_utf8_lossy(&out.stdout).into_owned()
+        let args = [
+            "experiment",
+            "step",
+            "--no-plot",
+            "--out",
+            dir.to_str().unwrap(),
+        ];
+        let (code, stdout, stderr) = common::tactile(args.iter().chain(extra));
+        assert_eq!(code, Some(0), "{stdout}{stderr}");
+        stdout
     };
     let stuck = run(&["--fault", "gauge-stuck@1"]);
     assert!(

@@ -2,6 +2,8 @@
 //! measured response against the plant's own linearization, and the picked resonances against
 //! the plant's, on the memo's applicator and on one with other modes.
 
+mod common;
+
 use sim_host::analysis::{applicator_response, peaks};
 use sim_host::applicator::{ApplicatorParams, NEWTONS_PER_GRAM};
 use sim_host::identify::{
@@ -305,17 +307,12 @@ fn the_design_from_records_leaves_out_a_preload_it_cannot_use() {
     let lifted = record(10.0, Some(12.0));
     let good: Vec<_> = [20.0, 35.0, 50.0].map(|l| record(l, None)).into();
     let tactile = |records: &[&std::path::Path]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_tactile"))
-            .arg("design")
-            .arg("--records")
-            .args(records)
-            .output()
-            .unwrap();
-        (
-            out.status.success(),
-            String::from_utf8_lossy(&out.stdout).into_owned(),
-            String::from_utf8_lossy(&out.stderr).into_owned(),
-        )
+        let args = ["design".as_ref(), "--records".as_ref()];
+        let (code, stdout, stderr) = common::tactile(
+            args.into_iter()
+                .chain(records.iter().map(|p| p.as_os_str())),
+        );
+        (code == Some(0), stdout, stderr)
     };
     // The chirp throws the probe off the finger, and the gauge's slew as it strikes back
     // trips the supervisor: either reason names the record.

@@ -25,18 +25,8 @@ fn record(name: &str, n: usize, dt_s: f64, f: impl Fn(f64) -> (f64, f64)) -> Pat
     path
 }
 
-/// Exit code (None: killed by a signal), stdout, stderr.
-fn tactile(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tactile"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::tactile;
 
 /// No number printed as NaN or an infinity.
 fn all_finite(text: &str) -> bool {
@@ -60,14 +50,14 @@ fn fit_refuses_a_record_diagnose_refuses_with_the_same_reason() {
         (&zeros, "the force does not vary"),
         (&huge, "beyond any plausible value (|force_g| ≤ 1e7)"),
     ] {
-        let (_, _, diagnosed) = tactile(&["diagnose", arg(path)]);
+        let (_, _, diagnosed) = tactile(["diagnose", arg(path)]);
         let reason = diagnosed
             .split("cannot be diagnosed: ")
             .nth(1)
             .unwrap_or_else(|| panic!("{diagnosed}"));
         assert!(reason.contains(why), "{diagnosed}");
         for model in ["mk-alpha", "elastic"] {
-            let (code, stdout, stderr) = tactile(&["fit", arg(path), "--model", model]);
+            let (code, stdout, stderr) = tactile(["fit", arg(path), "--model", model]);
             // 1, a run refused: not 101, a panic.
             assert_eq!(
                 code,
@@ -93,7 +83,7 @@ fn fit_says_in_words_what_it_cannot_determine_or_hold_out() {
         (f, 0.5 * f)
     });
     let json = temp("short-fit.json");
-    let (code, stdout, stderr) = tactile(&["fit", arg(&path), "--json", arg(&json)]);
+    let (code, stdout, stderr) = tactile(["fit", arg(&path), "--json", arg(&json)]);
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     assert!(all_finite(&stdout), "{stdout}");
     assert!(
@@ -139,7 +129,7 @@ fn estimate_refuses_an_absurd_record_and_a_table_that_would_run_away() {
         (f, f / 3.0)
     });
     let out = temp("estimate.csv");
-    let (code, stdout, stderr) = tactile(&[
+    let (code, stdout, stderr) = tactile([
         "estimate",
         arg(&good),
         "--table",
@@ -149,10 +139,24 @@ fn estimate_refuses_an_absurd_record_and_a_table_that_would_run_away() {
     ]);
     assert_eq!(code, Some(0), "{stdout}{stderr}");
     assert!(all_finite(&stdout), "{stdout}");
+    // Not over the record it reads (its columns past the estimates would be lost): a usage
+    // error, the record untouched.
+    let before = std::fs::read(&good).unwrap();
+    let (code, _, stderr) = tactile([
+        "estimate",
+        arg(&good),
+        "--table",
+        arg(&table),
+        "--out",
+        arg(&good),
+    ]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("that is the record being read"), "{stderr}");
+    assert_eq!(std::fs::read(&good).unwrap(), before);
     // Finite but absurd (a strain of 10²⁰⁰ %): diagnose's plausibility check.
     let huge = record("huge2.csv", 2000, 0.01, |t| (1e200 * t.sin(), 1e200));
     let absurd_out = temp("absurd-estimate.csv");
-    let (code, stdout, stderr) = tactile(&[
+    let (code, stdout, stderr) = tactile([
         "estimate",
         arg(&huge),
         "--table",
@@ -176,7 +180,7 @@ fn estimate_refuses_an_absurd_record_and_a_table_that_would_run_away() {
     bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
     let bad_table = temp("bad-schedule.bin");
     std::fs::write(&bad_table, bad).unwrap();
-    let (code, stdout, stderr) = tactile(&[
+    let (code, stdout, stderr) = tactile([
         "estimate",
         arg(&good),
         "--table",
@@ -199,7 +203,7 @@ fn diagnose_writes_no_table_when_there_is_nothing_to_export() {
         (f, 0.5 * f)
     });
     let table = temp("about-zero.bin");
-    let (code, stdout, stderr) = tactile(&["diagnose", arg(&path), "--table", arg(&table)]);
+    let (code, stdout, stderr) = tactile(["diagnose", arg(&path), "--table", arg(&table)]);
     assert!(stdout.contains("no calibration is exported"), "{stdout}");
     // A script that asked for a table learns from the exit code that there is none.
     assert_eq!(code, Some(1), "{stdout}{stderr}");
@@ -208,4 +212,22 @@ fn diagnose_writes_no_table_when_there_is_nothing_to_export() {
         "{stderr}"
     );
     assert!(!table.exists());
+}
+
+#[test]
+fn a_fault_after_the_run_ends_is_a_usage_error() {
+    // `step` runs 77 s (2 s lead, 50 s on, 25 s off): a fault at 100 s would never happen.
+    let out = temp("late-fault");
+    let (code, stdout, stderr) = tactile([
+        "experiment",
+        "step",
+        "--no-plot",
+        "--fault",
+        "gauge-stuck@100",
+        "--out",
+        arg(&out),
+    ]);
+    assert_eq!(code, Some(2), "{stdout}{stderr}");
+    assert!(stderr.contains("`step` ends at 77 s"), "{stderr}");
+    assert!(!out.exists());
 }

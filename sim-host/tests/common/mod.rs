@@ -1,0 +1,18 @@
+//! What the integration tests share: the `tactile` command run as a user runs it.
+
+use std::ffi::OsStr;
+
+/// Runs `tactile` with `args`: its exit code (None: killed by a signal), stdout and stderr.
+pub fn tactile<S: AsRef<OsStr>>(
+    args: impl IntoIterator<Item = S>,
+) -> (Option<i32>, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tactile"))
+        .args(args)
+        .output()
+        .expect("tactile runs");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
