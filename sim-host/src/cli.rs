@@ -600,6 +600,14 @@ pub fn calibrate(
         for (taxel, path) in records {
             let taxel = *taxel;
             let r = crate::record::read_record(path)?;
+            // What `tactile diagnose` refuses says nothing of a taxel either (a dead strain
+            // channel was only flagged, and its table estimated 5 820 g off).
+            crate::diagnose::series_of(&r).map_err(|reason| {
+                Failed(format!(
+                    "{}: cannot be calibrated: {reason}",
+                    path.display()
+                ))
+            })?;
             let dt = r.sample_period_s().ok_or_else(|| {
                 Failed(format!(
                     "{}: too short to have a sample period",

@@ -231,3 +231,28 @@ fn a_fault_after_the_run_ends_is_a_usage_error() {
     assert!(stderr.contains("`step` ends at 77 s"), "{stderr}");
     assert!(!out.exists());
 }
+
+#[test]
+fn calibrate_refuses_a_dead_strain_channel_as_diagnose_does() {
+    // The force moves, the strain reads zero throughout: before, only flagged `poor`, and the
+    // table written from it estimated thousands of grams off.
+    let dead = record("dead-strain.csv", 2000, 0.01, |t| {
+        (20.0 + 10.0 * t.sin(), 0.0)
+    });
+    let table = temp("dead-strain.bin");
+    let (code, stdout, stderr) = tactile([
+        "calibrate",
+        &format!("3,2={}", arg(&dead)),
+        "--out",
+        arg(&table),
+    ]);
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "{}: cannot be calibrated: the strain does not vary",
+            dead.display()
+        )),
+        "{stderr}"
+    );
+    assert!(!table.exists());
+}
