@@ -116,15 +116,30 @@ pub struct LoadModel {
 /// 2.8 g of stiction the 100 g fit put the anti-resonance at 52 Hz under a mode at 69 Hz and the
 /// pole at 30 Hz (the other loads: 167–230 Hz), and the loop peaked +3.1 dB at 40 Hz there.
 pub fn plausible(m: &ApplicatorModel) -> bool {
+    implausible(m).is_none()
+}
+
+/// Why a fitted model is not [`plausible`] (`None` if it is).
+pub fn implausible(m: &ApplicatorModel) -> Option<&'static str> {
+    use std::cmp::Ordering::Greater;
     let [a, b] = m.modes;
-    m.gain.is_finite()
-        && (0.5..2.0).contains(&m.gain)
-        && a.damping_ratio < 0.7
-        && a.hz > 5.0
-        && b.hz > a.hz
-        && m.anti_resonance.hz > a.hz
-        && (20.0..500.0).contains(&m.pole_hz)
-        && m.delay_s.abs() < 3e-3
+    // NaN compares as nothing: each test asks for the ordering that makes the model usable.
+    let above = |x: f64, y: f64| x.partial_cmp(&y) == Some(Greater);
+    if !(0.5..2.0).contains(&m.gain) {
+        Some("its gain is not within 0.5–2")
+    } else if !above(0.7, a.damping_ratio) {
+        Some("its inertia–finger mode is damped past ζ 0.7")
+    } else if !above(a.hz, 5.0) {
+        Some("its inertia–finger mode is under 5 Hz")
+    } else if !(above(b.hz, a.hz) && above(m.anti_resonance.hz, a.hz)) {
+        Some("its anti-resonance or beam mode is under the inertia–finger mode")
+    } else if !(20.0..500.0).contains(&m.pole_hz) {
+        Some("its amplifier's pole is not within 20–500 Hz")
+    } else if !above(3e-3, m.delay_s.abs()) {
+        Some("its delay is over 3 ms either way")
+    } else {
+        None
+    }
 }
 
 /// The amplifier is one whatever the load: of the plausible models, those whose pole is within
@@ -326,15 +341,17 @@ pub fn identified_from(
     let mut models = Vec::with_capacity(excited.len());
     for (e, model) in excited.iter().zip(fits) {
         match model {
-            Some(model) if plausible(&model) => models.push(LoadModel {
-                load_g: e.load_g,
-                model,
-                static_gain,
-            }),
-            Some(model) => left_out.push(LeftOut {
-                load_g: e.load_g,
-                why: format!("the fitted model is not an applicator's ({model})"),
-            }),
+            Some(model) => match implausible(&model) {
+                None => models.push(LoadModel {
+                    load_g: e.load_g,
+                    model,
+                    static_gain,
+                }),
+                Some(why) => left_out.push(LeftOut {
+                    load_g: e.load_g,
+                    why: format!("the fitted model is not an applicator's, {why} ({model})"),
+                }),
+            },
             None => left_out.push(LeftOut {
                 load_g: e.load_g,
                 why: "no model converged on its response".into(),
@@ -1220,7 +1237,21 @@ mod tests {
         };
         let kept = fit(75.0, 88.6, 119.4, 167.0);
         assert!(plausible(&kept.model));
-        assert!(!plausible(&fit(100.0, 69.4, 51.9, 167.0).model));
+        assert_eq!(
+            implausible(&fit(100.0, 69.4, 51.9, 167.0).model),
+            Some("its anti-resonance or beam mode is under the inertia–finger mode")
+        );
+        // A drive that was one spike: the fit's gain 0.00 and its pole at 6.5e30 Hz (the gain
+        // is the first reason named).
+        let mut spike = kept.model;
+        spike.gain = 0.003;
+        spike.pole_hz = 6.5e30;
+        assert_eq!(implausible(&spike), Some("its gain is not within 0.5–2"));
+        spike.gain = 0.9;
+        assert_eq!(
+            implausible(&spike),
+            Some("its amplifier's pole is not within 20–500 Hz")
+        );
         // A pole more than 2.5× off the loads' median (223 Hz) is another amplifier's: 30 Hz
         // goes, 400 Hz (1.8×) stays.
         let loads = [

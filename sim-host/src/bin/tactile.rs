@@ -438,6 +438,9 @@ fn run(command: Command) -> Result<(), Error> {
                 response.len()
             );
             outln!("  model: {model}");
+            if let Some(why) = sim_host::design::implausible(&model) {
+                outln!("  not an applicator's model: {why} (the design leaves such a preload out)");
+            }
             if let Some(path) = json {
                 #[derive(serde::Serialize)]
                 struct Out<'a> {
