@@ -127,6 +127,8 @@ pub enum CalibrationError {
     NoRest { rest_s: f64 },
     #[error("the force never rises above 1 g: nothing was calibrated")]
     NoLoad,
+    #[error("the force does not follow the calibration protocol: its {offset_g} g level averages {mean_g:.1} g (a record of another protocol, or the force and strain columns swapped?)")]
+    NotTheProtocolsLoads { offset_g: f32, mean_g: f64 },
     #[error("taxel ({}, {}): the {what} fit failed", .taxel.row(), .taxel.col())]
     FitFailed { taxel: TaxelId, what: &'static str },
     #[error("taxel ({}, {}): its model cannot run on the chip: {source}", .taxel.row(), .taxel.col())]
@@ -138,6 +140,9 @@ pub enum CalibrationError {
     #[error("more taxels than the array has")]
     TooManyTaxels,
 }
+
+/// How far a level's mean force may be from its offset: grams, and a share of the offset.
+pub const LEVEL_TOLERANCE: (f64, f64) = (3.0, 0.3);
 
 /// Fits one taxel from its calibration record: force (g) and strain (%) sampled every `dt_s`
 /// from the start of `protocol` (a `Protocol::Calibration`).
@@ -200,6 +205,14 @@ pub fn fit_taxel(
             tactile_ident::stats::mean(&at)
         })
         .collect();
+    // Each level's mean force is its offset (the sines about it average out) within what a
+    // loop without integral action leaves and a fifth: else the record is not this protocol's.
+    for (&offset_g, &mean_g) in CALIBRATION_OFFSETS_G.iter().zip(&levels) {
+        let off = (mean_g - f64::from(offset_g)).abs();
+        if !(off <= LEVEL_TOLERANCE.0 + LEVEL_TOLERANCE.1 * f64::from(offset_g)) {
+            return Err(CalibrationError::NotTheProtocolsLoads { offset_g, mean_g });
+        }
+    }
     let range_g = tactile_ident::stats::quantile(&frames.force, 0.995);
     if range_g.is_nan() || range_g <= 1.0 {
         return Err(CalibrationError::NoLoad);
@@ -774,6 +787,32 @@ pub fn calibrate_simulated(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_record_whose_force_is_not_the_protocols_levels_is_refused() {
+        // The protocol's shape (2 s at rest, four 15 s holds) with each hold at 0.4 of its
+        // offset: 12 g reads 4.8 g, 7.2 g off (the tolerance there is 3 + 0.3·12 = 6.6 g).
+        let dt = 0.005;
+        let force: Vec<f64> = (0..12_400)
+            .map(|i| {
+                let t = i as f64 * dt - f64::from(CALIBRATION_REST_S);
+                let k = (t / 15.0).floor();
+                if (0.0..4.0).contains(&k) {
+                    0.4 * f64::from(CALIBRATION_OFFSETS_G[k as usize])
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let strain: Vec<f64> = force.iter().map(|f| f / 3.0).collect();
+        let taxel = TaxelId::new(3, 2).unwrap();
+        let e = fit_taxel(taxel, Protocol::CALIBRATION, dt, &force, &strain).unwrap_err();
+        assert!(
+            matches!(e, CalibrationError::NotTheProtocolsLoads { offset_g, mean_g }
+                if offset_g == 12.0 && (mean_g - 4.8).abs() < 1e-9),
+            "{e}"
+        );
+    }
 
     /// A record from element 4,2 itself at 1 s frames: rest, `hold_s` at 50 g, then the same
     /// unloaded.
