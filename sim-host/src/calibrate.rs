@@ -209,7 +209,7 @@ pub fn fit_taxel(
     // loop without integral action leaves and a fifth: else the record is not this protocol's.
     for (&offset_g, &mean_g) in CALIBRATION_OFFSETS_G.iter().zip(&levels) {
         let off = (mean_g - f64::from(offset_g)).abs();
-        if !(off <= LEVEL_TOLERANCE.0 + LEVEL_TOLERANCE.1 * f64::from(offset_g)) {
+        if off.is_nan() || off > LEVEL_TOLERANCE.0 + LEVEL_TOLERANCE.1 * f64::from(offset_g) {
             return Err(CalibrationError::NotTheProtocolsLoads { offset_g, mean_g });
         }
     }
