@@ -36,6 +36,15 @@ fn all_finite(text: &str) -> bool {
         || text.contains("±inf"))
 }
 
+/// 20 s at 100 Hz of a linear spring (0.5 % per gram) under a force about zero, half of it a
+/// pull.
+fn about_zero(name: &str) -> PathBuf {
+    record(name, 2000, 0.01, |t| {
+        let f = -10.0 * (10.0 * t).sin();
+        (f, 0.5 * f)
+    })
+}
+
 fn arg(p: &Path) -> &str {
     p.to_str().unwrap()
 }
@@ -78,10 +87,7 @@ fn fit_refuses_a_record_diagnose_refuses_with_the_same_reason() {
 fn fit_says_in_words_what_it_cannot_determine_or_hold_out() {
     // 20 s of a linear spring, the force about zero: eq. 14's dashpots run to their bounds,
     // and the record is too short for the fourth 10 s block, the first held out.
-    let path = record("short.csv", 2000, 0.01, |t| {
-        let f = -10.0 * (10.0 * t).sin();
-        (f, 0.5 * f)
-    });
+    let path = about_zero("short.csv");
     let json = temp("short-fit.json");
     let (code, stdout, stderr) = tactile(["fit", arg(&path), "--json", arg(&json)]);
     assert_eq!(code, Some(0), "{stdout}{stderr}");
@@ -198,10 +204,7 @@ fn estimate_refuses_an_absurd_record_and_a_table_that_would_run_away() {
 #[test]
 fn diagnose_writes_no_table_when_there_is_nothing_to_export() {
     // A force about zero (half of it a pull): no model the chip's estimators can run.
-    let path = record("about-zero.csv", 2000, 0.01, |t| {
-        let f = -10.0 * (10.0 * t).sin();
-        (f, 0.5 * f)
-    });
+    let path = about_zero("about-zero.csv");
     let table = temp("about-zero.bin");
     let (code, stdout, stderr) = tactile(["diagnose", arg(&path), "--table", arg(&table)]);
     assert!(stdout.contains("no calibration is exported"), "{stdout}");
