@@ -259,3 +259,38 @@ fn calibrate_refuses_a_dead_strain_channel_as_diagnose_does() {
     );
     assert!(!table.exists());
 }
+
+#[test]
+fn an_experiment_refuses_a_record_rate_the_loop_cannot_keep_and_a_run_too_short() {
+    // 1000/143 = 6.993 Hz and 1000/142 = 7.042 Hz: 7 Hz is neither.
+    let out = temp("rate");
+    let (code, _, stderr) = tactile([
+        "experiment",
+        "step",
+        "--no-plot",
+        "--record-hz",
+        "7",
+        "--out",
+        arg(&out),
+    ]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("7.042 Hz (k = 142) or 6.993 Hz (k = 143)"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = tactile([
+        "experiment",
+        "pseudo-random",
+        "--no-plot",
+        "--duration",
+        "0.001",
+        "--out",
+        arg(&out),
+    ]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--duration 0.001: must be in [1, 3600] s"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}
