@@ -188,6 +188,19 @@ pub fn experiment(
             protocol.duration_s()
         )));
     }
+    // NOTE: the record keeps every k-th tick of the loop; another rate would be written as the
+    // nearest such, quietly.
+    let every = ((1.0 / record_hz) / TICK_S).round().max(1.0) as usize;
+    if (1.0 / (every as f64 * TICK_S) - record_hz).abs() > 1e-6 * record_hz {
+        let loop_hz = 1.0 / TICK_S;
+        let k = (loop_hz / record_hz).floor().max(1.0);
+        return Err(crate::Error::Usage(format!(
+            "--record-hz {record_hz}: the record keeps every k-th tick of the {loop_hz} Hz loop, so its rate is {loop_hz}/k: {:.3} Hz (k = {k}) or {:.3} Hz (k = {})",
+            loop_hz / k,
+            loop_hz / (k + 1.0),
+            k + 1.0
+        )));
+    }
     std::fs::create_dir_all(out).map_err(crate::Error::io(out))?;
     let seed = config.seed;
     let effects = config.effects;
@@ -198,7 +211,6 @@ pub fn experiment(
     })?;
     bar.finish_and_clear();
     let wall_s = start.elapsed().as_secs_f64();
-    let every = ((1.0 / record_hz) / TICK_S).round().max(1.0) as usize;
     let meta = vec![
         (
             "source".to_string(),

@@ -125,7 +125,8 @@ pub fn implausible(m: &ApplicatorModel) -> Option<&'static str> {
     let [a, b] = m.modes;
     // NaN compares as nothing: each test asks for the ordering that makes the model usable.
     let above = |x: f64, y: f64| x.partial_cmp(&y) == Some(Greater);
-    if !(0.5..2.0).contains(&m.gain) {
+    let (lo, hi) = crate::identify::STATIC_GAIN_RANGE;
+    if !(lo..hi).contains(&m.gain) {
         Some("its gain is not within 0.5–2")
     } else if !above(0.7, a.damping_ratio) {
         Some("its inertia–finger mode is damped past ζ 0.7")

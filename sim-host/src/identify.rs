@@ -133,7 +133,8 @@ impl Hold {
                 tolerance_g,
             });
         }
-        if !(0.5..=2.0).contains(&(self.gauge_g / self.drive_g)) {
+        let (lo, hi) = STATIC_GAIN_RANGE;
+        if !(lo..=hi).contains(&(self.gauge_g / self.drive_g)) {
             return Err(IdentifyError::HoldDrive {
                 drive_g: self.drive_g,
                 gauge_g: self.gauge_g,
@@ -142,6 +143,10 @@ impl Hold {
         Ok(self)
     }
 }
+
+/// Gauge grams per drive gram an applicator can have: near 1, the drive being in grams at the
+/// probe (a hold's ratio and a fitted model's gain outside it are not an applicator's).
+pub const STATIC_GAIN_RANGE: (f64, f64) = (0.5, 2.0);
 
 /// How far the hold's gauge may be from the preload: grams, and a share of the preload.
 pub const HOLD_TOLERANCE: (f64, f64) = (2.0, 0.2);

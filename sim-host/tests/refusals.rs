@@ -217,22 +217,22 @@ fn diagnose_writes_no_table_when_there_is_nothing_to_export() {
     assert!(!table.exists());
 }
 
+/// `tactile experiment NAME --no-plot ARGS…` refused as a usage error (exit 2) before it wrote
+/// anything: its stderr.
+fn experiment_refused(name: &str, args: &[&str]) -> String {
+    let out = temp(&format!("refused-{name}"));
+    let head = ["experiment", name, "--no-plot", "--out", arg(&out)];
+    let (code, stdout, stderr) = tactile(head.iter().chain(args));
+    assert_eq!(code, Some(2), "{stdout}{stderr}");
+    assert!(!out.exists(), "{}", out.display());
+    stderr
+}
+
 #[test]
 fn a_fault_after_the_run_ends_is_a_usage_error() {
     // `step` runs 77 s (2 s lead, 50 s on, 25 s off): a fault at 100 s would never happen.
-    let out = temp("late-fault");
-    let (code, stdout, stderr) = tactile([
-        "experiment",
-        "step",
-        "--no-plot",
-        "--fault",
-        "gauge-stuck@100",
-        "--out",
-        arg(&out),
-    ]);
-    assert_eq!(code, Some(2), "{stdout}{stderr}");
+    let stderr = experiment_refused("step", &["--fault", "gauge-stuck@100"]);
     assert!(stderr.contains("`step` ends at 77 s"), "{stderr}");
-    assert!(!out.exists());
 }
 
 #[test]
@@ -263,34 +263,14 @@ fn calibrate_refuses_a_dead_strain_channel_as_diagnose_does() {
 #[test]
 fn an_experiment_refuses_a_record_rate_the_loop_cannot_keep_and_a_run_too_short() {
     // 1000/143 = 6.993 Hz and 1000/142 = 7.042 Hz: 7 Hz is neither.
-    let out = temp("rate");
-    let (code, _, stderr) = tactile([
-        "experiment",
-        "step",
-        "--no-plot",
-        "--record-hz",
-        "7",
-        "--out",
-        arg(&out),
-    ]);
-    assert_eq!(code, Some(2), "{stderr}");
+    let stderr = experiment_refused("step", &["--record-hz", "7"]);
     assert!(
         stderr.contains("7.042 Hz (k = 142) or 6.993 Hz (k = 143)"),
         "{stderr}"
     );
-    let (code, _, stderr) = tactile([
-        "experiment",
-        "pseudo-random",
-        "--no-plot",
-        "--duration",
-        "0.001",
-        "--out",
-        arg(&out),
-    ]);
-    assert_eq!(code, Some(2), "{stderr}");
+    let stderr = experiment_refused("pseudo-random", &["--duration", "0.001"]);
     assert!(
         stderr.contains("--duration 0.001: must be in [1, 3600] s"),
         "{stderr}"
     );
-    assert!(!out.exists());
 }

@@ -82,39 +82,14 @@ impl ApplicatorParams {
     /// applicator is in (out of it, a unit slipped: a file with a gauge of 1e300 g/V ran, and its
     /// record read −inf), and the beam's mode under [`MAX_BEAM_HZ`].
     pub fn validate(&self) -> Result<(), ApplicatorError> {
-        let positive = [
-            ("amplifier_a_per_v", self.amplifier_a_per_v),
-            ("amplifier_pole_hz", self.amplifier_pole_hz),
-            ("torque_constant_nm_per_a", self.torque_constant_nm_per_a),
-            ("motor_inertia_kg_m2", self.motor_inertia_kg_m2),
-            ("arm_m", self.arm_m),
-            ("beam_stiffness_n_per_m", self.beam_stiffness_n_per_m),
-            ("tip_mass_kg", self.tip_mass_kg),
-            ("indentation_mm_per_100pct", self.indentation_mm_per_100pct),
-            ("gauge_g_per_v", self.gauge_g_per_v),
-        ];
-        let not_negative = [
-            ("static_friction_nm", self.static_friction_nm),
-            ("viscous_nm_s_per_rad", self.viscous_nm_s_per_rad),
-            ("beam_damping_ratio", self.beam_damping_ratio),
-            ("contact_loss_factor", self.contact_loss_factor),
-            ("gauge_noise_g", self.gauge_noise_g),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(ApplicatorError::NotPositive { name, value: v });
-            }
-        }
-        for (name, v) in not_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(ApplicatorError::Negative { name, value: v });
-            }
-        }
-        // Wide enough for any bench applicator; out of them, a unit is wrong.
-        let plausible = [
+        use Sign::{NotNegative, Positive};
+        // Each field: its sign (a rig cannot exist otherwise), then a range wide enough for any
+        // bench applicator (out of it, a unit is wrong).
+        let fields = [
             (
                 "amplifier_a_per_v",
                 self.amplifier_a_per_v,
+                Positive,
                 1e-3,
                 1e2,
                 "current amplifiers, A/V",
@@ -122,6 +97,7 @@ impl ApplicatorParams {
             (
                 "amplifier_pole_hz",
                 self.amplifier_pole_hz,
+                Positive,
                 1.0,
                 1e5,
                 "amplifier bandwidths, Hz",
@@ -129,6 +105,7 @@ impl ApplicatorParams {
             (
                 "torque_constant_nm_per_a",
                 self.torque_constant_nm_per_a,
+                Positive,
                 1e-4,
                 10.0,
                 "motors' torque constants, N·m/A",
@@ -136,6 +113,7 @@ impl ApplicatorParams {
             (
                 "motor_inertia_kg_m2",
                 self.motor_inertia_kg_m2,
+                Positive,
                 1e-9,
                 1e-2,
                 "rotors' inertias, kg·m²",
@@ -143,6 +121,7 @@ impl ApplicatorParams {
             (
                 "arm_m",
                 self.arm_m,
+                Positive,
                 1e-3,
                 1.0,
                 "arms from shaft to probe, m",
@@ -150,6 +129,7 @@ impl ApplicatorParams {
             (
                 "static_friction_nm",
                 self.static_friction_nm,
+                NotNegative,
                 0.0,
                 1.0,
                 "a small motor's stiction, N·m",
@@ -157,6 +137,7 @@ impl ApplicatorParams {
             (
                 "viscous_nm_s_per_rad",
                 self.viscous_nm_s_per_rad,
+                NotNegative,
                 0.0,
                 1.0,
                 "a small motor's viscous friction, N·m·s/rad",
@@ -164,6 +145,7 @@ impl ApplicatorParams {
             (
                 "beam_stiffness_n_per_m",
                 self.beam_stiffness_n_per_m,
+                Positive,
                 1.0,
                 1e7,
                 "gauge beams' stiffnesses, N/m",
@@ -171,6 +153,7 @@ impl ApplicatorParams {
             (
                 "tip_mass_kg",
                 self.tip_mass_kg,
+                Positive,
                 1e-5,
                 1.0,
                 "tips and probes, kg",
@@ -178,6 +161,7 @@ impl ApplicatorParams {
             (
                 "beam_damping_ratio",
                 self.beam_damping_ratio,
+                NotNegative,
                 0.0,
                 1.0,
                 "a beam's damping ratio",
@@ -185,6 +169,7 @@ impl ApplicatorParams {
             (
                 "indentation_mm_per_100pct",
                 self.indentation_mm_per_100pct,
+                Positive,
                 0.1,
                 100.0,
                 "a skin's thickness, mm",
@@ -192,6 +177,7 @@ impl ApplicatorParams {
             (
                 "contact_loss_factor",
                 self.contact_loss_factor,
+                NotNegative,
                 0.0,
                 2.0,
                 "rubbers' loss factors",
@@ -199,6 +185,7 @@ impl ApplicatorParams {
             (
                 "gauge_g_per_v",
                 self.gauge_g_per_v,
+                Positive,
                 0.01,
                 1e4,
                 "strain-gauge scales, g/V",
@@ -206,13 +193,31 @@ impl ApplicatorParams {
             (
                 "gauge_noise_g",
                 self.gauge_noise_g,
+                NotNegative,
                 0.01,
                 10.0,
                 "a gauge's noise, g RMS (a converter's code at least; a reading that never \
                  moves is what the supervisor takes for a stuck gauge)",
             ),
         ];
-        for (name, value, lo, hi, what) in plausible {
+        // The positive fields first, then the others (the order a file's errors are named in).
+        for (name, value, ..) in fields.iter().filter(|f| f.2 == Positive) {
+            if !(value.is_finite() && *value > 0.0) {
+                return Err(ApplicatorError::NotPositive {
+                    name,
+                    value: *value,
+                });
+            }
+        }
+        for (name, value, ..) in fields.iter().filter(|f| f.2 == NotNegative) {
+            if !(value.is_finite() && *value >= 0.0) {
+                return Err(ApplicatorError::Negative {
+                    name,
+                    value: *value,
+                });
+            }
+        }
+        for (name, value, _, lo, hi, what) in fields {
             if !(lo..=hi).contains(&value) {
                 return Err(ApplicatorError::Implausible {
                     name,
@@ -314,6 +319,13 @@ impl ApplicatorParams {
         params.validate()?;
         Ok(params)
     }
+}
+
+/// The sign a field must have.
+#[derive(Clone, Copy, PartialEq)]
+enum Sign {
+    Positive,
+    NotNegative,
 }
 
 /// Fields of an applicator.

@@ -372,20 +372,6 @@ fn run(command: Command) -> Result<(), Error> {
                     "--record-hz {record_hz}: must be in (0, 1000]"
                 )));
             }
-            // NOTE: the record keeps every k-th tick of the 1 kHz loop; another rate would be
-            // written as the nearest such, quietly.
-            let loop_hz = 1.0 / sim_host::rig::TICK_S;
-            let k = (loop_hz / record_hz).floor().max(1.0);
-            if (loop_hz / k - record_hz).abs() > 1e-6 * record_hz
-                && (loop_hz / (k + 1.0) - record_hz).abs() > 1e-6 * record_hz
-            {
-                return Err(Error::Usage(format!(
-                    "--record-hz {record_hz}: the record keeps every k-th tick of the {loop_hz} Hz loop, so its rate is {loop_hz}/k: {:.3} Hz (k = {k}) or {:.3} Hz (k = {})",
-                    loop_hz / k,
-                    loop_hz / (k + 1.0),
-                    k + 1.0
-                )));
-            }
             if !(load.is_finite() && (0.0..=120.0).contains(&load)) {
                 return Err(Error::Usage(format!(
                     "--load {load}: the applicator's range is 0 to 120 g"
