@@ -60,7 +60,7 @@ pub const PLANT_TOLERANCE: f64 = 0.2;
 /// `the_designed_feedback_keeps_its_margins_on_the_friction_free_plant` checks it on three rigs.
 pub const DAMPING_FLOOR: f64 = 0.2;
 /// The double poles the design tries on the error, Hz.
-pub const FEEDBACK_POLES_HZ: [f64; 4] = [40.0, 60.0, 90.0, 140.0];
+pub const FEEDBACK_POLES_HZ: [f64; 6] = [15.0, 25.0, 40.0, 60.0, 90.0, 140.0];
 /// The notch's pole damping ratios the design tries.
 pub const NOTCH_DAMPINGS: [f64; 4] = [0.3, 0.5, 0.7, 1.0];
 /// The least integral gain the design accepts, 1/s: with less, the stiction's 1 g takes over
@@ -330,7 +330,11 @@ pub fn identified_from(
             .map(|e| {
                 scope.spawn(move || {
                     let less = e.means.less_friction(stiction_g);
-                    crate::identify::fit_model(&less.response().ok()?)
+                    let linear = crate::identify::fit_model(&less.response().ok()?)?;
+                    Some(
+                        crate::stick_slip::fit_with_friction(&e.means, stiction_g, &linear)
+                            .unwrap_or(linear),
+                    )
                 })
             })
             .collect();

@@ -524,7 +524,24 @@ impl ApplicatorModel {
             / (self.modes[0].at(s) * self.modes[1].at(s) * pole)
     }
 
-    fn from_theta(t: &[f64]) -> Option<Self> {
+    /// The parameters the fits search: logarithms of the gain, the frequencies and the
+    /// dampings, and the delay in ms ([`Self::from_theta`]'s inverse).
+    pub(crate) fn theta(&self) -> [f64; 9] {
+        let [a, b] = self.modes;
+        [
+            self.gain.ln(),
+            self.anti_resonance.hz.ln(),
+            self.anti_resonance.damping_ratio.ln(),
+            a.hz.ln(),
+            a.damping_ratio.ln(),
+            b.hz.ln(),
+            b.damping_ratio.ln(),
+            self.pole_hz.ln(),
+            1e3 * self.delay_s,
+        ]
+    }
+
+    pub(crate) fn from_theta(t: &[f64]) -> Option<Self> {
         let r = |a: f64, b: f64| Resonance {
             hz: a.exp(),
             damping_ratio: b.exp(),
@@ -574,16 +591,32 @@ fn log_errors(model: &ApplicatorModel, response: &[ResponsePoint]) -> Vec<f64> {
         .collect()
 }
 
-struct ModelProblem<'a> {
-    response: &'a [ResponsePoint],
-    theta: nalgebra::DVector<f64>,
+/// A least-squares problem in the model's parameters ([`ApplicatorModel::from_theta`]): its
+/// errors at a parameter vector, `None` where they cannot be computed.
+pub(crate) struct ModelProblem<'a> {
+    pub(crate) errors: &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
+    pub(crate) theta: nalgebra::DVector<f64>,
 }
 
-impl ModelProblem<'_> {
+impl<'a> ModelProblem<'a> {
     fn errors(&self, theta: &[f64]) -> Option<Vec<f64>> {
-        let m = ApplicatorModel::from_theta(theta)?;
-        let e = log_errors(&m, self.response);
+        let e = (self.errors)(theta)?;
         e.iter().all(|v| v.is_finite()).then_some(e)
+    }
+
+    /// Levenberg–Marquardt from `start`: the parameters it ends at.
+    pub(crate) fn solve(
+        errors: &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
+        start: &[f64],
+    ) -> Vec<f64> {
+        let problem = ModelProblem {
+            errors,
+            theta: nalgebra::DVector::from_row_slice(start),
+        };
+        let (solved, _) = levenberg_marquardt::LevenbergMarquardt::new()
+            .with_patience(50)
+            .minimize(problem);
+        solved.theta.as_slice().to_vec()
     }
 }
 
@@ -648,12 +681,9 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
             (0.6 * top).ln(),
             0.0,
         ];
-        let theta = nalgebra::DVector::from_row_slice(&start);
-        let problem = ModelProblem { response, theta };
-        let (solved, _) = levenberg_marquardt::LevenbergMarquardt::new()
-            .with_patience(50)
-            .minimize(problem);
-        let Some(mut m) = ApplicatorModel::from_theta(solved.theta.as_slice()) else {
+        let errors = |theta: &[f64]| Some(log_errors(&ApplicatorModel::from_theta(theta)?, response));
+        let solved = ModelProblem::solve(&errors, &start);
+        let Some(mut m) = ApplicatorModel::from_theta(&solved) else {
             continue;
         };
         let e = log_errors(&m, response);

@@ -22,6 +22,7 @@ pub mod plot;
 pub mod probe;
 pub mod report;
 pub mod scenario;
+pub mod stick_slip;
 pub mod tables;
 
 pub use error::Error;
