@@ -26,7 +26,11 @@ fn main() {
     let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).expect("run");
     let e = design::excited_of_run(&run.ticks, protocol, &config.firmware.actuator)
         .expect("an excitation record");
-    let less = e.means.less_friction(stiction_g).response().expect("response");
+    let less = e
+        .means
+        .less_friction(stiction_g)
+        .response()
+        .expect("response");
     let fit = sim_host::identify::fit_model(&less).expect("a fit");
     println!("less friction: {fit}");
     let t0 = std::time::Instant::now();

@@ -1,6 +1,8 @@
 //! The force controller designed from the identified applicator (issue 13, item 2): the
 //! excitation protocol run at several preloads, a low-order model fitted at each
-//! ([`crate::identify::fit_model`]), and from those models the core's [`TrackingConfig`]:
+//! ([`crate::identify::fit_model`] to the drive less the friction, then refined with the
+//! motor's friction simulated, [`crate::stick_slip::fit_with_friction`]), and from those
+//! models the core's [`TrackingConfig`]:
 //!
 //! - the feed-forward's schedule: at each preload, the inverse of the model's path to the
 //!   contact force as a series in s up to s³ (the delay left out: no controller can undo it),
@@ -59,7 +61,11 @@ pub const PLANT_TOLERANCE: f64 = 0.2;
 /// gain margin of 0.6–1.0 on the memo rig's friction-free linearization; the test
 /// `the_designed_feedback_keeps_its_margins_on_the_friction_free_plant` checks it on three rigs.
 pub const DAMPING_FLOOR: f64 = 0.2;
-/// The double poles the design tries on the error, Hz.
+/// The double poles the design tries on the error, Hz. The feed-forward tracks; the feedback
+/// is for what it leaves at low frequency (the stiction's stops, the gain's error), so a pole
+/// under the light loads' inertia–finger mode (20–35 Hz) is tried: on the heavy rig, whose
+/// mode at 10 g sits near 25 Hz, a double pole at 40 Hz allowed an integral of 3.8/s (a 5 g
+/// hold after 20 g stood 0.31 g short after 3 s), one at 15 Hz 28/s (within 0.01 g).
 pub const FEEDBACK_POLES_HZ: [f64; 6] = [15.0, 25.0, 40.0, 60.0, 90.0, 140.0];
 /// The notch's pole damping ratios the design tries.
 pub const NOTCH_DAMPINGS: [f64; 4] = [0.3, 0.5, 0.7, 1.0];
@@ -329,6 +335,7 @@ pub fn identified_from(
             .iter()
             .map(|e| {
                 scope.spawn(move || {
+                    // The linear fit starts the one with the friction simulated (seconds).
                     let less = e.means.less_friction(stiction_g);
                     let linear = crate::identify::fit_model(&less.response().ok()?)?;
                     Some(
@@ -996,7 +1003,8 @@ pub fn design(
 
 /// The share of the identified stiction the feed-forward pushes against, in the direction the
 /// reference moves ([`friction_lead_s`] ahead): all of it, now that the models are fitted to
-/// the drive less the friction ([`crate::identify::PeriodMeans::less_friction`]). Near the
+/// the drive less the friction ([`crate::identify::PeriodMeans::less_friction`]) and refined
+/// with it simulated ([`crate::stick_slip`]). Near the
 /// inertia–finger mode a sine needs less drive than the stiction, and only a compensation of
 /// the whole moves the motor there. Measured (`FRICTION=G ONLY=1 cargo run --release -p
 /// sim-host --example design_controller [applicators/FILE.toml]`): with models fitted to the

@@ -681,7 +681,8 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
             (0.6 * top).ln(),
             0.0,
         ];
-        let errors = |theta: &[f64]| Some(log_errors(&ApplicatorModel::from_theta(theta)?, response));
+        let errors =
+            |theta: &[f64]| Some(log_errors(&ApplicatorModel::from_theta(theta)?, response));
         let solved = ModelProblem::solve(&errors, &start);
         let Some(mut m) = ApplicatorModel::from_theta(&solved) else {
             continue;

@@ -281,6 +281,60 @@ fn the_drive_less_the_stiction_gives_the_linear_plants_damping() {
     assert!((less.modes[0].hz / linear.modes[0].hz - 1.0).abs() < 0.05);
 }
 
+#[test]
+fn with_the_friction_simulated_the_fit_comes_to_the_friction_free_plant() {
+    // The memo's rig with twice its stiction (2.2 g), the design's chirps at 10 and 50 g. The
+    // drive less the friction still reads the sticking motor as damping and a low gain; with
+    // the friction simulated in the model (`stick_slip`) the fit comes to the plant's own
+    // linearization (the same form fitted to the friction-free plant: gain 1.00, amplifier
+    // 160 Hz). Measured at 10 g: gain 0.72 → 1.00, ζ 0.18 → 0.07 (0.07 linearized), pole
+    // 337 → 182 Hz, 36 → 18 % RMS; at 50 g gain 0.86 → 1.01, ζ 0.12 → 0.09 (0.08), 24 → 5 %
+    // RMS.
+    let mut p = rig("memo.toml");
+    p.static_friction_nm *= 2.0;
+    let stiction_g = p.static_friction_nm / p.arm_m / NEWTONS_PER_GRAM;
+    for load_g in [10.0f32, 50.0] {
+        let config = rig_config(5, p);
+        let actuator = config.firmware.actuator;
+        let protocol = Protocol::design_excitation(load_g);
+        let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();
+        let means = sim_host::identify::period_means(&run.ticks, protocol, &actuator).unwrap();
+        let less = fit_model(&means.less_friction(stiction_g).response().unwrap()).unwrap();
+        let refined = sim_host::stick_slip::fit_with_friction(&means, stiction_g, &less)
+            .expect("a better fit");
+        let linear: Vec<ResponsePoint> = (2..300)
+            .map(|hz| {
+                let g = plant(&p, f64::from(load_g), f64::from(hz));
+                ResponsePoint {
+                    hz: f64::from(hz),
+                    re: g.re,
+                    im: g.im,
+                }
+            })
+            .collect();
+        let linear = fit_model(&linear).unwrap();
+        eprintln!("{load_g} g: less the friction {less}\nrefined {refined}\nlinearized {linear}");
+        let off = |a: f64, b: f64| (a / b - 1.0).abs();
+        let zeta = |m: &sim_host::identify::ApplicatorModel| m.modes[0].damping_ratio;
+        assert!(
+            off(refined.gain, linear.gain) < 0.06,
+            "{load_g} g: {refined}"
+        );
+        assert!(off(refined.gain, linear.gain) < off(less.gain, linear.gain));
+        assert!(
+            off(zeta(&refined), zeta(&linear)) < 0.5,
+            "{load_g} g: {refined}"
+        );
+        assert!(off(zeta(&refined), zeta(&linear)) < off(zeta(&less), zeta(&linear)));
+        assert!(
+            off(refined.pole_hz, linear.pole_hz) < 0.2,
+            "{load_g} g: {refined}"
+        );
+        assert!(off(refined.modes[0].hz, linear.modes[0].hz) < 0.05);
+        assert!(refined.rms_log_error < less.rms_log_error);
+    }
+}
+
 /// `tactile design --records` leaves out a preload whose chirp lifted the probe off the finger,
 /// or whose hold is not at its preload, and designs on the rest, naming the record and why;
 /// with one usable preload left it refuses and names the one left out; a record without its
