@@ -738,9 +738,9 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
             tries.push(Try::adding(
                 Effect::SlowRelaxation,
                 format!(
-                    "Kelvin branches {:.0}–{:.0} s",
-                    1.5 * settings.base_tau_max_s,
-                    t_s / 2.0
+                    "Kelvin branches {}–{} s",
+                    seconds(1.5 * settings.base_tau_max_s),
+                    seconds(t_s / 2.0)
                 ),
                 slow.clone(),
             ));
@@ -1455,9 +1455,9 @@ fn finish(
     let mut summary = String::new();
     let _ = writeln!(
         summary,
-        "baseline: generalized Maxwell–Kelvin (elastic, Kelvin branches {:.2}–{:.0} s, permanent creep); {} contiguous folds of {:.1} s held out in turn",
-        work.terms.iter().find_map(|t| match t { Term::Relaxation(x) => Some(*x), _ => None }).unwrap_or(0.0),
-        work.terms.iter().filter_map(|t| match t { Term::Relaxation(x) => Some(*x), _ => None }).fold(0.0, f64::max),
+        "baseline: generalized Maxwell–Kelvin (elastic, Kelvin branches {}–{} s, permanent creep); {} contiguous folds of {:.1} s held out in turn",
+        seconds(work.terms.iter().find_map(|t| match t { Term::Relaxation(x) => Some(*x), _ => None }).unwrap_or(0.0)),
+        seconds(work.terms.iter().filter_map(|t| match t { Term::Relaxation(x) => Some(*x), _ => None }).fold(0.0, f64::max)),
         folds.len(),
         s.duration_s() / folds.len() as f64
     );
@@ -1590,6 +1590,18 @@ fn finish(
             folds: folds.ranges.clone(),
         },
     }
+}
+
+/// A time constant to two significant figures ("0.012", "0.5", "1.5", "10"): a short record's
+/// branches are fractions of a second, and a fixed precision printed "0.01–0 s".
+fn seconds(x: f64) -> String {
+    if !(x.is_finite() && x > 0.0) {
+        return format!("{x}");
+    }
+    let scale = 10f64.powf(x.log10().floor() - 1.0);
+    let rounded = (x / scale).round() * scale;
+    let digits = (1 - rounded.log10().floor() as i32).clamp(0, 4) as usize;
+    format!("{rounded:.digits$}")
 }
 
 /// Σh² of the force-to-strain impulse response of the elastic term and the Kelvin branches
@@ -1814,4 +1826,18 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::seconds;
+
+    #[test]
+    fn a_time_constant_is_printed_to_two_figures() {
+        let shown: Vec<String> = [0.01, 0.0123, 0.35, 1.5, 9.9999, 10.0, 42.0]
+            .into_iter()
+            .map(seconds)
+            .collect();
+        assert_eq!(shown, ["0.010", "0.012", "0.35", "1.5", "10", "10", "42"]);
+    }
 }
