@@ -215,6 +215,16 @@ fn diagnose_writes_no_table_when_there_is_nothing_to_export() {
         "{stderr}"
     );
     assert!(!table.exists());
+    // A table already at the path (an earlier record's) is left, and the refusal says it is
+    // not this record's.
+    std::fs::write(&table, b"an earlier table").unwrap();
+    let (code, _, stderr) = tactile(["diagnose", arg(&path), "--table", arg(&table)]);
+    assert_eq!(code, Some(1));
+    assert!(
+        stderr.contains("the file already there is not this record's"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read(&table).unwrap(), b"an earlier table");
 }
 
 /// `tactile experiment NAME --no-plot ARGS…` refused as a usage error (exit 2) before it wrote

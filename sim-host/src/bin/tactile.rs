@@ -612,9 +612,16 @@ fn run(command: Command) -> Result<(), Error> {
             if let Some(path) = table {
                 // A script that asks for a table learns from the exit code that none was written.
                 let model = d.table_model.clone().ok_or_else(|| {
+                    // NOTE: a file already at the path is left, and named: it is not this
+                    // record's calibration.
+                    let older = if path.exists() {
+                        "; the file already there is not this record's calibration"
+                    } else {
+                        ""
+                    };
                     Error::Failed(format!(
                         "{}: not written: the diagnosed model has no form the chip can run \
-                         (see above), so there is no calibration to export",
+                         (see above), so there is no calibration to export{older}",
                         path.display()
                     ))
                 })?;
