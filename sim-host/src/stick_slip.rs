@@ -194,15 +194,36 @@ pub fn fit_with_friction(
     stiction_g: f64,
     start: &ApplicatorModel,
 ) -> Option<ApplicatorModel> {
+    refine(means, stiction_g, start, false).map(|r| r.0)
+}
+
+/// [`fit_with_friction`] with the stiction fitted too, from `stiction_g`: the model and the
+/// stiction (g) that fit the chirp's record best.
+pub fn fit_with_stiction(
+    means: &PeriodMeans,
+    stiction_g: f64,
+    start: &ApplicatorModel,
+) -> Option<(ApplicatorModel, f64)> {
+    refine(means, stiction_g, start, true)
+}
+
+fn refine(
+    means: &PeriodMeans,
+    stiction_g: f64,
+    start: &ApplicatorModel,
+    fit_stiction: bool,
+) -> Option<(ApplicatorModel, f64)> {
     let spectrum = Spectrum::of(means);
     let measured = spectrum.transform(&means.gauge_g);
+    // The model's parameters, then (where fitted) ln of the stiction.
+    let stiction = |theta: &[f64]| theta.get(9).map_or(stiction_g, |v| v.exp());
     let errors = |theta: &[f64]| {
         log_errors(
-            &ApplicatorModel::from_theta(theta)?,
+            &ApplicatorModel::from_theta(theta.get(..9)?)?,
             means,
             &spectrum,
             &measured,
-            stiction_g,
+            stiction(theta),
         )
     };
     let cost = |theta: &[f64]| -> Option<f64> {
@@ -210,19 +231,23 @@ pub fn fit_with_friction(
         let c = e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64;
         c.is_finite().then_some(c)
     };
-    let from = start.theta();
+    let mut from = start.theta().to_vec();
+    if fit_stiction {
+        // A rig without friction starts at a hundredth of a gram.
+        from.push(stiction_g.max(0.01).ln());
+    }
     let before = cost(&from)?;
     let solved = ModelProblem::solve(&errors, &from);
     let after = cost(&solved)?;
     if after >= before {
         return None;
     }
-    let mut m = ApplicatorModel::from_theta(&solved)?;
+    let mut m = ApplicatorModel::from_theta(solved.get(..9)?)?;
     if m.modes[0].hz > m.modes[1].hz {
         return None;
     }
     m.rms_log_error = after.sqrt();
-    Some(m)
+    Some((m, stiction(&solved)))
 }
 
 /// The model's response with no friction, as [`fit_with_friction`] simulates it, at the

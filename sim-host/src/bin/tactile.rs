@@ -425,20 +425,45 @@ fn run(command: Command) -> Result<(), Error> {
         }
         Command::Identify { file, json } => {
             let rec = tactile_record::read_record(&file)?;
-            let response = sim_host::identify::frequency_response_of_record(&rec)
-                .map_err(|e| Error::Failed(format!("{}: {e}", file.display())))?;
-            let model = sim_host::identify::fit_model(&response).ok_or_else(|| {
+            let failed = |e: sim_host::identify::IdentifyError| {
+                Error::Failed(format!("{}: {e}", file.display()))
+            };
+            let means = sim_host::identify::period_means_of_record(&rec).map_err(failed)?;
+            let response = means.response().map_err(failed)?;
+            let plain = sim_host::identify::fit_model(&response).ok_or_else(|| {
                 Error::Failed(format!(
                     "{}: no model converged on the measured response",
                     file.display()
                 ))
             })?;
+            // The motor's friction simulated in the model, its stiction fitted to the chirp from
+            // the hold's drive less its gauge (one hold gives no static line).
+            let held_g = sim_host::identify::hold_means_of_record(&rec)
+                .map_or(0.0, |h| (h.drive_g - h.gauge_g).max(0.0));
+            let linear = means
+                .less_friction(held_g)
+                .response()
+                .ok()
+                .and_then(|r| sim_host::identify::fit_model(&r))
+                .unwrap_or(plain);
+            let refined = sim_host::stick_slip::fit_with_stiction(&means, held_g, &linear);
+            let (model, stiction_g) = refined.map_or((plain, None), |(m, s)| (m, Some(s)));
             outln!(
                 "{}: drive to gauge, {} frequencies",
                 file.display(),
                 response.len()
             );
             outln!("  model: {model}");
+            match stiction_g {
+                Some(s) => outln!(
+                    "  the motor's friction simulated in the model: stiction {s:.2} g fitted to \
+                     the chirp (the hold's drive less its gauge: {held_g:.2} g)"
+                ),
+                None => {
+                    outln!("  (the friction simulated fitted no better: the plain ratio's model)")
+                }
+            }
+            outln!("  the plain ratio's fit, which reads the friction as damping: {plain}");
             if let Some(why) = sim_host::design::implausible(&model) {
                 outln!("  not an applicator's model: {why} (the design leaves such a preload out)");
             }
@@ -446,12 +471,17 @@ fn run(command: Command) -> Result<(), Error> {
                 #[derive(serde::Serialize)]
                 struct Out<'a> {
                     model: &'a sim_host::identify::ApplicatorModel,
+                    /// Fitted with the model (`null`: not simulated).
+                    stiction_g: Option<f64>,
+                    plain_model: &'a sim_host::identify::ApplicatorModel,
                     response: &'a [sim_host::identify::ResponsePoint],
                 }
                 sim_host::error::write_json(
                     &path,
                     &Out {
                         model: &model,
+                        stiction_g,
+                        plain_model: &plain,
                         response: &response,
                     },
                 )?;
