@@ -1,6 +1,7 @@
 //! One preload's excitation on the simulated rig, as the design reads it: the measured response
 //! (the drive less the stiction, and the plain ratio) beside the plant's own friction-free
-//! linearization and the fitted model, every 5 Hz.
+//! linearization, the fitted model and the same refined with the friction simulated
+//! (`stick_slip`, the design's), every 5 Hz.
 //!
 //! `cargo run --release -p sim-host --example fit_detail [APPLICATOR.toml] [PRELOAD_G]
 //! [STICTION_G] [AMPLITUDE_G]` (defaults: the memo's rig, 10 g, 1 g, the design's chirp).
@@ -65,6 +66,15 @@ fn main() {
     let plain = e.means.response().expect("response");
     let fit = sim_host::identify::fit_model(&less).expect("a fit");
     println!("fit: {fit}");
+    // The design's model: the same refined with the friction simulated.
+    let refined = sim_host::stick_slip::fit_with_friction(&e.means, stiction_g, &fit);
+    match &refined {
+        Some(m) => println!("with the friction simulated: {m}"),
+        None => println!("with the friction simulated: no better fit"),
+    }
+    if let Some((m, s)) = sim_host::stick_slip::fit_with_stiction(&e.means, stiction_g, &fit) {
+        println!("and the stiction fitted too: {s:.3} g, {m}");
+    }
     let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
     let db = |c: num_complex::Complex64| 20.0 * c.norm().log10();
     let deg = |c: num_complex::Complex64| c.arg().to_degrees();
@@ -77,8 +87,9 @@ fn main() {
         let lin =
             sim_host::analysis::applicator_response(&config.applicator, &law, f64::from(load_g), w);
         let m = fit.response(p.hz);
+        let r = refined.map_or(m, |r| r.response(p.hz));
         println!(
-            "{:5.0} Hz less friction {:+6.2} dB {:+7.1}° | plain {:+6.2} dB {:+7.1}° | plant {:+6.2} dB {:+7.1}° | fit {:+6.2} dB {:+7.1}°",
+            "{:5.0} Hz less friction {:+6.2} dB {:+7.1}° | plain {:+6.2} dB {:+7.1}° | plant {:+6.2} dB {:+7.1}° | fit {:+6.2} dB {:+7.1}° | refined {:+6.2} dB {:+7.1}°",
             p.hz,
             db(p.value()),
             deg(p.value()),
@@ -87,7 +98,9 @@ fn main() {
             db(lin),
             deg(lin),
             db(m),
-            deg(m)
+            deg(m),
+            db(r),
+            deg(r)
         );
     }
 }

@@ -45,6 +45,22 @@ fn plant(p: &ApplicatorParams, load_g: f64, hz: f64) -> num_complex::Complex64 {
     applicator_response(p, &law, load_g, 2.0 * std::f64::consts::PI * hz)
 }
 
+/// The model's form fitted to the plant's linearization about `load_g` (2–299 Hz): what the
+/// identification would read without friction or noise.
+fn linearized(p: &ApplicatorParams, load_g: f64) -> sim_host::identify::ApplicatorModel {
+    let response: Vec<ResponsePoint> = (2..300)
+        .map(|hz| {
+            let g = plant(p, load_g, f64::from(hz));
+            ResponsePoint {
+                hz: f64::from(hz),
+                re: g.re,
+                im: g.im,
+            }
+        })
+        .collect();
+    fit_model(&response).unwrap()
+}
+
 fn check(name: &str, p: ApplicatorParams, load_g: f32, amplitude_g: f32, good_fit: bool) {
     let response = measure(p, load_g, amplitude_g);
     let load = f64::from(load_g);
@@ -254,17 +270,7 @@ fn the_drive_less_the_stiction_gives_the_linear_plants_damping() {
     let stiction_g = p.static_friction_nm / p.arm_m / NEWTONS_PER_GRAM;
     let plain = fit_model(&means.response().unwrap()).unwrap();
     let less = fit_model(&means.less_friction(stiction_g).response().unwrap()).unwrap();
-    let linear: Vec<ResponsePoint> = (2..300)
-        .map(|hz| {
-            let g = plant(&p, 10.0, f64::from(hz));
-            ResponsePoint {
-                hz: f64::from(hz),
-                re: g.re,
-                im: g.im,
-            }
-        })
-        .collect();
-    let linear = fit_model(&linear).unwrap();
+    let linear = linearized(&p, 10.0);
     let zeta = |m: &sim_host::identify::ApplicatorModel| m.modes[0].damping_ratio;
     eprintln!(
         "ζ plain {:.3}, less the friction {:.3}, linearized {:.3}",
@@ -302,17 +308,7 @@ fn with_the_friction_simulated_the_fit_comes_to_the_friction_free_plant() {
         let less = fit_model(&means.less_friction(stiction_g).response().unwrap()).unwrap();
         let refined = sim_host::stick_slip::fit_with_friction(&means, stiction_g, &less)
             .expect("a better fit");
-        let linear: Vec<ResponsePoint> = (2..300)
-            .map(|hz| {
-                let g = plant(&p, f64::from(load_g), f64::from(hz));
-                ResponsePoint {
-                    hz: f64::from(hz),
-                    re: g.re,
-                    im: g.im,
-                }
-            })
-            .collect();
-        let linear = fit_model(&linear).unwrap();
+        let linear = linearized(&p, f64::from(load_g));
         eprintln!("{load_g} g: less the friction {less}\nrefined {refined}\nlinearized {linear}");
         let off = |a: f64, b: f64| (a / b - 1.0).abs();
         let zeta = |m: &sim_host::identify::ApplicatorModel| m.modes[0].damping_ratio;
@@ -406,17 +402,7 @@ fn tactile_identify_fits_the_friction_and_its_stiction_from_one_record() {
     let plain_zeta = v["plain_model"]["modes"][0]["damping_ratio"]
         .as_f64()
         .unwrap();
-    let linear: Vec<ResponsePoint> = (2..300)
-        .map(|hz| {
-            let g = plant(&p, 20.0, f64::from(hz));
-            ResponsePoint {
-                hz: f64::from(hz),
-                re: g.re,
-                im: g.im,
-            }
-        })
-        .collect();
-    let linear = fit_model(&linear).unwrap();
+    let linear = linearized(&p, 20.0);
     let linear_zeta = linear.modes[0].damping_ratio;
     assert!((gain - 1.0).abs() < 0.05, "{v}");
     assert!(
