@@ -146,12 +146,44 @@ fn the_designed_feedback_keeps_its_margins_on_the_friction_free_plant() {
 /// The closed loop's bounds for a 2 g sine about 10 g, dB. The issue's ±1 dB is not met there
 /// (docs/design.md, "Not yet"): near a light load's inertia–finger mode the sine needs less
 /// drive than the stiction, and the figure follows the friction compensation. What the tests
-/// hold is that the feed-forward never over-drives the mode: the identification read the
+/// hold is that the feed-forward does not over-drive the mode: the identification read the
 /// motor's sticking as damping before it simulated the friction (`stick_slip`), and on a rig
-/// with twice the stiction the feed-forward lifted this sine by 17 dB at 30 Hz; now the
-/// light load's sine falls short (−1.4 to −2.4 dB at 30–40 Hz on the memo's rig) rather than
+/// with twice the stiction the feed-forward lifted this sine by 17 dB at 30 Hz (now +1.8 dB
+/// at most on eight unseen rigs; `more_stiction_does_not_make_the_feed_forward_ring_a_light_
+/// load`); on the memo's rig the sine falls short (−1.4 to −2.4 dB at 30–40 Hz) rather than
 /// ringing.
 const LIGHT_LOAD_DB: (f64, f64) = (-3.0, 1.25);
+
+#[test]
+fn more_stiction_does_not_make_the_feed_forward_ring_a_light_load() {
+    // The memo's rig with 1.5 and 2 times its stiction, seeds 1 and 2: a 2 g sine about 10 g,
+    // where the sine needs less drive than the stiction near the inertia–finger mode. When the
+    // identification read the sticking motor as the mode's damping, the feed-forward over-drove
+    // the mode on such rigs (an unseen rig with twice the stiction: +17 dB at 30 Hz; here, at
+    // 5fddb39, 1.5×: +1.97 / +2.96 dB and 2×: +7.90 / +9.55 dB at 30 Hz, seeds 1 / 2, in
+    // `design_controller`). With the friction simulated in the identification: at most +1.74 dB
+    // (2×, seed 2, 30 Hz); the sine falls short at 40 Hz (−3.5 to −4.8 dB), which the bound
+    // below does not hold.
+    for factor in [1.5, 2.0] {
+        for seed in [1, 2] {
+            let mut cfg = RigConfig { seed, ..rig() };
+            let mut p = sim_host::applicator::ApplicatorParams::MEMO;
+            p.static_friction_nm *= factor;
+            cfg.set_applicator(p);
+            cfg.firmware.tracking =
+                Some(design::design_for_rig(&cfg).expect("design").design.config);
+            for hz in [20.0, 25.0, 30.0, 40.0] {
+                let g = metrics::closed_loop_gain(cfg.clone(), 10.0, 2.0, hz).unwrap();
+                let db = 20.0 * g.log10();
+                eprintln!("stiction ×{factor}, seed {seed}, {hz} Hz: {db:+.2} dB");
+                assert!(
+                    db <= 2.5,
+                    "stiction ×{factor}, seed {seed}, {hz} Hz: {db:+.2} dB"
+                );
+            }
+        }
+    }
+}
 
 #[test]
 fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
