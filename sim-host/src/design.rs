@@ -102,6 +102,12 @@ pub enum DesignError {
     TooFewModels { have: usize, left_out: Vec<LeftOut> },
     #[error("no integral gain gives the margins at every load (the model at {load_g} g has a gain margin of {margin:.2} with none)")]
     NoMargin { load_g: f32, margin: f64 },
+    #[error("the holds read {stiction_g:.3} g of stiction, under the {least_g:.3} g the touch-down needs to stop the probe between its pushes of {push_g:.2} g: the probe would strike the finger after a rest (a rig this free needs a sensor of the motor's position)")]
+    TooLittleFriction {
+        stiction_g: f32,
+        push_g: f32,
+        least_g: f32,
+    },
 }
 
 /// The identified model at one preload.
@@ -961,6 +967,14 @@ pub fn design(
     // the identified (the identification reads it 4–9 % low on the three rigs).
     let contact_g = CONTACT_G.max(CONTACT_DEVIATIONS * gauge_noise_g);
     let push_g = push_g.max(contact_g + 0.15 * stiction_g + 0.2);
+    let least_g = LEAST_STICTION_SHARE * push_g;
+    if stiction_g < least_g {
+        return Err(DesignError::TooLittleFriction {
+            stiction_g,
+            push_g,
+            least_g,
+        });
+    }
     let config = TrackingConfig {
         dt_s: TICK_S as f32,
         reference_hz: REFERENCE_HZ,
@@ -1053,6 +1067,15 @@ pub fn friction_lead_s(models: &[LoadModel]) -> f64 {
 /// models too), three quarters 25 / 23 / 20 ms, a whole 37 / – / 33 ms; the closed loop's
 /// magnitude the same to 0.03 dB.
 pub const HELD_FRICTION_SHARE: f64 = 0.75;
+
+/// The least stiction the design takes, as a share of the touch-down's push: the pulses' brake
+/// is half the push, and the friction takes the rest of each cycle's momentum; with less the
+/// probe gathers speed over an approach and strikes the finger. Measured on the memo's rig with
+/// its stiction scaled (`ONLY=1 cargo run --release -p sim-host --example design_controller
+/// FILE`; the push 0.76 g): a tenth (0.08 g identified) landed every `low-force` touch-down
+/// within 0.15 g; a twentieth (0.03 g) 1.53 g over, a fiftieth 15.7 g, none 33.9 g. A brake as
+/// strong as the push instead left the frictionless probe drifting off, never landing.
+pub const LEAST_STICTION_SHARE: f32 = 0.07;
 
 /// The overshoot a touch-down's momentum is sized for, g (the bound is 1 g).
 pub const TOUCH_OVERSHOOT_G: f64 = 0.5;
