@@ -330,31 +330,72 @@ impl PeriodMeans {
     /// The response from drive to gauge at each whole hertz of the chirp's band.
     pub fn response(&self) -> Result<Vec<ResponsePoint>, IdentifyError> {
         let per = self.drive_g.len().min(self.gauge_g.len());
-        let dt_s = self.dt_s;
-        let lo = EXCITATION_START_HZ.ceil() as usize;
-        let hi = (EXCITATION_END_HZ as usize).min(per / 2 - 1);
-        let mut out = Vec::new();
-        for bin in lo..hi {
-            let w = 2.0 * std::f64::consts::PI * bin as f64 / per as f64;
-            // One twiddle per sample, for the drive's and the gauge's transforms alike.
-            let twiddle: Vec<Complex64> = (0..per)
-                .map(|i| Complex64::from_polar(1.0, -w * i as f64))
-                .collect();
-            let dft = |x: &[f64]| -> Complex64 { x.iter().zip(&twiddle).map(|(v, t)| t * v).sum() };
-            let (u, y) = (dft(&self.drive_g), dft(&self.gauge_g));
+        let spectrum = Spectrum::of(self);
+        let (u, y) = (
+            spectrum.transform(&self.drive_g),
+            spectrum.transform(&self.gauge_g),
+        );
+        let mut out = Vec::with_capacity(spectrum.hz.len());
+        for ((&hz, u), y) in spectrum.hz.iter().zip(&u).zip(&y) {
             if u.norm() < 1e-9 * per as f64 {
-                return Err(IdentifyError::NoDrive {
-                    hz: bin as f64 / (per as f64 * dt_s),
-                });
+                return Err(IdentifyError::NoDrive { hz });
             }
             let g = y / u;
             out.push(ResponsePoint {
-                hz: bin as f64 / (per as f64 * dt_s),
+                hz,
                 re: g.re,
                 im: g.im,
             });
         }
         Ok(out)
+    }
+
+    /// The drive less its mean over the period: the part that moves the plant about the
+    /// preload (its mean holds the preload, and the friction's band takes it anywhere).
+    pub(crate) fn centred_drive_g(&self) -> Vec<f64> {
+        let mean = self.drive_g.iter().sum::<f64>() / self.drive_g.len().max(1) as f64;
+        self.drive_g.iter().map(|d| d - mean).collect()
+    }
+}
+
+/// The chirp's band in one period of [`PeriodMeans`]: each whole hertz from
+/// [`EXCITATION_START_HZ`] to [`EXCITATION_END_HZ`] (or under half the rate), and the period's
+/// twiddles at each, for every transform taken there (the measured response's, and the
+/// simulated gauge's of [`crate::stick_slip`]).
+pub(crate) struct Spectrum {
+    pub(crate) hz: Vec<f64>,
+    twiddles: Vec<Vec<Complex64>>,
+}
+
+impl Spectrum {
+    pub(crate) fn of(means: &PeriodMeans) -> Self {
+        let per = means.drive_g.len().min(means.gauge_g.len());
+        let lo = EXCITATION_START_HZ.ceil() as usize;
+        let hi = (EXCITATION_END_HZ as usize).min((per / 2).saturating_sub(1));
+        let bins: Vec<usize> = (lo..hi).collect();
+        Self {
+            hz: bins
+                .iter()
+                .map(|&b| b as f64 / (per as f64 * means.dt_s))
+                .collect(),
+            twiddles: bins
+                .iter()
+                .map(|&b| {
+                    let w = 2.0 * std::f64::consts::PI * b as f64 / per as f64;
+                    (0..per)
+                        .map(|i| Complex64::from_polar(1.0, -w * i as f64))
+                        .collect()
+                })
+                .collect(),
+        }
+    }
+
+    /// One period of `x` at each frequency.
+    pub(crate) fn transform(&self, x: &[f64]) -> Vec<Complex64> {
+        self.twiddles
+            .iter()
+            .map(|t| t.iter().zip(x).map(|(t, v)| t * v).sum())
+            .collect()
     }
 }
 

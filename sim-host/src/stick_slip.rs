@@ -21,8 +21,7 @@
 use nalgebra::{SMatrix, SVector};
 use num_complex::Complex64;
 
-use crate::identify::{ApplicatorModel, ModelProblem, PeriodMeans, ResponsePoint};
-use tactile_core::profile::{EXCITATION_END_HZ, EXCITATION_START_HZ};
+use crate::identify::{ApplicatorModel, ModelProblem, PeriodMeans, ResponsePoint, Spectrum};
 
 /// Sub-steps per tick: the friction is decided this often, and the gauge read at each step's
 /// end and averaged over the tick, as the firmware averages its eight samples.
@@ -120,57 +119,20 @@ impl Discrete {
     }
 }
 
-/// The frequencies of [`PeriodMeans::response`] and one period's transform at each.
-struct Spectrum {
-    hz: Vec<f64>,
-    twiddles: Vec<Vec<Complex64>>,
-}
-
-impl Spectrum {
-    fn of(means: &PeriodMeans) -> Self {
-        let per = means.drive_g.len().min(means.gauge_g.len());
-        let lo = EXCITATION_START_HZ.ceil() as usize;
-        let hi = (EXCITATION_END_HZ as usize).min((per / 2).saturating_sub(1));
-        let bins: Vec<usize> = (lo..hi).collect();
-        Self {
-            hz: bins
-                .iter()
-                .map(|&b| b as f64 / (per as f64 * means.dt_s))
-                .collect(),
-            twiddles: bins
-                .iter()
-                .map(|&b| {
-                    let w = 2.0 * std::f64::consts::PI * b as f64 / per as f64;
-                    (0..per)
-                        .map(|i| Complex64::from_polar(1.0, -w * i as f64))
-                        .collect()
-                })
-                .collect(),
-        }
-    }
-
-    fn transform(&self, x: &[f64]) -> Vec<Complex64> {
-        self.twiddles
-            .iter()
-            .map(|t| t.iter().zip(x).map(|(t, v)| t * v).sum())
-            .collect()
-    }
-}
-
 /// The gauge's spectrum the model gives with `stiction_g` of friction, driven by the
-/// record's drive, over the measured one: ln of their ratio at each frequency as
-/// (log-magnitude, phase) pairs, the model's delay applied to the simulated gauge.
+/// record's `drive` (centred, sampled every `dt_s`), over the measured one: ln of their ratio at
+/// each frequency as (log-magnitude, phase) pairs, the model's delay applied to the simulated
+/// gauge.
 fn log_errors(
     m: &ApplicatorModel,
-    means: &PeriodMeans,
+    drive: &[f64],
+    dt_s: f64,
     spectrum: &Spectrum,
     measured: &[Complex64],
     stiction_g: f64,
 ) -> Option<Vec<f64>> {
-    let plant = Discrete::of(m, means.dt_s)?;
-    let mean = means.drive_g.iter().sum::<f64>() / means.drive_g.len().max(1) as f64;
-    let drive: Vec<f64> = means.drive_g.iter().map(|d| d - mean).collect();
-    let gauge = plant.periodic_gauge(&drive, stiction_g);
+    let plant = Discrete::of(m, dt_s)?;
+    let gauge = plant.periodic_gauge(drive, stiction_g);
     let simulated = spectrum.transform(&gauge);
     Some(
         simulated
@@ -215,12 +177,14 @@ fn refine(
 ) -> Option<(ApplicatorModel, f64)> {
     let spectrum = Spectrum::of(means);
     let measured = spectrum.transform(&means.gauge_g);
+    let drive = means.centred_drive_g();
     // The model's parameters, then (where fitted) ln of the stiction.
     let stiction = |theta: &[f64]| theta.get(9).map_or(stiction_g, |v| v.exp());
     let errors = |theta: &[f64]| {
         log_errors(
             &ApplicatorModel::from_theta(theta.get(..9)?)?,
-            means,
+            &drive,
+            means.dt_s,
             &spectrum,
             &measured,
             stiction(theta),
@@ -255,8 +219,7 @@ fn refine(
 pub fn simulated_response(m: &ApplicatorModel, means: &PeriodMeans) -> Option<Vec<ResponsePoint>> {
     let spectrum = Spectrum::of(means);
     let plant = Discrete::of(m, means.dt_s)?;
-    let mean = means.drive_g.iter().sum::<f64>() / means.drive_g.len().max(1) as f64;
-    let drive: Vec<f64> = means.drive_g.iter().map(|d| d - mean).collect();
+    let drive = means.centred_drive_g();
     let gauge = plant.periodic_gauge(&drive, 0.0);
     let (u, y) = (spectrum.transform(&drive), spectrum.transform(&gauge));
     Some(
