@@ -405,7 +405,7 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     }
     // The designed force controller (issue 13) from the table the build carries: the host
     // rig's to the bit, and every force step after the first from rest into ±1 g within 40 ms
-    // (A1: 58–69 ms), as `sim-host/tests/controller.rs` finds on the host.
+    // (A1: 58–69 ms), as `sim-host/tests/host/controller.rs` finds on the host.
     let spec = FIL_SESSION
         .iter()
         .find(|r| r.designed)
@@ -427,7 +427,7 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
             .map(|t| (t * 1e3).round())
             .collect::<Vec<_>>()
     );
-    // As on the host (sim-host/tests/controller.rs): all but one within 30 ms (measured
+    // As on the host (sim-host/tests/host/controller.rs): all but one within 30 ms (measured
     // 15–22 ms), the 100 → 90 g step within 70 ms (61 ms).
     let n = settling.len();
     assert!(

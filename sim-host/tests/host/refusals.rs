@@ -25,8 +25,7 @@ fn record(name: &str, n: usize, dt_s: f64, f: impl Fn(f64) -> (f64, f64)) -> Pat
     path
 }
 
-mod common;
-use common::tactile;
+use crate::common::tactile;
 
 /// No number printed as NaN or an infinity.
 fn all_finite(text: &str) -> bool {

@@ -1,7 +1,7 @@
 //! `--applicator FILE` (issue 13, item 4): the memo's rig as a file, and files that describe
 //! no rig refused with the line and column or the parameter at fault.
 
-mod common;
+use crate::common;
 
 use sim_host::applicator::ApplicatorParams;
 use sim_host::error::read_applicator;

@@ -2,7 +2,7 @@
 //! measured response against the plant's own linearization, and the picked resonances against
 //! the plant's, on the memo's applicator and on one with other modes.
 
-mod common;
+use crate::common;
 
 use sim_host::analysis::{applicator_response, peaks};
 use sim_host::applicator::{ApplicatorParams, NEWTONS_PER_GRAM};

@@ -143,16 +143,37 @@ fn the_designed_feedback_keeps_its_margins_on_the_friction_free_plant() {
     }
 }
 
-/// The closed loop's bounds for a 2 g sine about 10 g, dB. The issue's ±1 dB is not met there
-/// (docs/design.md, "Not yet"): near a light load's inertia–finger mode the sine needs less
-/// drive than the stiction, and the figure follows the friction compensation. What the tests
-/// hold is that the feed-forward does not over-drive the mode: the identification read the
-/// motor's sticking as damping before it simulated the friction (`stick_slip`), and on a rig
-/// with twice the stiction the feed-forward lifted this sine by 17 dB at 30 Hz (now +1.8 dB
-/// at most on eight unseen rigs; `more_stiction_does_not_make_the_feed_forward_ring_a_light_
-/// load`); on the memo's rig the sine falls short (−1.4 to −2.4 dB at 30–40 Hz) rather than
-/// ringing.
-const LIGHT_LOAD_DB: (f64, f64) = (-3.0, 1.25);
+/// The closed loop's bounds for a 2 g sine about 10 g, dB: near a light load's inertia–finger
+/// mode the sine needs less drive than the stiction, and the figure follows the friction
+/// compensation's size, which the loop learns at the sine's reversals (`tracking::
+/// FrictionAdapt`). With the identified stiction alone (at 5fddb39..b153718) the memo's rig
+/// fell −2.4 dB short at 40 Hz and the heavy rig −8.3 dB at 25 Hz; the issue's ±1 dB with a
+/// quarter of a dB for the seed.
+const LIGHT_LOAD_DB: (f64, f64) = (-1.25, 1.25);
+
+#[test]
+fn the_friction_compensation_learns_a_stiction_it_was_not_told() {
+    // Designed on the memo's rig (its holds read 1.01 g of stiction), run on the same rig with
+    // its motor sticking 1.2 and 0.85 times as hard (1.33 and 0.94 g): a 2 g sine about 10 g.
+    // Compensating the identified stiction on such rigs was 20 % over or under: 1.2 × the
+    // stiction took the memo rig from −2.2 to +3.7 dB at 30 Hz, 0.9 × left it −2.4 dB at 40 Hz.
+    let (designed, _) = designed();
+    for factor in [1.2, 0.85] {
+        let mut cfg = designed.clone();
+        let mut p = sim_host::applicator::ApplicatorParams::MEMO;
+        p.static_friction_nm *= factor;
+        cfg.set_applicator(p);
+        for hz in [10.0, 20.0, 30.0, 40.0] {
+            let g = metrics::closed_loop_gain(cfg.clone(), 10.0, 2.0, hz).unwrap();
+            let db = 20.0 * g.log10();
+            eprintln!("stiction ×{factor}, {hz} Hz: {db:+.2} dB");
+            assert!(
+                (-1.5..=1.5).contains(&db),
+                "stiction ×{factor}, {hz} Hz: {db:+.2} dB"
+            );
+        }
+    }
+}
 
 #[test]
 fn more_stiction_does_not_make_the_feed_forward_ring_a_light_load() {
@@ -161,9 +182,8 @@ fn more_stiction_does_not_make_the_feed_forward_ring_a_light_load() {
     // identification read the sticking motor as the mode's damping, the feed-forward over-drove
     // the mode on such rigs (an unseen rig with twice the stiction: +17 dB at 30 Hz; here, at
     // 5fddb39, 1.5×: +1.97 / +2.96 dB and 2×: +7.90 / +9.55 dB at 30 Hz, seeds 1 / 2, in
-    // `design_controller`). With the friction simulated in the identification: at most +1.74 dB
-    // (2×, seed 2, 30 Hz); the sine falls short at 40 Hz (−3.5 to −4.8 dB), which the bound
-    // below does not hold.
+    // `design_controller`). With the friction simulated in the identification and the
+    // compensation learnt at the reversals: −1.16…+0.79 dB (2×, seed 2, 40 and 20 Hz).
     for factor in [1.5, 2.0] {
         for seed in [1, 2] {
             let mut cfg = RigConfig { seed, ..rig() };
@@ -177,7 +197,7 @@ fn more_stiction_does_not_make_the_feed_forward_ring_a_light_load() {
                 let db = 20.0 * g.log10();
                 eprintln!("stiction ×{factor}, seed {seed}, {hz} Hz: {db:+.2} dB");
                 assert!(
-                    db <= 2.5,
+                    (-1.5..=1.5).contains(&db),
                     "stiction ×{factor}, seed {seed}, {hz} Hz: {db:+.2} dB"
                 );
             }
@@ -195,7 +215,7 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     // after s³, +2.51 dB when the identification also read the motor's friction as the modes'
     // damping); A1 peaks near +9 dB at 30 Hz. And a light load, 2 g about 10 g, where the drive
     // a sine needs near the inertia–finger mode is less than the stiction: within
-    // `LIGHT_LOAD_DB` (measured −2.42 dB at 40 Hz, −1.35 at 30 Hz, the rest within ±0.8 dB).
+    // `LIGHT_LOAD_DB` (measured −0.91…+0.29 dB).
     for (offset, amplitude) in [(50.0, 10.0), (100.0, 10.0), (10.0, 2.0)] {
         for hz in [0.5, 5.0, 10.0, 20.0, 25.0, 30.0, 40.0] {
             let g = metrics::closed_loop_gain(cfg.clone(), offset, amplitude, hz).unwrap();
