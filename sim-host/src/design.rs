@@ -342,8 +342,7 @@ pub fn identified_from(
             .map(|e| {
                 scope.spawn(move || {
                     // The linear fit starts the one with the friction simulated (seconds).
-                    let less = e.means.less_friction(stiction_g);
-                    let linear = crate::identify::fit_model(&less.response().ok()?)?;
+                    let linear = e.means.fit_less_friction(stiction_g)?;
                     Some(
                         crate::stick_slip::fit_with_friction(&e.means, stiction_g, &linear)
                             .unwrap_or(linear),

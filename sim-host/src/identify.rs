@@ -298,6 +298,13 @@ impl PeriodMeans {
         })
     }
 
+    /// The model fitted to the response of the drive less `stiction_g` of Coulomb friction
+    /// ([`Self::less_friction`]): where the fit with the friction simulated starts, for the
+    /// design and `tactile identify` alike.
+    pub fn fit_less_friction(&self, stiction_g: f64) -> Option<ApplicatorModel> {
+        fit_model(&self.less_friction(stiction_g).response().ok()?)
+    }
+
     /// The drive less the motor's Coulomb friction, `stiction_g` against the motor's motion,
     /// referred to the drive: what the linear part of the plant was driven with. A chirp small
     /// enough to keep the probe on the finger moves the motor little, and the friction it
@@ -711,17 +718,16 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
     }
     let mut best: Option<(f64, ApplicatorModel)> = None;
     for (f1, f2) in pairs {
-        let start = [
-            gain.ln(),
-            (f1 * f2).sqrt().ln(),
-            0.05f64.ln(),
-            f1.ln(),
-            0.1f64.ln(),
-            f2.ln(),
-            0.02f64.ln(),
-            (0.6 * top).ln(),
-            0.0,
-        ];
+        let resonance = |hz: f64, damping_ratio: f64| Resonance { hz, damping_ratio };
+        let start = ApplicatorModel {
+            gain,
+            anti_resonance: resonance((f1 * f2).sqrt(), 0.05),
+            modes: [resonance(f1, 0.1), resonance(f2, 0.02)],
+            pole_hz: 0.6 * top,
+            delay_s: 0.0,
+            rms_log_error: 0.0,
+        }
+        .theta();
         let errors =
             |theta: &[f64]| Some(log_errors(&ApplicatorModel::from_theta(theta)?, response));
         let solved = ModelProblem::solve(&errors, &start);

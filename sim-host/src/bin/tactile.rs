@@ -440,12 +440,7 @@ fn run(command: Command) -> Result<(), Error> {
             // the hold's drive less its gauge (one hold gives no static line).
             let held_g = sim_host::identify::hold_means_of_record(&rec)
                 .map_or(0.0, |h| (h.drive_g - h.gauge_g).max(0.0));
-            let linear = means
-                .less_friction(held_g)
-                .response()
-                .ok()
-                .and_then(|r| sim_host::identify::fit_model(&r))
-                .unwrap_or(plain);
+            let linear = means.fit_less_friction(held_g).unwrap_or(plain);
             let refined = sim_host::stick_slip::fit_with_stiction(&means, held_g, &linear);
             let (model, stiction_g) = refined.map_or((plain, None), |(m, s)| (m, Some(s)));
             outln!(
