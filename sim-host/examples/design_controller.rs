@@ -146,10 +146,12 @@ fn main() {
         for (load, amp) in sines() {
             let g: Vec<String> = [0.5, 5.0, 10.0, 20.0, 25.0, 30.0, 40.0]
                 .iter()
-                .map(|hz| {
-                    let g = metrics::closed_loop_gain(cfg.clone(), load, amp, *hz).unwrap();
-                    format!("{hz} Hz {:+.2} dB", 20.0 * g.log10())
-                })
+                .map(
+                    |hz| match metrics::closed_loop_gain(cfg.clone(), load, amp, *hz) {
+                        Ok(g) => format!("{hz} Hz {:+.2} dB", 20.0 * g.log10()),
+                        Err(e) => format!("{hz} Hz: {e}"),
+                    },
+                )
                 .collect();
             println!("  {amp} g about {load} g: {}", g.join(", "));
         }

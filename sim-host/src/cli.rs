@@ -477,9 +477,15 @@ fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crat
         let mut row = format!("| {hz} |");
         for offset in [50.0, 100.0] {
             for cfg in [&a1, &designed] {
-                let g = metrics::closed_loop_gain(cfg.clone(), offset, 10.0, hz)
-                    .map_err(crate::scenario::ScenarioError::from)?;
-                let _ = write!(row, " {:+.2} |", 20.0 * g.log10());
+                match metrics::closed_loop_gain(cfg.clone(), offset, 10.0, hz) {
+                    Ok(g) => {
+                        let _ = write!(row, " {:+.2} |", 20.0 * g.log10());
+                    }
+                    Err(metrics::GainError::Stopped { .. }) => row.push_str(" stopped |"),
+                    Err(metrics::GainError::Rig(e)) => {
+                        return Err(crate::scenario::ScenarioError::from(e).into())
+                    }
+                }
             }
         }
         let _ = writeln!(s, "{row}");

@@ -217,6 +217,18 @@ pub fn steady_errors_g(
         .collect())
 }
 
+/// Why a closed-loop magnitude has no value.
+#[derive(Debug, thiserror::Error)]
+pub enum GainError {
+    #[error(transparent)]
+    Rig(#[from] crate::rig::RigError),
+    /// The supervisor held the drive at zero during the sine (a latched fault, or a reading at
+    /// the gauge's rail or past its range: a 110 g peak on a gauge that reads to 67.5 g): what
+    /// the lock-in would read is a stopped rig's (it printed −38 dB).
+    #[error("the supervisor stopped the drive at {t_s:.3} s ({faults}): no magnitude")]
+    Stopped { t_s: f64, faults: String },
+}
+
 /// Closed-loop magnitude (true force over command) at `hz`: a stepped sine of `amplitude_g`
 /// about `offset_g` on the rig, lock-in over whole periods after a settling second.
 pub fn closed_loop_gain(
@@ -224,7 +236,7 @@ pub fn closed_loop_gain(
     offset_g: f64,
     amplitude_g: f64,
     hz: f64,
-) -> Result<f64, crate::rig::RigError> {
+) -> Result<f64, GainError> {
     let mut rig = crate::rig::Rig::new(crate::rig::RigConfig {
         scan_array: false,
         command_slew_g_per_s: f32::INFINITY,
@@ -232,8 +244,19 @@ pub fn closed_loop_gain(
     })?;
     let w = 2.0 * core::f64::consts::PI * hz;
     let ramp = 1000;
+    use tactile_core::telemetry::FaultFlags;
+    let stopping = FaultFlags::LATCHED | FaultFlags::GAUGE_AT_RAIL | FaultFlags::GAUGE_OUT_OF_RANGE;
+    let stopped = |r: &TickRecord| {
+        r.faults.intersects(stopping).then(|| GainError::Stopped {
+            t_s: r.t_s,
+            faults: format!("{:?}", r.faults),
+        })
+    };
     for k in 0..ramp {
-        rig.tick((offset_g * k as f64 / ramp as f64) as f32, |_, _| {});
+        let r = rig.tick((offset_g * k as f64 / ramp as f64) as f32, |_, _| {});
+        if let Some(e) = stopped(&r) {
+            return Err(e);
+        }
     }
     let periods = (2.0 * hz).ceil().max(4.0);
     let n_settle = 1000;
@@ -246,6 +269,9 @@ pub fn closed_loop_gain(
         let t = rig.time_s();
         let c = offset_g + amplitude_g * (w * t).sin();
         let r = rig.tick(c as f32, |_, _| {});
+        if let Some(e) = stopped(&r) {
+            return Err(e);
+        }
         if k >= n_settle {
             let ph = num_complex::Complex64::new(0.0, -w * r.t_s).exp();
             acc_f += (f64::from(r.true_force_g) - offset_g) * ph;
