@@ -486,6 +486,11 @@ mod tests {
         let resumed = l.tick(30.0, Ok(0.2), false);
         assert_ne!(resumed.dac_code, zero());
         assert!(!resumed.faults.contains(FaultFlags::LATCHED));
+        // The zero-drive ticks carry a flag of `DRIVE_HELD_AT_ZERO`, the driven one none.
+        for out in [first, second, after] {
+            assert!(out.faults.intersects(FaultFlags::DRIVE_HELD_AT_ZERO));
+        }
+        assert!(!resumed.faults.intersects(FaultFlags::DRIVE_HELD_AT_ZERO));
     }
 
     #[test]

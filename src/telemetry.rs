@@ -39,6 +39,11 @@ bitflags::bitflags! {
 
 impl FaultFlags {
     pub const NONE: FaultFlags = FaultFlags::empty();
+    /// The flags of a tick whose drive the supervisor held at zero (its safe output): a latched
+    /// fault, or a reading at the gauge's rail or past its range (no force to control with).
+    pub const DRIVE_HELD_AT_ZERO: FaultFlags = FaultFlags::LATCHED
+        .union(FaultFlags::GAUGE_AT_RAIL)
+        .union(FaultFlags::GAUGE_OUT_OF_RANGE);
 
     /// Names of the set flags, for logs and reports.
     pub fn names(self) -> impl Iterator<Item = &'static str> {

@@ -244,10 +244,9 @@ pub fn closed_loop_gain(
     })?;
     let w = 2.0 * core::f64::consts::PI * hz;
     let ramp = 1000;
-    use tactile_core::telemetry::FaultFlags;
-    let stopping = FaultFlags::LATCHED | FaultFlags::GAUGE_AT_RAIL | FaultFlags::GAUGE_OUT_OF_RANGE;
     let stopped = |r: &TickRecord| {
-        r.faults.intersects(stopping).then(|| GainError::Stopped {
+        let held = tactile_core::telemetry::FaultFlags::DRIVE_HELD_AT_ZERO;
+        r.faults.intersects(held).then(|| GainError::Stopped {
             t_s: r.t_s,
             faults: format!("{:?}", r.faults),
         })

@@ -18,6 +18,34 @@ fn rig() -> RigConfig {
 }
 
 /// The ticks of the named protocol on `cfg`.
+/// The closed loop's magnitude, dB, for `amplitude_g` about `offset_g` at `hz`, printed after
+/// `label` and asserted within `(lo, hi)`.
+fn magnitude_db(
+    cfg: &RigConfig,
+    label: &str,
+    (offset_g, amplitude_g, hz): (f64, f64, f64),
+    (lo, hi): (f64, f64),
+) -> f64 {
+    let g = metrics::closed_loop_gain(cfg.clone(), offset_g, amplitude_g, hz).unwrap();
+    let db = 20.0 * g.log10();
+    eprintln!("{label}{amplitude_g} g about {offset_g} g, {hz} Hz: {db:+.2} dB");
+    assert!(
+        (lo..=hi).contains(&db),
+        "{label}{offset_g} g, {hz} Hz: {db:+.2} dB"
+    );
+    db
+}
+
+/// The bounds for a sine about `offset_g`: `LIGHT_LOAD_DB` under 50 g, the target's ±1 dB
+/// above.
+fn flat_db(offset_g: f64) -> (f64, f64) {
+    if offset_g < 50.0 {
+        LIGHT_LOAD_DB
+    } else {
+        (-1.0, 1.0)
+    }
+}
+
 fn ticks(protocol: &str, cfg: &RigConfig) -> Vec<TickRecord> {
     run_named(protocol, &ScenarioOptions::default(), cfg.clone(), |_| {})
         .unwrap()
@@ -166,13 +194,8 @@ fn the_friction_compensation_learns_a_stiction_it_was_not_told() {
         p.static_friction_nm *= factor;
         cfg.set_applicator(p);
         for hz in [10.0, 20.0, 25.0, 30.0] {
-            let g = metrics::closed_loop_gain(cfg.clone(), 10.0, 2.0, hz).unwrap();
-            let db = 20.0 * g.log10();
-            eprintln!("stiction ×{factor}, {hz} Hz: {db:+.2} dB");
-            assert!(
-                (-1.5..=1.5).contains(&db),
-                "stiction ×{factor}, {hz} Hz: {db:+.2} dB"
-            );
+            let label = format!("stiction ×{factor}, ");
+            magnitude_db(&cfg, &label, (10.0, 2.0, hz), (-1.5, 1.5));
         }
     }
 }
@@ -197,18 +220,13 @@ fn more_stiction_does_not_make_the_feed_forward_ring_a_light_load() {
             cfg.firmware.tracking =
                 Some(design::design_for_rig(&cfg).expect("design").design.config);
             for hz in [20.0, 25.0, 30.0, 40.0] {
-                let g = metrics::closed_loop_gain(cfg.clone(), 10.0, 2.0, hz).unwrap();
-                let db = 20.0 * g.log10();
-                eprintln!("stiction ×{factor}, seed {seed}, {hz} Hz: {db:+.2} dB");
-                let (lo, hi) = if hz < 35.0 {
+                let bounds = if hz < 35.0 {
                     (-1.25, 1.25)
                 } else {
                     (-6.0, 2.5)
                 };
-                assert!(
-                    (lo..=hi).contains(&db),
-                    "stiction ×{factor}, seed {seed}, {hz} Hz: {db:+.2} dB"
-                );
+                let label = format!("stiction ×{factor}, seed {seed}, ");
+                magnitude_db(&cfg, &label, (10.0, 2.0, hz), bounds);
             }
         }
     }
@@ -227,15 +245,7 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
     // `LIGHT_LOAD_DB` (measured −2.42 dB at 40 Hz, above the 10 g mode; −0.80…+0.29 dB under).
     for (offset, amplitude) in [(50.0, 10.0), (100.0, 10.0), (10.0, 2.0)] {
         for hz in [0.5, 5.0, 10.0, 20.0, 25.0, 30.0, 40.0] {
-            let g = metrics::closed_loop_gain(cfg.clone(), offset, amplitude, hz).unwrap();
-            let db = 20.0 * g.log10();
-            eprintln!("designed, {amplitude} g about {offset} g, {hz} Hz: {db:+.2} dB");
-            let (lo, hi) = if offset < 50.0 {
-                LIGHT_LOAD_DB
-            } else {
-                (-1.0, 1.0)
-            };
-            assert!((lo..=hi).contains(&db), "{offset} g, {hz} Hz: {db:+.2} dB");
+            magnitude_db(&cfg, "designed, ", (offset, amplitude, hz), flat_db(offset));
         }
     }
     let designed_30 = metrics::closed_loop_gain(cfg.clone(), 50.0, 10.0, 30.0).unwrap();
@@ -352,13 +362,8 @@ fn the_procedure_works_unchanged_on_other_applicators() {
         // over the band, +1.60, +4.15, −0.51 and +2.48 dB at 40 Hz).
         for offset_g in [50.0, 100.0] {
             for hz in [5.0, 20.0, 30.0, 40.0] {
-                let g = metrics::closed_loop_gain(cfg.clone(), offset_g, 10.0, hz).unwrap();
-                let db = 20.0 * g.log10();
-                eprintln!("{file}: 10 g about {offset_g} g, {hz} Hz: {db:+.2} dB");
-                assert!(
-                    db.abs() <= 1.0,
-                    "{file}: {offset_g} g, {hz} Hz: {db:+.2} dB"
-                );
+                let label = format!("{file}: ");
+                magnitude_db(&cfg, &label, (offset_g, 10.0, hz), (-1.0, 1.0));
             }
         }
         // Every hold of `low-force` (8, 6, 4, 2 g, each after a second's rest) on the finger
@@ -519,18 +524,7 @@ fn a_gauge_twice_as_sensitive_is_identified_within_its_range() {
     cfg.firmware.tracking = Some(r.design.config);
     for (offset_g, amplitude_g) in [(10.0, 2.0), (50.0, 10.0)] {
         for hz in [5.0, 20.0, 30.0, 40.0] {
-            let g = metrics::closed_loop_gain(cfg.clone(), offset_g, amplitude_g, hz).unwrap();
-            let db = 20.0 * g.log10();
-            eprintln!("{amplitude_g} g about {offset_g} g, {hz} Hz: {db:+.2} dB");
-            let (lo, hi) = if offset_g < 50.0 {
-                LIGHT_LOAD_DB
-            } else {
-                (-1.0, 1.0)
-            };
-            assert!(
-                (lo..=hi).contains(&db),
-                "{offset_g} g, {hz} Hz: {db:+.2} dB"
-            );
+            magnitude_db(&cfg, "", (offset_g, amplitude_g, hz), flat_db(offset_g));
         }
     }
 }
