@@ -48,18 +48,23 @@ if ! command -v qemu-system-arm >/dev/null 2>&1; then
 fi
 qemu-system-arm --version | sed -n 1p
 
+step "host tests of the whole workspace: the release build (cargo test --no-run)"
+# NOTE: the targets named, so the release build skips the examples (diagnostics and benchmarks;
+# the lints above compile them): ten links of the simulator the tests do not run. The firmware
+# tests below are built by this one build: with `-p tactile-decode` alone the features of the
+# dependencies differ (no dev-dependencies of the others), and half the tree built twice.
+cargo test --release --lib --bins --tests --no-run
+
 step "firmware in the loop: QEMU netduinoplus2 against the host simulator, injected faults, crash handlers"
-cargo test --release -p tactile-decode --test qemu_fil -- --ignored --nocapture
+cargo test --release --test qemu_fil -- --ignored --nocapture
 
 step "STM32F407G-DISC1 firmware: build and ELF checks"
-cargo test --release -p tactile-decode --test f407_elf -- --ignored --nocapture
+cargo test --release --test f407_elf -- --ignored --nocapture
 
 step "host tests of the whole workspace (cargo test)"
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
-# NOTE: the targets named, so the release build skips the examples (diagnostics and benchmarks;
-# the lints above compile them): ten links of the simulator the tests do not run. Then the doc
-# tests, which naming targets leaves out.
+# Then the doc tests, which naming targets leaves out.
 cargo test --release --lib --bins --tests 2>&1 | tee "$log"
 cargo test --release --doc 2>&1 | tee -a "$log"
 # One closing line for the whole run, summed over every test binary.
