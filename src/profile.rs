@@ -82,7 +82,7 @@ pub enum Protocol {
     /// Identification of the applicator (issue 13): the command ramps to `preload_g` and holds
     /// it, the loop keeping the probe on the finger; after [`EXCITATION_SETTLE_S`] the drive
     /// gets `periods` periods of a chirp of `amplitude_g` added after the loop's filter
-    /// ([`CommandSource::drive_excitation_g`]), sweeping linearly from [`EXCITATION_START_HZ`]
+    /// ([`CommandSource::chirp`]), sweeping linearly from [`EXCITATION_START_HZ`]
     /// to [`EXCITATION_END_HZ`] in [`EXCITATION_PERIOD_S`]: periodic, so each period's
     /// spectrum has every whole hertz of the band and no leakage. Its amplitude rises above
     /// [`EXCITATION_KNEE_HZ`] (the response is a ratio: the shape of the drive drops out).
@@ -452,12 +452,40 @@ impl CommandSource {
     }
 }
 
+/// One tick of the excitation's chirp: what the protocol adds to the drive is
+/// [`Self::drive_g`] of the share of its rise the loop keeps (see
+/// `ForceLoop::set_drive_excitation`: a rig whose beam rings harder than the memo's gets less
+/// of it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChirpSample {
+    /// The protocol's amplitude, g.
+    pub amplitude_g: f32,
+    /// How many times that the chirp has risen at this frequency (1 below
+    /// [`EXCITATION_KNEE_HZ`], up to [`EXCITATION_RISE_MAX`]).
+    pub rise: f32,
+    /// The sine's value, −1 to 1.
+    pub wave: f32,
+}
+
+impl ChirpSample {
+    /// The drive, g, with `rise_share` of the rise above 1 kept (1: the whole, 0: flat); 0 for
+    /// a sample that is not finite.
+    pub fn drive_g(self, rise_share: f32) -> f32 {
+        let g = self.amplitude_g * (1.0 + (self.rise - 1.0) * rise_share) * self.wave;
+        if g.is_finite() {
+            g
+        } else {
+            0.0
+        }
+    }
+}
+
 impl CommandSource {
-    /// What the protocol adds to the drive after the loop's filter at time `t_s`, g: the
-    /// excitation's chirp ([`Protocol::Excitation`]) while it runs, when the loop's feedback is
-    /// off (see `ForceLoop::set_drive_excitation`); `None` before and after it and for every
-    /// other protocol.
-    pub fn drive_excitation_g(&self, t_s: f32) -> Option<f32> {
+    /// The excitation's chirp ([`Protocol::Excitation`]) at time `t_s` while it runs, added to
+    /// the drive after the loop's filter while the loop's feedback is off (see
+    /// `ForceLoop::set_drive_excitation`); `None` before and after it and for every other
+    /// protocol.
+    pub fn chirp(&self, t_s: f32) -> Option<ChirpSample> {
         let Protocol::Excitation { amplitude_g, .. } = self.protocol else {
             return None;
         };
@@ -472,7 +500,11 @@ impl CommandSource {
         let phase = 2.0 * core::f32::consts::PI * (cycles - libm::floorf(cycles));
         let hz = EXCITATION_START_HZ + sweep * tau / EXCITATION_PERIOD_S;
         let rise = (hz / EXCITATION_KNEE_HZ).clamp(1.0, EXCITATION_RISE_MAX);
-        Some(amplitude_g * rise * crate::trig::sinf(phase))
+        Some(ChirpSample {
+            amplitude_g,
+            rise,
+            wave: crate::trig::sinf(phase),
+        })
     }
 
     fn sines(&self, offset_g: f32, amplitude_g: f32, t_s: f32) -> f32 {
@@ -530,12 +562,12 @@ mod tests {
         assert!((s.command_g(0.375) - 25.0).abs() < 1e-4);
         assert_eq!(s.command_g(1.0), 50.0);
         assert_eq!(s.command_g(3.3), 50.0);
-        assert_eq!(s.drive_excitation_g(1.0), None);
+        assert_eq!(s.chirp(1.0), None);
         // One period sampled at 1 kHz, twice: the same samples (periodic), within ±3 g below
         // the knee and ±9 g above it, mean 0.
         let period = |s: &CommandSource, start: f32| -> Vec<f32> {
             (0..1000)
-                .map(|i| s.drive_excitation_g(start + i as f32 * 1e-3).unwrap())
+                .map(|i| s.chirp(start + i as f32 * 1e-3).unwrap().drive_g(1.0))
                 .collect()
         };
         let (a, b) = (period(&s, 2.5), period(&s, 3.5));
@@ -557,20 +589,23 @@ mod tests {
         assert!(mean.abs() < 0.1, "{mean}");
         // By hand: 0.1 s into a period the chirp is at 1 + 300·0.1 = 31 Hz and has turned
         // 1·0.1 + 150·0.01 = 1.6 cycles: 3·sin(2π·0.6).
-        let x = s.drive_excitation_g(1.5 + 0.1).unwrap();
+        let x = s.chirp(1.5 + 0.1).unwrap().drive_g(1.0);
         let expected = 3.0 * (2.0 * core::f32::consts::PI * 0.6).sin();
         assert!((x - expected).abs() < 1e-3, "{x} vs {expected}");
         // 0.3 s in: 91 Hz, 0.3 + 150·0.09 = 13.8 cycles, the amplitude 3·91/60.
-        let x = s.drive_excitation_g(1.5 + 0.3).unwrap();
+        let x = s.chirp(1.5 + 0.3).unwrap().drive_g(1.0);
         let expected = 3.0 * 91.0 / 60.0 * (2.0 * core::f32::consts::PI * 0.8).sin();
         assert!((x - expected).abs() < 2e-3, "{x} vs {expected}");
-        assert_eq!(s.drive_excitation_g(5.6), None);
+        // The guard's share of the rise: half of it, 1 + ½(91/60 − 1); none, flat.
+        let c = s.chirp(1.5 + 0.3).unwrap();
+        let wave = (2.0 * core::f32::consts::PI * 0.8).sin();
+        let half = 3.0 * (1.0 + 0.5 * (91.0 / 60.0 - 1.0)) * wave;
+        assert!((c.drive_g(0.5) - half).abs() < 2e-3, "{c:?}");
+        assert!((c.drive_g(0.0) - 3.0 * wave).abs() < 2e-3, "{c:?}");
+        assert_eq!(s.chirp(5.6), None);
         assert_eq!(s.command_g(5.6), 0.0);
         // Every other protocol leaves the drive alone.
-        assert_eq!(
-            CommandSource::new(Protocol::CALIBRATION).drive_excitation_g(10.0),
-            None
-        );
+        assert_eq!(CommandSource::new(Protocol::CALIBRATION).chirp(10.0), None);
     }
 
     #[test]

@@ -22,6 +22,7 @@
 use crate::control::{ActuatorConfig, ForceLaw, ForceLawConfig, SlewLimiter};
 use crate::filter::{FilterError, LowpassNotch, LowpassNotchConfig, LowpassNotchState};
 use crate::gauge::{AdcCode, GaugeFault};
+use crate::profile::ChirpSample;
 use crate::telemetry::FaultFlags;
 use crate::tracking::{Tracking, TrackingConfig, TrackingError};
 
@@ -80,6 +81,9 @@ pub struct ForceLoopConfig {
     pub slew_g_per_s: f32,
     /// The designed controller in place of A1 and its filter; `None`: A1 (the memo's law).
     pub tracking: Option<TrackingConfig>,
+    /// The gauge's physical range, g (`GaugeConfig::force_min_g`, `force_max_g`): the
+    /// excitation's guard keeps the reading off its edges.
+    pub gauge_range_g: (f32, f32),
 }
 
 /// Why the force loop could not be built from its configuration.
@@ -130,8 +134,23 @@ pub struct ForceLoop {
     contact_losses: u32,
     /// Added to the filtered drive (the applicator's identification excites the plant at its
     /// input, where the filter cannot take the excitation out); A1's feedback is off meanwhile.
-    drive_excitation_g: Option<f32>,
+    chirp: Option<ChirpSample>,
+    /// The share of the chirp's rise kept, and the ticks until the guard looks again.
+    rise_share: f32,
+    guard_ticks: u16,
 }
+
+/// The excitation's guard (see [`ForceLoop::set_drive_excitation`]): a reading that moves by
+/// more than this share of [`SupervisorConfig::max_slew_g_per_tick`] in a tick, or leaves the
+/// gauge's range, or comes within [`EXCITATION_RANGE_SHARE`] of the way from the command to
+/// an edge of the range, halves the share of the chirp's rise the loop keeps.
+pub const EXCITATION_GUARD_SHARE: f32 = 0.75;
+pub const EXCITATION_RANGE_SHARE: f32 = 0.7;
+/// Ticks after a cut before the guard looks again (the beam's ringing answers a cut over a
+/// few of its cycles).
+pub const EXCITATION_GUARD_TICKS: u16 = 10;
+/// Under this share of the rise the chirp goes flat.
+pub const EXCITATION_LEAST_RISE_SHARE: f32 = 0.1;
 
 /// Ticks of contact after a re-approach before the loss counts as over.
 const SETTLED_CONTACT_TICKS: u16 = 200;
@@ -146,7 +165,9 @@ impl ForceLoop {
             tracking,
             filter,
             filter_state: LowpassNotchState::default(),
-            drive_excitation_g: None,
+            chirp: None,
+            rise_share: 1.0,
+            guard_ticks: 0,
             latched: FaultFlags::NONE,
             bad_gauge_ticks: 0,
             last_reading_g: None,
@@ -217,8 +238,8 @@ impl ForceLoop {
         }
     }
 
-    /// Grams added to the drive after the filter from the next tick on (`None`: none; a value
-    /// that is not finite counts as 0). The safe output stays at zero. While a drive is added
+    /// The chirp added to the drive after the filter from the next tick on (`None`: none; a
+    /// value that is not finite counts as 0). The safe output stays at zero. While a drive is added
     /// A1 runs without its feedback (its command alone holds the probe on the finger): at
     /// K_e = 0.07 its loop has a gain margin of 2.6 at 100 g and amplified the chirp at the
     /// plant's mode. On the heavy rig (mode 40 Hz at 100 g) a 5 g chirp swung the gauge from
@@ -227,8 +248,47 @@ impl ForceLoop {
     /// rule, at commit 2746f79, with A1's K_e for the whole run at 0.07 and at 0: `KE=0.07` /
     /// `KE=0 cargo run --release -p sim-host --example fit_detail
     /// applicators/heavy-motor-soft-beam.toml 100 1 5`). The designed controller keeps its own.
-    pub fn set_drive_excitation(&mut self, drive_g: Option<f32>) {
-        self.drive_excitation_g = drive_g.map(|g| if g.is_finite() { g } else { 0.0 });
+    ///
+    /// The chirp rises above its knee against the amplifier's pole and the stiction, and on a
+    /// rig whose beam mode the amplifier passes better than the memo's the rise rings the beam
+    /// into the supervisor: on a light motor with a stiff beam and a 221 Hz amplifier a 5 g
+    /// chirp about 20 g swung the gauge from −5 to 52 g at 218 Hz and latched the implausible
+    /// slew (41 g in a tick), and the chirp halved to get by left the low frequencies under
+    /// the stiction (the fits missed by 30–45 % RMS and the design had one load). So the loop
+    /// guards it: a reading that jumps by [`EXCITATION_GUARD_SHARE`] of the slew limit, or
+    /// comes [`EXCITATION_RANGE_SHARE`] of the way to the gauge's range (a 7 g/V gauge reads
+    /// −15 to 67.5 g, and a chirp that rang the beam ±27 g about 10 g left it), halves the share of the rise it keeps
+    /// ([`ChirpSample::drive_g`]), at most once every [`EXCITATION_GUARD_TICKS`]; the flat part,
+    /// which moves the motor past its stiction, stays whole. A new chirp starts with the whole
+    /// rise. The ringing comes at the top of the sweep, in the first period, which the
+    /// identification leaves out.
+    pub fn set_drive_excitation(&mut self, chirp: Option<ChirpSample>) {
+        if self.chirp.is_none() && chirp.is_some() {
+            self.rise_share = 1.0;
+            self.guard_ticks = 0;
+        }
+        self.chirp = chirp;
+    }
+
+    /// The share of the chirp's rise the guard has left (1 until it cuts).
+    pub fn rise_share(&self) -> f32 {
+        self.rise_share
+    }
+
+    fn guard_excitation(&mut self, violent: bool) {
+        if self.chirp.is_none() {
+            return;
+        }
+        if self.guard_ticks > 0 {
+            self.guard_ticks -= 1;
+        } else if violent {
+            self.rise_share = if self.rise_share > 2.0 * EXCITATION_LEAST_RISE_SHARE {
+                0.5 * self.rise_share
+            } else {
+                0.0
+            };
+            self.guard_ticks = EXCITATION_GUARD_TICKS;
+        }
     }
 
     /// One tick: `command_g` from the command source, `reading` the gauge path's result for the
@@ -277,10 +337,16 @@ impl ForceLoop {
             }
         };
         let shaped_probe = self.slew.update(command_g);
+        let mut violent = matches!(reading, Err(GaugeFault::OutOfRange { .. }));
         if let (Some(now), Some(before)) = (sensed_g, self.last_reading_g) {
-            if (now - before).abs() > s.max_slew_g_per_tick {
+            let step_g = (now - before).abs();
+            if step_g > s.max_slew_g_per_tick {
                 self.latched.insert(FaultFlags::FORCE_SLEW);
             }
+            let (lo, hi) = self.config.gauge_range_g;
+            violent |= step_g > EXCITATION_GUARD_SHARE * s.max_slew_g_per_tick
+                || now < shaped_probe + EXCITATION_RANGE_SHARE * (lo - shaped_probe)
+                || now > shaped_probe + EXCITATION_RANGE_SHARE * (hi - shaped_probe);
             if now == before {
                 if self.stuck_ticks == 0 {
                     self.stuck_command_from_g = shaped_probe;
@@ -298,6 +364,7 @@ impl ForceLoop {
         if sensed_g.is_some() {
             self.last_reading_g = sensed_g;
         }
+        self.guard_excitation(violent);
         let Some(sensed_g) = sensed_g else {
             return self.safe(shaped_probe, faults);
         };
@@ -389,9 +456,7 @@ impl ForceLoop {
         let a = match &mut self.tracking {
             // The integral holds while the probe looks for the finger.
             Some(t) => t.update(shaped_g, sensed_g, !self.approaching),
-            None => self
-                .law
-                .update(shaped_g, sensed_g, self.drive_excitation_g.is_none()),
+            None => self.law.update(shaped_g, sensed_g, self.chirp.is_none()),
         };
         if a.saturated {
             faults.insert(FaultFlags::ACTUATOR_SATURATED);
@@ -409,7 +474,7 @@ impl ForceLoop {
             dac_code: self
                 .config
                 .actuator
-                .code(filtered_g + self.drive_excitation_g.unwrap_or(0.0)),
+                .code(filtered_g + self.chirp.map_or(0.0, |c| c.drive_g(self.rise_share))),
             shaped_g,
             adjusted_g: a.force_g,
             faults,
@@ -420,7 +485,7 @@ impl ForceLoop {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gauge::AdcCode;
+    use crate::gauge::{AdcCode, GaugeConfig};
 
     fn memo_loop() -> ForceLoop {
         ForceLoop::new(ForceLoopConfig {
@@ -430,6 +495,7 @@ mod tests {
             supervisor: SupervisorConfig::DESIGN,
             slew_g_per_s: 500.0,
             tracking: None,
+            gauge_range_g: (GaugeConfig::MEMO.force_min_g, GaugeConfig::MEMO.force_max_g),
         })
         .unwrap()
     }
@@ -606,5 +672,50 @@ mod tests {
                 .contains(FaultFlags::LATCHED)
         });
         assert!(latched);
+    }
+
+    /// The excitation's guard, by hand: readings jumping by 31 g a tick (over three quarters
+    /// of the 40 g slew limit, under the limit itself) halve the rise kept once every 11 ticks
+    /// (a cut, then ten ticks of waiting): 1, ½, ¼, ⅛, then flat (⅛ is under twice the least
+    /// share). A reading 70 % of the way from the 30 g command to the gauge's −30 g edge
+    /// (−12 g) cuts as well; one short of it does not. A new chirp starts whole.
+    #[test]
+    fn the_excitation_guard_halves_the_chirps_rise_where_the_beam_rings() {
+        use crate::profile::ChirpSample;
+        let chirp = Some(ChirpSample {
+            amplitude_g: 1.0,
+            rise: 3.0,
+            wave: 1.0,
+        });
+        let mut l = memo_loop();
+        run_normally(&mut l, 200);
+        l.set_drive_excitation(chirp);
+        let mut shares = vec![];
+        for k in 0..40 {
+            let out = l.tick(30.0, Ok(if k % 2 == 0 { 61.0 } else { 30.0 }), false);
+            assert!(!out.faults.contains(FaultFlags::LATCHED), "{k}");
+            shares.push(l.rise_share());
+        }
+        let at = |share: f32| shares.iter().position(|s| *s == share);
+        // The first jump is the first tick's (30 → 61).
+        assert_eq!(
+            (at(0.5), at(0.25), at(0.125), at(0.0)),
+            (Some(0), Some(11), Some(22), Some(33)),
+            "{shares:?}"
+        );
+        l.set_drive_excitation(None);
+        run_normally(&mut l, 50);
+        l.set_drive_excitation(chirp);
+        run_normally(&mut l, 20);
+        assert_eq!(l.rise_share(), 1.0);
+        // Down to −11.9 g by 5 g a tick (no jump), then past −12 g.
+        let mut reading_g = 30.0;
+        while reading_g > -11.9 {
+            reading_g = f32::max(reading_g - 5.0, -11.9);
+            l.tick(30.0, Ok(reading_g), false);
+        }
+        assert_eq!(l.rise_share(), 1.0, "within 70 % of the way to the edge");
+        l.tick(30.0, Ok(-12.1), false);
+        assert_eq!(l.rise_share(), 0.5);
     }
 }

@@ -60,6 +60,7 @@ proptest! {
             supervisor: SupervisorConfig::DESIGN,
             slew_g_per_s: 500.0,
             tracking: None,
+            gauge_range_g: (-30.0, 135.0),
         }).unwrap();
         for (command, reading, kind, overrun) in steps {
             let reading = match kind {

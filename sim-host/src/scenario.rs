@@ -187,7 +187,7 @@ pub fn run_protocol(
     };
     for k in 0..n {
         let command = source.command_g(rig.time_s() as f32);
-        rig.set_drive_excitation(source.drive_excitation_g(rig.time_s() as f32));
+        rig.set_drive_excitation(source.chirp(rig.time_s() as f32));
         let frames = &mut run.frames;
         let rec = rig.tick(command, |t, grid| frames.push((t, *grid)));
         run.ticks.push(rec);

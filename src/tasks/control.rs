@@ -78,6 +78,7 @@ impl ControlLoop {
             supervisor: config.supervisor,
             slew_g_per_s,
             tracking: config.tracking,
+            gauge_range_g: (config.gauge.force_min_g, config.gauge.force_max_g),
         })?;
         let inverse = config
             .estimator
@@ -139,9 +140,9 @@ impl ControlLoop {
         self.overrun_pending = true;
     }
 
-    /// Grams added to the drive after the filter (see [`ForceLoop::set_drive_excitation`]).
-    pub fn set_drive_excitation(&mut self, drive_g: Option<f32>) {
-        self.force_loop.set_drive_excitation(drive_g);
+    /// The chirp added to the drive after the filter (see [`ForceLoop::set_drive_excitation`]).
+    pub fn set_drive_excitation(&mut self, chirp: Option<crate::profile::ChirpSample>) {
+        self.force_loop.set_drive_excitation(chirp);
     }
 
     pub fn overruns(&self) -> u32 {
@@ -203,8 +204,7 @@ impl Controller {
         // The command source's clock, computed as the simulator's rig computes it.
         let t_s = (f64::from(self.ticks) * CONTROL_PERIOD_S) as f32;
         let command_g = self.source.command_g(t_s);
-        self.control
-            .set_drive_excitation(self.source.drive_excitation_g(t_s));
+        self.control.set_drive_excitation(self.source.chirp(t_s));
         self.ticks = self.ticks.saturating_add(1);
         self.control.act(io, command_g, board_tick)
     }

@@ -130,10 +130,10 @@ impl Rig {
         self.tick as f64 * TICK_S
     }
 
-    /// Grams added to the drive after the loop's filter from the next tick on (the excitation
-    /// protocol's chirp, A1's feedback off meanwhile; see `ForceLoop::set_drive_excitation`).
-    pub fn set_drive_excitation(&mut self, drive_g: Option<f32>) {
-        self.control.set_drive_excitation(drive_g);
+    /// The excitation protocol's chirp, added to the drive after the loop's filter from the
+    /// next tick on (A1's feedback off meanwhile; see `ForceLoop::set_drive_excitation`).
+    pub fn set_drive_excitation(&mut self, chirp: Option<tactile_core::profile::ChirpSample>) {
+        self.control.set_drive_excitation(chirp);
     }
 
     /// One control tick with command `command_g`; `on_frame` receives each completed 8×8 scan
