@@ -14,7 +14,7 @@
 //! gauge does not read zero. The beam accelerates the tip mass, so it reads about a third of the
 //! motor's force, ringing at the free beam mode (140 Hz, slowly damped); only its 32 ms average
 //! against the command tells flight from contact.
-//! | command out of range, NaN or infinite | checked at entry | clamped (NaN → 0), flagged |
+//! | command out of range (past [`SupervisorConfig::command_max_g`] or [`GAUGE_COMMAND_SHARE`] of the gauge's top), NaN or infinite | checked at entry | clamped (NaN → 0), flagged |
 //! | deadline overrun | reported by the board's timer | zero output in the same period, latched |
 //!
 //! Latched faults clear only through [`ForceLoop::clear_faults`].
@@ -86,6 +86,16 @@ pub struct ForceLoopConfig {
     pub gauge_range_g: (f32, f32),
 }
 
+impl ForceLoopConfig {
+    /// The largest command the loop takes, g: the applicator's range, within
+    /// [`GAUGE_COMMAND_SHARE`] of the gauge's.
+    pub fn command_max_g(&self) -> f32 {
+        self.supervisor
+            .command_max_g
+            .min(GAUGE_COMMAND_SHARE * self.gauge_range_g.1)
+    }
+}
+
 /// Why the force loop could not be built from its configuration.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum LoopError {
@@ -151,6 +161,13 @@ pub const EXCITATION_RANGE_SHARE: f32 = 0.7;
 pub const EXCITATION_GUARD_TICKS: u16 = 10;
 /// Under this share of the rise the chirp goes flat.
 pub const EXCITATION_LEAST_RISE_SHARE: f32 = 0.1;
+
+/// The largest command as a share of the gauge's top reading: a force the gauge cannot read
+/// cannot be held, and a command past it drove the probe until the reading left the range and
+/// the supervisor stopped the drive (a 7 g/V gauge reads to 67.5 g: `force-steps`' 70 g step
+/// latched GAUGE_OUT_OF_RANGE, and every step after it was lost). Such a command is clamped
+/// and flagged as one past [`SupervisorConfig::command_max_g`] is.
+pub const GAUGE_COMMAND_SHARE: f32 = 0.9;
 
 /// Ticks of contact after a re-approach before the loss counts as over.
 const SETTLED_CONTACT_TICKS: u16 = 200;
@@ -303,11 +320,12 @@ impl ForceLoop {
         let mut faults = FaultFlags::NONE;
 
         // The command, checked at entry.
+        let command_max_g = self.config.command_max_g();
         let command_g = if command_g.is_finite() {
-            if !(0.0..=s.command_max_g).contains(&command_g) {
+            if !(0.0..=command_max_g).contains(&command_g) {
                 faults.insert(FaultFlags::COMMAND_CLAMPED);
             }
-            crate::limit(command_g, 0.0, s.command_max_g)
+            crate::limit(command_g, 0.0, command_max_g)
         } else {
             faults.insert(FaultFlags::INVALID_INPUT);
             0.0

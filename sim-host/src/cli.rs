@@ -482,6 +482,7 @@ fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crat
                         let _ = write!(row, " {:+.2} |", 20.0 * g.log10());
                     }
                     Err(metrics::GainError::Stopped { .. }) => row.push_str(" stopped |"),
+                    Err(metrics::GainError::Clamped { .. }) => row.push_str(" clamped |"),
                     Err(metrics::GainError::Rig(e)) => {
                         return Err(crate::scenario::ScenarioError::from(e).into())
                     }

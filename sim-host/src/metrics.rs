@@ -227,6 +227,10 @@ pub enum GainError {
     /// the lock-in would read is a stopped rig's (it printed −38 dB).
     #[error("the supervisor stopped the drive at {t_s:.3} s ({faults}): no magnitude")]
     Stopped { t_s: f64, faults: String },
+    /// The loop clamped the sine's command (past what the gauge reads: a 110 g peak on a gauge
+    /// that reads to 67.5 g): the magnitude would be of a clipped sine.
+    #[error("the loop clamped the command at {t_s:.3} s (past the gauge's range): no magnitude")]
+    Clamped { t_s: f64 },
 }
 
 /// Closed-loop magnitude (true force over command) at `hz`: a stepped sine of `amplitude_g`
@@ -245,11 +249,17 @@ pub fn closed_loop_gain(
     let w = 2.0 * core::f64::consts::PI * hz;
     let ramp = 1000;
     let stopped = |r: &TickRecord| {
-        let held = tactile_core::telemetry::FaultFlags::DRIVE_HELD_AT_ZERO;
-        r.faults.intersects(held).then(|| GainError::Stopped {
-            t_s: r.t_s,
-            faults: format!("{:?}", r.faults),
-        })
+        use tactile_core::telemetry::FaultFlags;
+        if r.faults.intersects(FaultFlags::DRIVE_HELD_AT_ZERO) {
+            Some(GainError::Stopped {
+                t_s: r.t_s,
+                faults: format!("{:?}", r.faults),
+            })
+        } else {
+            r.faults
+                .contains(FaultFlags::COMMAND_CLAMPED)
+                .then_some(GainError::Clamped { t_s: r.t_s })
+        }
     };
     for k in 0..ramp {
         let r = rig.tick((offset_g * k as f64 / ramp as f64) as f32, |_, _| {});

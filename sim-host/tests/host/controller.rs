@@ -9,6 +9,7 @@ use sim_host::metrics;
 use sim_host::rig::RigConfig;
 use sim_host::rig::TickRecord;
 use sim_host::scenario::{run_named, ScenarioOptions};
+use tactile_core::telemetry::FaultFlags;
 
 fn rig() -> RigConfig {
     RigConfig {
@@ -512,16 +513,32 @@ fn a_gauge_twice_as_sensitive_is_identified_within_its_range() {
     let r = design::design_for_rig(&cfg).expect("design");
     let loads: Vec<f32> = r.identified.models.iter().map(|m| m.load_g).collect();
     assert_eq!(loads, [10.0, 20.0, 35.0, 50.0], "{loads:?}");
-    // Its gauge reads to 67.5 g (135 g at 14 g/V): a sine to 110 g has no magnitude, and the
-    // benchmark says so rather than printing the stopped rig's −38 dB.
+    // Its gauge reads to 67.5 g (135 g at 14 g/V): the loop takes commands to 90 % of that,
+    // 60.75 g, and a sine to 110 g has no magnitude: the benchmark says so rather than
+    // printing the clipped (or, before the clamp, the stopped) rig's −38 dB.
     match metrics::closed_loop_gain(cfg.clone(), 100.0, 10.0, 10.0) {
-        Err(metrics::GainError::Stopped { faults, .. }) => {
-            assert!(faults.contains("GAUGE_OUT_OF_RANGE"), "{faults}")
-        }
+        Err(metrics::GainError::Clamped { .. }) => {}
         other => panic!("{other:?}"),
     }
     assert!((r.identified.gauge_noise_g - 0.07).abs() < 0.01, "{r:?}");
     cfg.firmware.tracking = Some(r.design.config);
+    // `force-steps` to 100 g: the steps past 60.75 g hold there, flagged as clamped, and the
+    // loop runs on (before the clamp, the 70 g step drove the reading out of the gauge's range
+    // and the supervisor stopped the drive for the rest of the run).
+    let steps = ticks("force-steps", &cfg);
+    let top_g = 0.9 * 67.5;
+    assert!(steps
+        .iter()
+        .all(|t| !t.faults.contains(FaultFlags::LATCHED)));
+    let at_100 = steps.iter().find(|t| (5.4..5.5).contains(&t.t_s)).unwrap();
+    assert_eq!(at_100.command_g, 100.0);
+    assert!(
+        at_100.faults.contains(FaultFlags::COMMAND_CLAMPED),
+        "{at_100:?}"
+    );
+    assert!((at_100.true_force_g - top_g).abs() < 1.0, "{at_100:?}");
+    let at_20 = steps.iter().find(|t| (9.4..9.5).contains(&t.t_s)).unwrap();
+    assert!((at_20.true_force_g - 20.0).abs() < 1.0, "{at_20:?}");
     for (offset_g, amplitude_g) in [(10.0, 2.0), (50.0, 10.0)] {
         for hz in [5.0, 20.0, 30.0, 40.0] {
             magnitude_db(&cfg, "", (offset_g, amplitude_g, hz), flat_db(offset_g));
