@@ -354,7 +354,13 @@ impl ForceLoop {
                 None
             }
         };
-        let shaped_probe = self.slew.update(command_g);
+        // NOTE: the designed controller takes a rest unslewed and unloads the finger along its
+        // own ramp (`tracking`'s rest), which slows as the finger softens.
+        let shaped_probe = if self.tracking.is_some() && command_g <= 0.0 {
+            self.slew.update_from(0.0)
+        } else {
+            self.slew.update(command_g)
+        };
         let mut violent = matches!(reading, Err(GaugeFault::OutOfRange { .. }));
         if let (Some(now), Some(before)) = (sensed_g, self.last_reading_g) {
             let step_g = (now - before).abs();

@@ -794,6 +794,16 @@ impl Tracking {
                 return self.touch_down(command_g, sensed_g);
             }
         }
+        // NOTE: a rest unloads the finger down the touch-down's ramp reversed: the probe leaves
+        // the finger at the speed the force falls over the finger's stiffness, which at the
+        // lightest loads is the least; at the supervisor's 500 g/s the probe flew off (0.45 mm
+        // on a rig of stiffer beam, whose next 4 g touch-down took 0.43 s).
+        let rest = command_g <= 0.0 && contact_g > 0.0;
+        if rest && self.ramp_g > 0.0 {
+            let rate = TOUCH_RATE_G_PER_S + self.ramp_g / TOUCH_TAU_S;
+            self.ramp_g = (self.ramp_g - rate * self.config.dt_s).max(0.0);
+            command_g = self.ramp_g;
+        }
         // A ramp starts at a touch-down or as the command leaves rest, and runs until it
         // meets the command.
         self.ramping =
@@ -872,7 +882,7 @@ impl Tracking {
         // contact: the held friction and the integral have no finger to push against, and on a
         // heavy rig their sum (1.6 g against 1.1 g of stiction) threw the probe 9.5 mm off,
         // where the next touch-down took seconds to come back from.
-        let resting = command_g <= 0.0 && contact_g > 0.0 && self.x[0] < contact_g;
+        let resting = rest && self.x[0] < contact_g;
         let raw_without = feed_forward + kp * error_g + self.integral_g;
         let pushing_out = (raw_without >= c.drive_max_g && error_g > 0.0)
             || (raw_without <= c.drive_min_g && error_g < 0.0);
@@ -1307,10 +1317,12 @@ mod tests {
     #[test]
     fn a_rest_drives_nothing_once_the_reference_is_below_contact() {
         // A unit plant on a finger (contact at 0.4 g) whose friction takes 0.8 g: held at 8 g
-        // the held share and the integral carry it. Commanded to rest, the drive follows the
-        // reference down while it is above contact, then is exactly zero (the held share and
-        // the integral, −0.5 + 0.035 g here, would push a free probe away from the finger),
-        // and the integral keeps what it learned for the next landing.
+        // the held share and the integral carry it. Commanded to rest, the reference unloads
+        // down the touch-down's ramp reversed (dF/dt = −(50 g/s + F/0.1 s): from 8 g to 0.4 g
+        // in 0.1 s · ln(130/54) = 88 ms, by hand) and the drive follows it while it is above
+        // contact, then is exactly zero (the held share and the integral, −0.5 + 0.035 g
+        // here, would push a free probe away from the finger), and the integral keeps what it
+        // learned for the next landing.
         let cfg = TrackingConfig {
             held_friction_g: 0.5,
             contact_g: 0.4,
@@ -1325,9 +1337,12 @@ mod tests {
         }
         assert!(t.landed());
         assert!((drive - 8.8).abs() < 0.01, "{drive}");
-        let (mut drove, mut kept) = (0, None);
-        for k in 0..100 {
+        let (mut drove, mut kept, mut below_at) = (0, None, None);
+        for k in 0..200 {
             let above = t.x[0] >= 0.4;
+            if !above {
+                below_at.get_or_insert(k);
+            }
             drive = t.update(0.0, (drive + 0.8).max(0.0), true).force_g;
             drove += usize::from(above && drive != 0.0);
             if !above {
@@ -1337,8 +1352,13 @@ mod tests {
             }
         }
         assert!(
-            drove > 3 && kept.is_some_and(|i| i != 0.0),
+            drove > 80 && kept.is_some_and(|i| i != 0.0),
             "{drove} {kept:?}"
+        );
+        // Behind the ramp by the reference's lag (three 0.8 ms poles) and the ticks' steps.
+        assert!(
+            below_at.is_some_and(|k| (86..=95).contains(&k)),
+            "{below_at:?}"
         );
     }
 
