@@ -176,10 +176,12 @@ fn the_designed_feedback_keeps_its_margins_on_the_friction_free_plant() {
 /// above the light load's inertia–finger mode (docs/design.md, "Not yet"): the sine needs less
 /// drive than the stiction, and the figure follows the friction compensation's size, which
 /// the loop learns from sines slower than the mode (`tracking::FrictionAdapt`; the heavy rig's
-/// 25 Hz −8.3 → −0.5 dB) but not above it, where the memo rig's 40 Hz stays −2.4 dB short.
+/// 25 Hz −8.3 → −0.5 dB) but not above it, where the memo rig's 40 Hz stays −2.9 dB short
+/// (−2.4 before the feed-forward took the contact's stiffening in, which brought a 5 g sine
+/// there from +2…+3.4 dB to within ±1 dB: `LARGER_SINE_DB`; the sensitive gauge's rig −3.3).
 /// What the tests hold is that nothing over-drives the mode (+17 dB at 30 Hz on an unseen rig
 /// before the identification simulated the friction).
-const LIGHT_LOAD_DB: (f64, f64) = (-3.0, 1.25);
+const LIGHT_LOAD_DB: (f64, f64) = (-3.5, 1.25);
 
 #[test]
 fn the_friction_compensation_learns_a_stiction_it_was_not_told() {
@@ -198,6 +200,21 @@ fn the_friction_compensation_learns_a_stiction_it_was_not_told() {
             let label = format!("stiction ×{factor}, ");
             magnitude_db(&cfg, &label, (10.0, 2.0, hz), (-1.5, 1.5));
         }
+    }
+}
+
+/// The closed loop's bounds for a 5 g sine about 10 g, dB.
+const LARGER_SINE_DB: (f64, f64) = (-1.25, 1.25);
+
+#[test]
+fn a_larger_sine_at_a_light_load_takes_the_contacts_stiffening_in() {
+    // 5 g about 10 g on the memo's rig, to 40 Hz (above its 10 g mode, 35 Hz): the finger
+    // stiffens by a third over the swing, and the force's own rate takes drive there
+    // (dc₂/dF·F'², `tracking`'s feed-forward). Without that term the sine rang +2.5 dB at
+    // 40 Hz (measured with the term taken out); with it −0.92…+0.53 dB at 5–40 Hz.
+    let (designed, _) = designed();
+    for hz in [5.0, 20.0, 30.0, 40.0] {
+        magnitude_db(&designed, "5 g, ", (10.0, 5.0, hz), LARGER_SINE_DB);
     }
 }
 
