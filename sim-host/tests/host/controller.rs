@@ -307,29 +307,48 @@ fn the_designed_loop_is_flatter_and_lands_softer_than_a1() {
 /// hold was 1.6 g short 0.3 s after its command (a rig of seed 2028 of
 /// `scripts/random-applicators.py` like it, 0.45 mm off after 6 g, its 4 g 3.8 g short). Now
 /// every hold is within a gram of its command 0.3 s after it (measured: at most 0.40 g).
+/// And the rest ends when the gauge reads the finger unloaded: on a light motor with a stiff
+/// beam and a heavy tip (seed 2028's r7), the motor stuck at the end of the unloading ramp
+/// left the finger at 0.85 g through the rest, and the next 4 g touch-down landed 2.3 g over.
 #[test]
 fn a_rest_unloads_the_finger_so_the_next_touch_down_is_prompt() {
-    let mut cfg = rig();
-    let mut p = sim_host::applicator::ApplicatorParams::MEMO;
-    p.motor_inertia_kg_m2 *= 1.75;
-    p.beam_stiffness_n_per_m *= 1.75;
-    p.tip_mass_kg *= 0.6;
-    p.amplifier_pole_hz = 150.0;
-    p.static_friction_nm *= 1.4;
-    p.contact_loss_factor = 0.29;
-    p.gauge_g_per_v = 28.0;
-    p.gauge_noise_g = 0.28;
-    cfg.set_applicator(p);
-    cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
-    let low = ticks("low-force", &cfg);
-    let holds = metrics::hold_quality(&low, 0.3);
-    eprintln!("low-force, out of contact and worst error after 0.3 s: {holds:?}");
-    assert_eq!(holds.len(), 4, "{holds:?}");
-    for (level_g, lost, worst_g) in holds {
-        assert!(
-            lost == 0.0 && worst_g < 1.0,
-            "{level_g} g: {lost} {worst_g}"
-        );
+    let memo = sim_host::applicator::ApplicatorParams::MEMO;
+    let heavy_motor = sim_host::applicator::ApplicatorParams {
+        motor_inertia_kg_m2: memo.motor_inertia_kg_m2 * 1.75,
+        beam_stiffness_n_per_m: memo.beam_stiffness_n_per_m * 1.75,
+        tip_mass_kg: memo.tip_mass_kg * 0.6,
+        amplifier_pole_hz: 150.0,
+        static_friction_nm: memo.static_friction_nm * 1.4,
+        contact_loss_factor: 0.29,
+        gauge_g_per_v: 28.0,
+        gauge_noise_g: 0.28,
+        ..memo
+    };
+    let light_motor = sim_host::applicator::ApplicatorParams {
+        motor_inertia_kg_m2: 2.3964592e-5,
+        beam_stiffness_n_per_m: 2959.6,
+        tip_mass_kg: 0.0037219,
+        amplifier_pole_hz: 221.5,
+        static_friction_nm: 0.0013588,
+        contact_loss_factor: 0.42,
+        ..heavy_motor
+    };
+    for p in [heavy_motor, light_motor] {
+        let mut cfg = rig();
+        cfg.set_applicator(p);
+        cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
+        let low = ticks("low-force", &cfg);
+        let holds = metrics::hold_quality(&low, 0.3);
+        let landed = metrics::step_overshoots_g(&low);
+        eprintln!("low-force, holds after 0.3 s: {holds:?}; past each level: {landed:?}");
+        assert_eq!(holds.len(), 4, "{holds:?}");
+        for (level_g, lost, worst_g) in holds {
+            assert!(
+                lost == 0.0 && worst_g < 1.0,
+                "{level_g} g: {lost} {worst_g}"
+            );
+        }
+        assert!(landed.iter().all(|(_, o)| *o <= 1.0), "{landed:?}");
     }
 }
 
