@@ -1104,6 +1104,12 @@ mod tests {
         assert_eq!(cfg.series_at(0.0), ([1.0, 2.0, 3.0, 4.0], 0.0));
         assert_eq!(cfg.series_at(30.0), ([1.5, 3.0, 4.5, 6.0], 0.75));
         assert_eq!(cfg.series_at(90.0), ([2.0, 4.0, 6.0, 8.0], 1.0));
+        // c₂'s slope, by hand: the line's 3/40 s²/g where both ends of the difference
+        // (a quarter of the load either side) are on it; none where both are held; at 60 g
+        // from 45 g (3 + 35/40·3) to 75 g (held at 6): 0.375/30.
+        for (load_g, slope) in [(30.0, 0.075), (8.0, 0.0), (60.0, 0.0125), (100.0, 0.0)] {
+            assert!((cfg.c2_slope_at(load_g) - slope).abs() < 1e-6, "{load_g}");
+        }
     }
 
     #[test]
