@@ -886,14 +886,8 @@ impl Tracking {
         // NOTE: the contact stiffens with load, so the force's rate itself takes drive: a mass
         // on a spring F(x) needs m·ẍ = m·(F''/k − k'·F'²/k²), whose second part is
         // dc₂/dF·F'² (c₂ = m/k). Without it a 6 g sine about 10 g at 40 Hz rang +2…+3 dB on
-        // every rig (its force's rate 1.5 kg/s). Not on the way to a rest: there the pull at
-        // the lightest loads, where c₂ changes fastest, threw a probe 0.43 mm off the finger
-        // (2026's r3, its next 2 g touch-down late).
-        let stiffening = if rest {
-            0.0
-        } else {
-            c.c2_slope_at(self.x[0]) * self.x[1] * self.x[1]
-        };
+        // every rig (its force's rate 1.5 kg/s).
+        let stiffening = c.c2_slope_at(self.x[0]) * self.x[1] * self.x[1];
         let feed_forward = k[0] * self.x[0]
             + k[1] * self.x[1]
             + k[2] * self.x[2]
