@@ -256,7 +256,7 @@ impl ForceLoop {
     }
 
     /// The chirp added to the drive after the filter from the next tick on (`None`: none; a
-    /// value that is not finite counts as 0). The safe output stays at zero. While a drive is added
+    /// sample that is not finite adds 0). The safe output stays at zero. While a chirp is added
     /// A1 runs without its feedback (its command alone holds the probe on the finger): at
     /// K_e = 0.07 its loop has a gain margin of 2.6 at 100 g and amplified the chirp at the
     /// plant's mode. On the heavy rig (mode 40 Hz at 100 g) a 5 g chirp swung the gauge from
@@ -274,9 +274,10 @@ impl ForceLoop {
     /// the stiction (the fits missed by 30–45 % RMS and the design had one load). So the loop
     /// guards it: a reading that jumps by [`EXCITATION_GUARD_SHARE`] of the slew limit, or
     /// comes [`EXCITATION_RANGE_SHARE`] of the way to the gauge's range (a 7 g/V gauge reads
-    /// −15 to 67.5 g, and a chirp that rang the beam ±27 g about 10 g left it), halves the share of the rise it keeps
-    /// ([`ChirpSample::drive_g`]), at most once every [`EXCITATION_GUARD_TICKS`]; the flat part,
-    /// which moves the motor past its stiction, stays whole. A new chirp starts with the whole
+    /// −15 to 67.5 g, and a chirp that rang the beam ±27 g about 10 g left it), halves the
+    /// share of the rise it keeps ([`ChirpSample::drive_g`]), at most once every
+    /// [`EXCITATION_GUARD_TICKS`]; the flat part, which moves the motor past its stiction,
+    /// stays whole. A new chirp starts with the whole
     /// rise. The ringing comes at the top of the sweep, in the first period, which the
     /// identification leaves out.
     pub fn set_drive_excitation(&mut self, chirp: Option<ChirpSample>) {

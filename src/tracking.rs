@@ -59,7 +59,7 @@ pub const TRACKING_POINTS: usize = 9;
 pub const FRICTION_RATE_G_PER_S: f32 = 20.0;
 /// Ticks of reference kept for the feedback's comparison.
 const HISTORY: usize = 8;
-/// The friction compensation's adaptation (see [`FrictionAdapt`]): the share of each
+/// The friction compensation's adaptation (see `FrictionAdapt`): the share of each
 /// reversal's measured shortfall taken, the most one reversal may move it (a share of the
 /// identified stiction), and its range (shares of the identified stiction).
 pub const ADAPT_GAIN: f32 = 0.3;
@@ -911,10 +911,11 @@ impl Tracking {
             b1 * x - a1 * error_g + self.filter_state[1],
             b2 * x - a2 * error_g,
         ];
-        // NOTE: a rest (a command at or below zero) drives nothing once the reference is below
-        // contact: the held friction and the integral have no finger to push against, and on a
-        // heavy rig their sum (1.6 g against 1.1 g of stiction) threw the probe 9.5 mm off,
-        // where the next touch-down took seconds to come back from.
+        // NOTE: a rest (a command at or below zero) drives nothing once the reference is under
+        // a tenth of contact and the gauge reads the finger unloaded: the held friction and the
+        // integral have no finger to push against, and on a heavy rig their sum (1.6 g against
+        // 1.1 g of stiction) threw the probe 9.5 mm off, where the next touch-down took seconds
+        // to come back from.
         let resting = rest && self.x[0] < REST_SHARE * contact_g && unloaded;
         let raw_without = feed_forward + kp * error_g + self.integral_g;
         let pushing_out = (raw_without >= c.drive_max_g && error_g > 0.0)

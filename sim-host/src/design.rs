@@ -41,12 +41,6 @@ pub use tactile_core::profile::DESIGN_PRELOADS_G as DESIGN_LOADS_G;
 /// (seeds 1–4) but slowed the heavy rig's 20 g step to 44 ms (1.6 g over) and the light rig's
 /// to 41 ms: not kept.
 pub const EXTRAPOLATED_LOADS_G: [f32; 3] = [1.0, 2.0, 5.0];
-/// The heaviest preload identified, as a share of the gauge's top reading: the chirp needs room
-/// above its hold. A gauge twice as sensitive as the memo's reads up to 67.5 g, and the 75 g
-/// preload's hold put it at its rail before the chirp began (the design refused the rig); the
-/// loads above are extrapolated from the heaviest identified, as the gauge's range bounds the
-/// loop's anyway.
-pub const PRELOAD_GAUGE_SHARE: f32 = 0.9;
 /// Least gain margin of the designed loop on every identified model and its [`variants`].
 pub const GAIN_MARGIN: f64 = 2.0;
 /// Least phase margin there, degrees.
@@ -225,12 +219,15 @@ pub struct Excited {
     pub hold: crate::identify::Hold,
 }
 
-/// Runs the excitation at each of [`DESIGN_LOADS_G`] the gauge's range leaves room for
-/// ([`PRELOAD_GAUGE_SHARE`]) on a rig built from `config` (the loop that holds the preload is
-/// the one `config` has) and identifies the applicator from them ([`identified_from`]); a
-/// preload whose excitation cannot be identified, even with its chirp halved, is left out.
+/// Runs the excitation at each of [`DESIGN_LOADS_G`] the loop takes as a command (within
+/// `supervisor::GAUGE_COMMAND_SHARE` of the gauge's top reading: a gauge twice as sensitive as
+/// the memo's reads up to 67.5 g, and the 75 g preload's hold put it at its rail before the
+/// chirp began, which refused the design; the loads above are extrapolated from the heaviest
+/// identified) on a rig built from `config` (the loop that holds the preload is the one
+/// `config` has) and identifies the applicator from them ([`identified_from`]); a preload
+/// whose excitation cannot be identified, even with its chirp halved, is left out.
 pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
-    let top_g = PRELOAD_GAUGE_SHARE * config.firmware.gauge.force_max_g;
+    let top_g = tactile_core::supervisor::GAUGE_COMMAND_SHARE * config.firmware.gauge.force_max_g;
     let runs: Vec<Result<Excited, DesignError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = DESIGN_LOADS_G
             .iter()
