@@ -355,10 +355,18 @@ impl ForceLoop {
                 None
             }
         };
-        // NOTE: the designed controller takes a rest unslewed and unloads the finger along its
-        // own ramp (`tracking`'s rest), which slows as the finger softens.
-        let shaped_probe = if self.tracking.is_some() && command_g <= 0.0 {
-            self.slew.update_from(0.0)
+        // NOTE: the designed controller takes a rest and a touch-down unslewed: it unloads the
+        // finger along its own ramp (`tracking`'s rest), which slows as the finger softens, and
+        // loads it along another from where it landed. Slewed, a command that started under
+        // the force a probe landed at (pressed 0.5 g through a rest on a 28 g/V rig, the first
+        // slewed step 0.5 g) ended that ramp at once, and the reference took the slew's 500 g/s
+        // from rest: a 25 g drive spike, 2 g landed at 3.4 g.
+        let own_ramp = self
+            .tracking
+            .as_ref()
+            .is_some_and(|t| command_g <= 0.0 || t.touching_down());
+        let shaped_probe = if own_ramp {
+            self.slew.update_from(command_g)
         } else {
             self.slew.update(command_g)
         };
@@ -742,5 +750,39 @@ mod tests {
         assert_eq!(l.rise_share(), 1.0, "within 70 % of the way to the edge");
         l.tick(30.0, Ok(-12.1), false);
         assert_eq!(l.rise_share(), 0.5);
+    }
+    /// The designed controller loads the finger from where it lands along its own ramp, not
+    /// the slew's 500 g/s. A unit plant (drive = force) on a finger a stuck motor presses at
+    /// 0.6 g through a rest; commanded 2 g, the loop lands at once (a cycle's mean reading past
+    /// half of contact) and ramps from 0.6 g as F ← 1.01·F + 0.05 g a tick (50 g/s + F/0.1 s),
+    /// 5.6·1.01ⁿ − 5 g: 1.19 g at tick 10 and 2 g at tick 22 (by hand), the reference three
+    /// 0.8 ms poles behind. Slewed, the first command (0.5 g) was under the landing force, the
+    /// ramp ended at once and the drive was at 2 g by tick 10.
+    #[test]
+    fn a_touch_down_on_a_pressed_finger_ramps_from_where_it_landed() {
+        let mut l = ForceLoop::new(ForceLoopConfig {
+            tracking: Some(TrackingConfig {
+                contact_g: 0.4,
+                ..TrackingConfig::UNIT_PLANT
+            }),
+            ..memo_loop().config
+        })
+        .unwrap();
+        for _ in 0..40 {
+            let out = l.tick(0.0, Ok(0.6), false);
+            assert_eq!(out.adjusted_g, 0.0);
+        }
+        let mut reading_g = 0.6f32;
+        let drives: Vec<f32> = (0..60)
+            .map(|_| {
+                let out = l.tick(2.0, Ok(reading_g), false);
+                assert!(!out.faults.contains(FaultFlags::LATCHED), "{out:?}");
+                reading_g = out.adjusted_g.max(0.6);
+                out.adjusted_g
+            })
+            .collect();
+        assert!((0.9..1.2).contains(&drives[10]), "{drives:?}");
+        assert!(drives.iter().all(|d| *d < 2.02), "{drives:?}");
+        assert!((drives[40] - 2.0).abs() < 0.02, "{drives:?}");
     }
 }
