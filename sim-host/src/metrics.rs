@@ -1,6 +1,7 @@
 //! The numbers each experiment is judged by, computed from a run.
 
 use crate::rig::TickRecord;
+use tactile_core::telemetry::FaultFlags;
 
 /// One commanded level of a step protocol.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -8,6 +9,8 @@ pub struct Segment {
     pub start: usize,
     pub end: usize,
     pub command_g: f32,
+    /// The loop clamped the command (past its gauge's range): the level is not one it takes.
+    pub clamped: bool,
 }
 
 /// Splits a run into runs of constant command.
@@ -20,6 +23,9 @@ pub fn segments(ticks: &[TickRecord]) -> Vec<Segment> {
                 start,
                 end: i,
                 command_g: ticks[start].command_g,
+                clamped: ticks[start..i]
+                    .iter()
+                    .any(|r| r.faults.contains(FaultFlags::COMMAND_CLAMPED)),
             });
             start = i;
         }
@@ -41,12 +47,12 @@ pub fn settling_time_s(ticks: &[TickRecord], seg: &Segment, band_g: f32) -> Opti
     }
 }
 
-/// Each non-zero step of a step protocol, in order: its level and its settling time into
-/// ±1 g (`None`: it never settled).
+/// Each non-zero step of a step protocol the loop takes (not one it clamped), in order: its
+/// level and its settling time into ±1 g (`None`: it never settled).
 pub fn step_settling_s(ticks: &[TickRecord]) -> Vec<(f32, Option<f64>)> {
     segments(ticks)
         .iter()
-        .filter(|s| s.command_g > 0.0)
+        .filter(|s| s.command_g > 0.0 && !s.clamped)
         .map(|s| (s.command_g, settling_time_s(ticks, s, 1.0)))
         .collect()
 }
@@ -72,11 +78,13 @@ pub fn worst_step_settling_s(ticks: &[TickRecord]) -> Option<f64> {
     Some(worst)
 }
 
-/// For each step of a step protocol (a segment after another): its level and how far the
-/// true force went past it in the step's direction, g (0 if it never did).
+/// For each step of a step protocol (a segment after another) the loop takes (not one it
+/// clamped): its level and how far the true force went past it in the step's direction, g (0
+/// if it never did).
 pub fn step_overshoots_g(ticks: &[TickRecord]) -> Vec<(f32, f32)> {
     let segs = segments(ticks);
     segs.windows(2)
+        .filter(|w| !w[1].clamped)
         .map(|w| {
             let (before, s) = (w[0], w[1]);
             let up = s.command_g >= before.command_g;
@@ -249,7 +257,6 @@ pub fn closed_loop_gain(
     let w = 2.0 * core::f64::consts::PI * hz;
     let ramp = 1000;
     let stopped = |r: &TickRecord| {
-        use tactile_core::telemetry::FaultFlags;
         if r.faults.intersects(FaultFlags::DRIVE_HELD_AT_ZERO) {
             Some(GainError::Stopped {
                 t_s: r.t_s,

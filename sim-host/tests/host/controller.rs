@@ -608,6 +608,28 @@ fn a_gauge_twice_as_sensitive_is_identified_within_its_range() {
     assert!((at_100.true_force_g - top_g).abs() < 1.0, "{at_100:?}");
     let at_20 = steps.iter().find(|t| (9.4..9.5).contains(&t.t_s)).unwrap();
     assert!((at_20.true_force_g - 20.0).abs() < 1.0, "{at_20:?}");
+    // The step figures judge the steps the loop takes: 10–60 g up and 60–10 g down, not the
+    // clamped ones (judged against 70–100 g they read 29 g of "overshoot" and never settled).
+    let settled = metrics::step_settling_s(&steps);
+    let levels: Vec<f32> = settled.iter().map(|(l, _)| *l).collect();
+    assert_eq!(
+        levels,
+        [10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 60.0, 50.0, 40.0, 30.0, 20.0, 10.0]
+    );
+    assert!(
+        settled
+            .iter()
+            .skip(1)
+            .all(|(_, t)| t.is_some_and(|t| t < 0.03)),
+        "{settled:?}"
+    );
+    assert!(
+        metrics::step_overshoots_g(&steps)
+            .iter()
+            .all(|(_, o)| *o <= 1.0),
+        "{:?}",
+        metrics::step_overshoots_g(&steps)
+    );
     for (offset_g, amplitude_g) in [(10.0, 2.0), (50.0, 10.0)] {
         for hz in [5.0, 20.0, 30.0, 40.0] {
             magnitude_db(&cfg, "", (offset_g, amplitude_g, hz), flat_db(offset_g));
