@@ -117,11 +117,16 @@ pub fn follow<'t>(
     Ok(live.finish())
 }
 
+/// How long the board must have sent nothing before [`drive`] ends a session (a run streams
+/// a control frame every millisecond; the frames of its last scan follow its end).
+pub const QUIET: std::time::Duration = std::time::Duration::from_millis(100);
+
 /// How [`drive`] ends a live board's session.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Until {
-    /// Once every command is answered and no run is in progress, this long after the last
-    /// command was sent (the length of what it asked for).
+    /// Once every command is answered, no run is in progress and nothing has arrived for
+    /// [`QUIET`], this long after the last command was sent (the length of what it asked
+    /// for).
     pub settle: std::time::Duration,
     /// At the latest this long after the last command was sent: the session as it is if
     /// every command was answered (a run still going is cut off), else an error (a board
@@ -144,6 +149,7 @@ pub fn drive<'t>(
     let start = Instant::now();
     let mut next = 0;
     let mut last_sent = start;
+    let mut last_heard = start;
     loop {
         while let Some((tick, bytes)) = script.get(next) {
             if start.elapsed() < Duration::from_millis(u64::from(*tick)) {
@@ -156,6 +162,7 @@ pub fn drive<'t>(
         match transport.receive().map_err(|e| e.to_string())? {
             Some(bytes) if !bytes.is_empty() => {
                 live.push(&bytes).map_err(|e| e.to_string())?;
+                last_heard = Instant::now();
                 progress(&live);
             }
             Some(_) => {}
@@ -166,7 +173,10 @@ pub fn drive<'t>(
         }
         let answered = live.session.replies.len() >= commands;
         let since = last_sent.elapsed();
-        if answered && !live.running() && since >= until.settle {
+        // NOTE: not while bytes still arrive: the frames of a run's last scan follow its end,
+        // and a session replayed faster than the settle on a loaded machine ended at the
+        // run's end without them.
+        if answered && !live.running() && since >= until.settle && last_heard.elapsed() >= QUIET {
             break;
         }
         if since >= until.timeout {

@@ -1052,8 +1052,9 @@ fn the_board_session_decodes_live_as_in_batch() {
             let piece = self.bytes[self.at..end].to_vec();
             self.at = end;
             // Once its bytes are out, silence (not an end), as a board between runs. Until
-            // then no wait: all of it arrives well within the settling time however loaded
-            // the machine (the scan's frames after the run's end belong to the run).
+            // then no wait: the session ends only once nothing has arrived for a while (the
+            // scan's frames after the run's end belong to the run; on a loaded machine their
+            // decoding came after the settling time).
             if piece.is_empty() {
                 std::thread::sleep(std::time::Duration::from_millis(1));
             }
