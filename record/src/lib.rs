@@ -489,6 +489,7 @@ mod tests {
                 .contains("names this column twice (cells 2 and 4)"),
             "{e}"
         );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// The refusal of `text` (a record read instead is not printed: it can be long).

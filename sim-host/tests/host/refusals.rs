@@ -7,9 +7,10 @@ use std::path::{Path, PathBuf};
 use tactile_core::calibration::{CalibrationTable, TaxelModel};
 use tactile_core::tactile::TaxelId;
 
-/// A fresh path in the temporary directory (tests run in parallel).
+/// A fresh path in Cargo's scratch folder for tests, under `target/` (tests run in parallel).
 fn temp(name: &str) -> PathBuf {
-    std::env::temp_dir().join(format!("refusals_{}_{name}", std::process::id()))
+    std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("refusals_{}_{name}", std::process::id()))
 }
 
 /// A record `t_s,force_g,strain_pct` of `n` samples every `dt_s`, from `f(t)` = (force, strain).
