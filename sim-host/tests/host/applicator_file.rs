@@ -40,8 +40,7 @@ fn every_file_in_the_folder_is_a_rig() {
 }
 
 fn refused(text: &str) -> String {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("applicator-{}", std::process::id()));
+    let dir = crate::common::scratch("applicator");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("rig.toml");
     std::fs::write(&path, text).unwrap();
@@ -94,8 +93,7 @@ fn a_bad_file_is_refused_with_where_and_why() {
 
 #[test]
 fn tactile_applicator_writes_the_firmwares_form_or_refuses_with_the_reason() {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("applicator-cli-{}", std::process::id()));
+    let dir = crate::common::scratch("applicator-cli");
     std::fs::create_dir_all(&dir).unwrap();
     let tactile = env!("CARGO_BIN_EXE_tactile");
     let out = dir.join("memo.bin");
@@ -202,8 +200,7 @@ fn the_gauge_reads_at_the_files_scale_with_the_files_noise() {
 /// run says nothing of it.
 #[test]
 fn an_experiment_whose_supervisor_stopped_the_drive_says_so() {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("latched-{}", std::process::id()));
+    let dir = crate::common::scratch("latched");
     let run = |extra: &[&str]| {
         let args = [
             "experiment",

@@ -16,3 +16,9 @@ pub fn tactile<S: AsRef<OsStr>>(
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
 }
+
+/// A path for a test's scratch file or folder `name`, under Cargo's scratch folder for tests
+/// in `target/` (named for this process: test binaries may run side by side).
+pub fn scratch(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{}-{name}", std::process::id()))
+}

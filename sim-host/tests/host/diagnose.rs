@@ -29,9 +29,8 @@ fn bench_record(effects: &[&str], seed: u64) -> sim_host::record::Record {
     // Unique per call: tests run in parallel and may ask for the same record.
     static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!(
-        "diagnose_test_{}_{call}_{seed}_{}.csv",
-        std::process::id(),
+    let path = crate::common::scratch(&format!(
+        "diagnose_test_{call}_{seed}_{}.csv",
         effects.join("_").replace(['=', '@', '.'], "-")
     ));
     write_record(
@@ -184,8 +183,7 @@ fn a_clipped_record_is_judged_on_what_it_saw() {
     };
     apply_effect(&mut config.effects, "stiffening=0").unwrap();
     let run_ = run_named("step-loads", &ScenarioOptions::default(), config, |_| {}).unwrap();
-    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("diagnose_test_clipped_step_loads.csv");
+    let path = crate::common::scratch("diagnose_test_clipped_step_loads.csv");
     write_record(
         &path,
         &[("sample_rate_hz".into(), "200".into())],

@@ -219,8 +219,7 @@ fn a_record_of_the_excitation_identifies_as_its_ticks_do() {
     let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();
     let from_ticks =
         fit_model(&frequency_response(&run.ticks, protocol, &actuator).unwrap()).unwrap();
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("identify-{}", std::process::id()));
+    let dir = crate::common::scratch("identify");
     std::fs::create_dir_all(&dir).unwrap();
     let read = |every: usize| {
         let path = dir.join(format!("excitation-{every}.csv"));
@@ -260,8 +259,7 @@ fn the_design_reads_excitation_records_and_refuses_others() {
     };
     let protocol = Protocol::design_excitation(50.0);
     let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).unwrap();
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("design-records-{}", std::process::id()));
+    let dir = crate::common::scratch("design-records");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("excitation-50g.csv");
     tactile_record::write_record(&path, &[], &run.ticks, 1).unwrap();
@@ -382,8 +380,7 @@ fn tactile_identify_fits_the_friction_and_its_stiction_from_one_record() {
     // read the sticking as damping. Measured: stiction 1.91 g (the hold's drive less its gauge
     // 2.10 g), gain 0.97, ζ 0.08 (linearized 0.08), 30 % RMS; the plain ratio ζ 0.15. The
     // stick-slip is sensitive: the file's stiction 0.04 % higher read 2.31 g at 13 % RMS.
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("tactile-identify-{}", std::process::id()));
+    let dir = crate::common::scratch("tactile-identify");
     std::fs::create_dir_all(&dir).unwrap();
     let memo = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../applicators/memo.toml"),
@@ -471,8 +468,7 @@ fn the_design_from_records_leaves_out_a_preload_it_cannot_use() {
         scan_array: false,
         ..Default::default()
     };
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("design-left-out-{}", std::process::id()));
+    let dir = crate::common::scratch("design-left-out");
     std::fs::create_dir_all(&dir).unwrap();
     let record = |load_g: f32, amplitude_g: Option<f32>| {
         let mut protocol = Protocol::design_excitation(load_g);

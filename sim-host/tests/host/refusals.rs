@@ -7,10 +7,9 @@ use std::path::{Path, PathBuf};
 use tactile_core::calibration::{CalibrationTable, TaxelModel};
 use tactile_core::tactile::TaxelId;
 
-/// A fresh path in Cargo's scratch folder for tests, under `target/` (tests run in parallel).
+/// A fresh path for the refusals' files (tests run in parallel).
 fn temp(name: &str) -> PathBuf {
-    std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("refusals_{}_{name}", std::process::id()))
+    crate::common::scratch(&format!("refusals_{name}"))
 }
 
 /// A record `t_s,force_g,strain_pct` of `n` samples every `dt_s`, from `f(t)` = (force, strain).
