@@ -14,7 +14,7 @@ pub const MAX_STRAIN_PCT: f64 = 1e5;
 /// Why a record cannot be identified. Each says what was found, so the user can mend the file.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum Refusal {
-    #[error("the sample period is {dt_s} s: it must be a positive number of seconds")]
+    #[error("the sample period is {dt_s} s: a tactile record is sampled between 1 Hz and 1 MHz (is t_s in seconds?)")]
     BadPeriod { dt_s: f64 },
     #[error("the force and strain columns differ in length ({force} and {strain} samples)")]
     Lengths { force: usize, strain: usize },
@@ -74,6 +74,19 @@ pub fn check_scale(force_g: &[f64], strain_pct: &[f64]) -> Result<(), Refusal> {
     Ok(())
 }
 
+/// The sample periods a record of a tactile sensor can have, s: 1 MHz to 1 Hz. Outside, the
+/// time column is not in seconds (milliseconds read as seconds put a 1 kHz record at 1 Hz).
+pub const PERIOD_RANGE_S: (f64, f64) = (1e-6, 1.0);
+
+/// Refuses a sample period outside [`PERIOD_RANGE_S`].
+pub fn check_period(dt_s: f64) -> Result<(), Refusal> {
+    if (PERIOD_RANGE_S.0..=PERIOD_RANGE_S.1).contains(&dt_s) {
+        Ok(())
+    } else {
+        Err(Refusal::BadPeriod { dt_s })
+    }
+}
+
 /// A checked record: evenly sampled force (g) and strain (%), with the samples to leave out of
 /// every fit and score (the strain at its converter's rail).
 #[derive(Clone, Debug)]
@@ -92,9 +105,7 @@ impl Series {
         strain_pct: Vec<f64>,
         excluded: Vec<bool>,
     ) -> Result<Series, Refusal> {
-        if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(Refusal::BadPeriod { dt_s });
-        }
+        check_period(dt_s)?;
         if force_g.len() != strain_pct.len() {
             return Err(Refusal::Lengths {
                 force: force_g.len(),

@@ -730,11 +730,11 @@ fn secant_factor(static_pct: f64, intercept_pct: f64) -> f64 {
     }
 }
 
-/// Writes `table` to `path` as the firmware reads it; returns its length in bytes.
-pub fn write_table(
+/// `table`'s bytes as the firmware reads them (`path` names the file in an error).
+pub fn encode_table(
     path: &std::path::Path,
     table: &CalibrationTable,
-) -> Result<usize, crate::Error> {
+) -> Result<Vec<u8>, crate::Error> {
     let mut bytes = vec![0u8; table.encoded_len()];
     let n = table
         .encode(&mut bytes)
@@ -742,11 +742,8 @@ pub fn write_table(
             path: path.to_path_buf(),
             source,
         })?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(crate::Error::io(dir))?;
-    }
-    std::fs::write(path, &bytes[..n]).map_err(crate::Error::io(path))?;
-    Ok(n)
+    bytes.truncate(n);
+    Ok(bytes)
 }
 
 /// The calibration protocol run on the simulator with the probe over `taxel` of the finger

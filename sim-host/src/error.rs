@@ -85,9 +85,3 @@ pub fn read_applicator(
     params.validate().map_err(|e| fail(e.to_string()))?;
     Ok(params)
 }
-
-/// Writes `value` as pretty JSON to `path`.
-pub fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<(), Error> {
-    let text = serde_json::to_string_pretty(value).map_err(Error::json(path))?;
-    std::fs::write(path, text).map_err(Error::io(path))
-}

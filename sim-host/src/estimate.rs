@@ -9,6 +9,7 @@ use tactile_core::calibration::CalibrationTable;
 use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::tactile::TaxelId;
 
+use crate::output::Output;
 use crate::Error;
 
 /// The estimators by the names a user types.
@@ -67,6 +68,9 @@ pub fn run(
             file.display()
         ))
     })?;
+    tactile_ident::series::check_period(dt).map_err(|reason| {
+        Error::Failed(format!("{}: cannot be estimated: {reason}", file.display()))
+    })?;
     let bytes = std::fs::read(table).map_err(Error::io(table))?;
     let decoded = CalibrationTable::decode(&bytes).map_err(|source| Error::Table {
         path: table.to_path_buf(),
@@ -101,14 +105,7 @@ pub fn run(
         file.with_file_name(format!("{stem}_estimate.csv"))
     });
     // NOTE: the estimates written over the record would replace it, its other columns lost.
-    let same = |a: &Path, b: &Path| matches!((std::fs::canonicalize(a), std::fs::canonicalize(b)), (Ok(x), Ok(y)) if x == y);
-    if same(&out_path, file) {
-        return Err(Error::Usage(format!(
-            "--out {}: that is the record being read; write the estimates elsewhere",
-            out_path.display()
-        )));
-    }
-    let f = std::fs::File::create(&out_path).map_err(Error::io(&out_path))?;
+    let f = Output::claim(&out_path, &[file, table])?.into_file()?;
     let mut w = std::io::BufWriter::new(f);
     let io = |e: std::io::Error| Error::Io {
         path: out_path.clone(),

@@ -18,6 +18,7 @@ pub mod fit;
 pub mod fuzz;
 pub mod identify;
 pub mod metrics;
+pub mod output;
 pub mod plot;
 pub mod probe;
 pub mod report;

@@ -20,8 +20,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use sim_host::cli;
-use sim_host::error::write_json;
 use sim_host::fit::Base;
+use sim_host::output::Output;
 use sim_host::rig::RigConfig;
 use sim_host::scenario::{Scenario, ScenarioOptions};
 use sim_host::Error;
@@ -310,19 +310,25 @@ fn read_firmware_figures(dir: &Path) -> Result<sim_host::record::FirmwareFigures
     serde_json::from_str(&text).map_err(Error::json(&path))
 }
 
-/// Prints a Markdown report and writes it, with its data as JSON, as `out/NAME.{md,json}`.
+/// `out/NAME.md` and `out/NAME.json`, claimed before the work.
+fn claim_report(out: &Path, name: &str) -> Result<(Output, Output), Error> {
+    Ok((
+        Output::claim(&out.join(format!("{name}.md")), &[])?,
+        Output::claim(&out.join(format!("{name}.json")), &[])?,
+    ))
+}
+
+/// Prints a Markdown report and writes it, with its data as JSON, to the claimed files.
 fn print_and_write(
-    out: &Path,
-    name: &str,
+    (md, json): (Output, Output),
     text: &str,
     data: &impl serde::Serialize,
 ) -> Result<(), Error> {
     out!("{text}");
-    let md = out.join(format!("{name}.md"));
-    std::fs::create_dir_all(out).map_err(Error::io(out))?;
-    std::fs::write(&md, text).map_err(Error::io(&md))?;
-    write_json(&out.join(format!("{name}.json")), data)?;
-    outln!("wrote {}", md.display());
+    let shown = md.path().display().to_string();
+    md.write(text)?;
+    json.write_json(data)?;
+    outln!("wrote {shown}");
     Ok(())
 }
 
@@ -415,7 +421,7 @@ fn run(command: Command) -> Result<(), Error> {
         Command::Applicator { file, out } => {
             let params = sim_host::error::read_applicator(&file)?;
             let bytes = params.encode();
-            std::fs::write(&out, bytes).map_err(Error::io(&out))?;
+            Output::claim(&out, &[&file])?.write(bytes)?;
             outln!(
                 "{}: checked; wrote {} ({} bytes)",
                 file.display(),
@@ -424,6 +430,7 @@ fn run(command: Command) -> Result<(), Error> {
             );
         }
         Command::Identify { file, json } => {
+            let json = Output::claim_some(json.as_deref(), &[&file])?;
             let rec = tactile_record::read_record(&file)?;
             let failed = |e: sim_host::identify::IdentifyError| {
                 Error::Failed(format!("{}: {e}", file.display()))
@@ -462,7 +469,8 @@ fn run(command: Command) -> Result<(), Error> {
             if let Some(why) = sim_host::design::implausible(&model) {
                 outln!("  not an applicator's model: {why} (the design leaves such a preload out)");
             }
-            if let Some(path) = json {
+            if let Some(json) = json {
+                let shown = json.path().display().to_string();
                 #[derive(serde::Serialize)]
                 struct Out<'a> {
                     model: &'a sim_host::identify::ApplicatorModel,
@@ -471,16 +479,13 @@ fn run(command: Command) -> Result<(), Error> {
                     plain_model: &'a sim_host::identify::ApplicatorModel,
                     response: &'a [sim_host::identify::ResponsePoint],
                 }
-                sim_host::error::write_json(
-                    &path,
-                    &Out {
-                        model: &model,
-                        stiction_g,
-                        plain_model: &plain,
-                        response: &response,
-                    },
-                )?;
-                outln!("  wrote {}", path.display());
+                json.write_json(&Out {
+                    model: &model,
+                    stiction_g,
+                    plain_model: &plain,
+                    response: &response,
+                })?;
+                outln!("  wrote {shown}");
             }
         }
         Command::Design {
@@ -489,6 +494,13 @@ fn run(command: Command) -> Result<(), Error> {
             json,
             table,
         } => {
+            let inputs: Vec<&Path> = records
+                .iter()
+                .map(PathBuf::as_path)
+                .chain(applicator.as_deref())
+                .collect();
+            let json = Output::claim_some(json.as_deref(), &inputs)?;
+            let table = Output::claim_some(table.as_deref(), &inputs)?;
             let mut config = sim_host::rig::RigConfig {
                 scan_array: false,
                 ..Default::default()
@@ -564,23 +576,23 @@ fn run(command: Command) -> Result<(), Error> {
                 tactile_core::tracking::TOUCH_RATE_G_PER_S,
                 tactile_core::tracking::TOUCH_TAU_S
             );
-            if let Some(path) = json {
-                sim_host::error::write_json(&path, &r)?;
-                outln!("wrote {}", path.display());
+            if let Some(json) = json {
+                let shown = json.path().display().to_string();
+                json.write_json(&r)?;
+                outln!("wrote {shown}");
             }
-            if let Some(path) = table {
+            if let Some(table) = table {
                 let bytes = d
                     .config
                     .encode()
                     .map_err(|e| Error::Failed(format!("the designed controller: {e}")))?;
-                if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                    std::fs::create_dir_all(dir).map_err(sim_host::error::Error::io(dir))?;
-                }
-                std::fs::write(&path, bytes).map_err(sim_host::error::Error::io(&path))?;
-                outln!("wrote {} ({} bytes)", path.display(), bytes.len());
+                let shown = table.path().display().to_string();
+                table.write(bytes)?;
+                outln!("wrote {shown} ({} bytes)", bytes.len());
             }
         }
         Command::Fit { file, model, json } => {
+            let json = Output::claim_some(json.as_deref(), &[&file])?;
             let series = read_series(&file)?;
             let start = std::time::Instant::now();
             let fit = sim_host::fit::fit(&sim_host::fit::ModelSpec::new(model), &series, &[])
@@ -597,8 +609,8 @@ fn run(command: Command) -> Result<(), Error> {
                 fit.evaluations,
                 start.elapsed().as_secs_f64()
             );
-            if let Some(path) = json {
-                write_json(&path, &fit)?;
+            if let Some(json) = json {
+                json.write_json(&fit)?;
             }
         }
         Command::Diagnose {
@@ -608,6 +620,11 @@ fn run(command: Command) -> Result<(), Error> {
             table,
             taxel,
         } => {
+            let json = Output::claim_some(json.as_deref(), &[&file])?;
+            let table = Output::claim_some(table.as_deref(), &[&file])?;
+            if let Some(dir) = &report {
+                std::fs::create_dir_all(dir).map_err(Error::io(dir))?;
+            }
             let record = sim_host::record::read_record(&file)?;
             let jitter = record.jitter();
             if jitter > 0.01 {
@@ -625,8 +642,8 @@ fn run(command: Command) -> Result<(), Error> {
             let d = sim_host::diagnose::diagnose(&series, taxel);
             out!("{}", d.diagnosis.summary);
             outln!("  ({:.2} s)", start.elapsed().as_secs_f64());
-            if let Some(path) = json {
-                write_json(&path, &d)?;
+            if let Some(json) = json {
+                json.write_json(&d)?;
             }
             // The report before the table: a table that cannot be written still leaves it.
             if let Some(dir) = report {
@@ -634,12 +651,13 @@ fn run(command: Command) -> Result<(), Error> {
                     .map_err(|e| Error::Failed(format!("report {}: {e}", dir.display())))?;
                 outln!("  report: {}", p.display());
             }
-            if let Some(path) = table {
+            if let Some(table) = table {
+                let path = table.path().to_path_buf();
                 // A script that asks for a table learns from the exit code that none was written.
                 let model = d.table_model.clone().ok_or_else(|| {
                     // NOTE: a file already at the path is left, and named: it is not this
                     // record's calibration.
-                    let older = if path.exists() {
+                    let older = if table.existed() {
                         "; the file already there is not this record's calibration"
                     } else {
                         ""
@@ -652,7 +670,7 @@ fn run(command: Command) -> Result<(), Error> {
                 })?;
                 let mut t = tactile_core::calibration::CalibrationTable::default();
                 let _ = t.taxels.push(model);
-                sim_host::calibrate::write_table(&path, &t)?;
+                table.write(sim_host::calibrate::encode_table(&path, &t)?)?;
                 outln!(
                     "  calibration table for taxel ({}, {}): {} (the firmware's format; {})",
                     taxel.row(),
@@ -721,8 +739,9 @@ fn run(command: Command) -> Result<(), Error> {
             out!("{text}");
         }
         Command::Tables { out, seed } => {
+            let files = claim_report(&out, "tables")?;
             let t = sim_host::tables::reproduce(seed)?;
-            print_and_write(&out, "tables", &sim_host::tables::render(&t), &t)?;
+            print_and_write(files, &sim_host::tables::render(&t), &t)?;
         }
         Command::Estimators {
             out,
@@ -731,6 +750,7 @@ fn run(command: Command) -> Result<(), Error> {
             qemu,
         } => {
             let firmware = qemu.map(|dir| read_firmware_figures(&dir)).transpose()?;
+            let files = claim_report(&out, "estimators")?;
             let t = sim_host::estimators::compare(seed, finger)?;
             let mut text = sim_host::estimators::render(&t);
             if let Some(f) = &firmware {
@@ -738,7 +758,7 @@ fn run(command: Command) -> Result<(), Error> {
                 text.push_str(&f.render());
             }
             let data = serde_json::json!({ "simulator": t, "firmware": firmware });
-            print_and_write(&out, "estimators", &text, &data)?;
+            print_and_write(files, &text, &data)?;
         }
         Command::Calibrate {
             records,

@@ -156,7 +156,7 @@ fn estimate_refuses_an_absurd_record_and_a_table_that_would_run_away() {
         arg(&good),
     ]);
     assert_eq!(code, Some(2), "{stderr}");
-    assert!(stderr.contains("that is the record being read"), "{stderr}");
+    assert!(stderr.contains("which this command reads"), "{stderr}");
     assert_eq!(std::fs::read(&good).unwrap(), before);
     // Finite but absurd (a strain of 10²⁰⁰ %): diagnose's plausibility check.
     let huge = record("huge2.csv", 2000, 0.01, |t| (1e200 * t.sin(), 1e200));
@@ -282,4 +282,95 @@ fn an_experiment_refuses_a_record_rate_the_loop_cannot_keep_and_a_run_too_short(
         stderr.contains("--duration 0.001: must be in [1, 3600] s"),
         "{stderr}"
     );
+}
+
+/// Every command that writes a file claims it before its work: a path it cannot write is said
+/// at once (nothing of the work printed), missing folders are made, and the file it claimed is
+/// not left behind when the run stops.
+#[test]
+fn a_path_that_cannot_be_written_is_refused_before_the_work() {
+    let rec = record("claims.csv", 2000, 0.01, |t| {
+        let f = 20.0 + 10.0 * (t).sin();
+        (f, f / 3.0)
+    });
+    let table = temp("claims-table.bin");
+    std::fs::write(&table, nominal_table()).unwrap();
+    // A file where a folder would have to be: nothing can be written under it.
+    let blocker = temp("claims-blocker");
+    std::fs::write(&blocker, b"a file, not a folder").unwrap();
+    let bad = blocker.join("out.bin");
+    let memo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../applicators/memo.toml");
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["fit", arg(&rec), "--json", arg(&bad)],
+        vec!["diagnose", arg(&rec), "--json", arg(&bad)],
+        vec!["diagnose", arg(&rec), "--table", arg(&bad)],
+        vec!["diagnose", arg(&rec), "--report", arg(&bad)],
+        vec!["identify", arg(&rec), "--json", arg(&bad)],
+        vec![
+            "estimate",
+            arg(&rec),
+            "--table",
+            arg(&table),
+            "--out",
+            arg(&bad),
+        ],
+        vec!["applicator", arg(&memo), "--out", arg(&bad)],
+        // The long ones: an identification and design, four taxels calibrated, the memo's
+        // tables and the estimators' comparison (minutes), had they not stopped first.
+        vec!["design", "--table", arg(&bad)],
+        vec!["calibrate", "--out", arg(&bad)],
+        vec!["tables", "--out", arg(&bad)],
+        vec!["estimators", "--out", arg(&bad)],
+    ];
+    for args in &commands {
+        let (code, stdout, stderr) = tactile(args);
+        assert_eq!(code, Some(1), "{args:?}: {stdout}{stderr}");
+        assert!(stdout.is_empty(), "{args:?} worked first: {stdout}");
+        assert!(
+            stderr.contains(&blocker.display().to_string()),
+            "{args:?}: {stderr}"
+        );
+    }
+    // Missing folders are made (fit's --json was written only where its folder was).
+    let deep = temp("claims-new").join("a/b/fit.json");
+    let (code, stdout, stderr) = tactile(["fit", arg(&rec), "--json", arg(&deep)]);
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert!(std::fs::read_to_string(&deep)
+        .unwrap()
+        .contains("\"theta\""));
+    // A run that stops after its claim leaves no file where there was none: the record is
+    // refused (the force does not vary) after the JSON's path was claimed.
+    let flat = record("claims-flat.csv", 2000, 0.01, |_| (5.0, 2.0));
+    let json = temp("claims-flat.json");
+    let (code, _, stderr) = tactile(["diagnose", arg(&flat), "--json", arg(&json)]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(!json.exists());
+}
+
+/// A time column in milliseconds (a 100 Hz record read as one sample every 10 s) is refused by
+/// `estimate` as by `diagnose`, with the reason, instead of estimated at 0.1 Hz.
+#[test]
+fn a_time_column_not_in_seconds_is_refused() {
+    let table = temp("ms-table.bin");
+    std::fs::write(&table, nominal_table()).unwrap();
+    let ms = record("ms.csv", 2000, 10.0, |t| {
+        let f = 20.0 + 10.0 * (t / 1000.0).sin();
+        (f, f / 3.0)
+    });
+    let out = temp("ms-estimate.csv");
+    let why = "the sample period is 10 s: a tactile record is sampled between 1 Hz and 1 MHz";
+    let (code, stdout, stderr) = tactile([
+        "estimate",
+        arg(&ms),
+        "--table",
+        arg(&table),
+        "--out",
+        arg(&out),
+    ]);
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(stderr.contains(why), "{stderr}");
+    assert!(!out.exists());
+    let (code, _, stderr) = tactile(["diagnose", arg(&ms)]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains(why), "{stderr}");
 }
