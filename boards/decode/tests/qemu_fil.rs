@@ -98,11 +98,12 @@ fn each_run(
     elf: &Path,
     dir: &Path,
     session: &str,
-    runs: usize,
+    runs: impl IntoIterator<Item = usize>,
     timeout: Duration,
 ) -> Vec<tactile_decode::Session> {
     std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..runs)
+        let handles: Vec<_> = runs
+            .into_iter()
             .map(|k| {
                 scope.spawn(move || {
                     let log = dir.join(format!("{session}-{k}.defmt"));
@@ -609,13 +610,13 @@ fn a_panic_and_a_hardfault_zero_the_actuator_before_reporting() {
 }
 
 /// Dynamic calibration end to end (issue 7): the firmware runs the calibration protocol with the
-/// probe over two taxels of the simulated finger (different parameters each), streams it over
-/// defmt; the host decodes the records, fits each taxel (`tactile calibrate`'s code) and
-/// writes the table; that table must match the host simulator's calibration of the same taxels
-/// (what the firmware build carries) and bring the observer under 0.2 g on every taxel, where
-/// the nominal models err by several grams. A third run calibrates a taxel of a finger whose
-/// springs stiffen by other laws (issue 15): its calibration must be the host's and meet the
-/// issue's 0.3 g there too.
+/// probe over a taxel of the simulated finger (parameters unlike the nominal models'), streams
+/// it over defmt; the host decodes the record, fits the taxel (`tactile calibrate`'s code) and
+/// writes the table; that table must match the host simulator's calibration of the same taxel (what the firmware build carries)
+/// and bring the observer under 0.2 g, where the nominal models err by several grams (another
+/// taxel of another finger, by command: `the_board_calibrates_a_taxel_by_command`). A second
+/// run calibrates a taxel of a finger whose springs stiffen by other laws (issue 15): its
+/// calibration must be the host's and meet the issue's 0.3 g there too.
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn calibration_on_the_firmware_end_to_end() {
@@ -626,13 +627,12 @@ fn calibration_on_the_firmware_end_to_end() {
     let Some((elf, dir)) = firmware_for("calibration test") else {
         return;
     };
-    let sessions = each_run(
-        &elf,
-        &dir,
-        "calibration",
-        CALIBRATION_SESSION.len(),
-        CALIBRATION_TIMEOUT,
-    );
+    // NOTE: the session's first taxel, (3, 2), is left out: its parameters are the nominal
+    // models' (element 4,2), so it shows no calibration at work, and the calibration by command
+    // checks another taxel of another finger against the host (a fourth QEMU run of the
+    // protocol's 122 s was two minutes of the test command).
+    let chosen = [1, 2];
+    let sessions = each_run(&elf, &dir, "calibration", chosen, CALIBRATION_TIMEOUT);
     for session in &sessions {
         assert!(session.errors.is_empty(), "{:?}", session.errors);
         assert_eq!(session.control_seq.missing(), 0);
@@ -642,8 +642,8 @@ fn calibration_on_the_firmware_end_to_end() {
     let mut table = CalibrationTable::default();
     let mut other = CalibrationTable::default();
     let runs = sessions.iter().flat_map(|s| &s.runs);
-    assert_eq!(runs.clone().count(), CALIBRATION_SESSION.len());
-    for (run, spec) in runs.zip(&CALIBRATION_SESSION) {
+    assert_eq!(runs.clone().count(), chosen.len());
+    for (run, spec) in runs.zip(chosen.map(|k| &CALIBRATION_SESSION[k])) {
         assert_eq!(run.name, spec.name);
         let end = run.end.expect("RunEnd");
         assert_eq!(
@@ -684,7 +684,7 @@ fn calibration_on_the_firmware_end_to_end() {
         };
         into.taxels.push(model).expect("a taxel");
     }
-    assert_eq!(table.taxels.len(), 2);
+    assert_eq!(table.taxels.len(), 1);
     let mut bytes = vec![0u8; table.encoded_len()];
     let n = table.encode(&mut bytes).expect("encoded");
     std::fs::write(dir.join("calibration-table.bin"), &bytes[..n]).expect("table written");
@@ -692,7 +692,8 @@ fn calibration_on_the_firmware_end_to_end() {
     // The firmware's calibration is the host simulator's (the build's table) to within what
     // one tick of shift and the record's rounding change.
     let memo = sim_host::fingers::FingerKind::Memo.effects();
-    let (host, _) = calibrate_simulated(&CALIBRATION_TAXELS[..2], FINGER_SEED, memo).expect("host");
+    let (host, _) =
+        calibrate_simulated(&CALIBRATION_TAXELS[1..2], FINGER_SEED, memo).expect("host");
     let unlike = sim_host::fingers::FingerKind::LinearSaturating;
     let (host_other, _) =
         calibrate_simulated(&CALIBRATION_TAXELS[..1], FINGER_SEED, unlike.effects()).expect("host");
@@ -766,7 +767,7 @@ fn the_controller_is_designed_from_the_firmwares_excitation() {
         &elf,
         &dir,
         "excitation",
-        EXCITATION_SESSION.len(),
+        0..EXCITATION_SESSION.len(),
         QEMU_TIMEOUT,
     );
     let rig = RigConfig {
@@ -1237,6 +1238,20 @@ fn the_board_calibrates_a_taxel_by_command() {
     let table = std::fs::read(out.join("calibration-table.bin")).expect("table");
     let view = tactile_core::calibration::TableView::check(&table).expect("a valid table");
     assert_eq!(view.len(), 1);
+    // The host simulator's calibration of the same taxel of the commanded run's finger (the
+    // board's own, seed 1; the calibration session's is seed 7): as close as the session's.
+    let fw = tactile_core::calibration::CalibrationTable::decode(&table).expect("decoded");
+    let seed = sim_host::rig::RigConfig::default().seed;
+    let memo = sim_host::fingers::FingerKind::Memo.effects();
+    let (host, _) =
+        sim_host::calibrate::calibrate_simulated(&[taxel], seed, memo).expect("host calibration");
+    let (e, g) = (&fw.taxels[0].element, &host.taxels[0].element);
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    assert!(
+        rel(e.g1.stiffness(30.0), g.g1.stiffness(30.0)) < 0.01
+            && rel(e.g2.stiffness(30.0), g.g2.stiffness(30.0)) < 0.05,
+        "{e:?} vs {g:?}"
+    );
     // Loaded by the chunks and the load command (numbered on from the run's), then the run.
     let chunks = table.len().div_ceil(tactile_core::command::CHUNK_BYTES);
     let last = 1 + chunks + 2;
