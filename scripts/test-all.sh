@@ -36,8 +36,10 @@ cargo clippy --release --all-targets -- -D warnings
 # The core for the Cortex-M4F is compiled by the firmware's lints here and built into both
 # firmware images by the tests below (`cargo core-thumb` builds it alone).
 step "firmware lints for the Cortex-M4F: no unwrap, expect, panicking index or panic (clippy -D warnings)"
-cargo clippy -p tactile-firmware -p tactile-qemu -p tactile-f407 --target thumbv7em-none-eabihf -- -D warnings
-cargo clippy -p tactile-f407 --target thumbv7em-none-eabihf --features controller-designed -- -D warnings
+# NOTE: --release too: the proc macros (host code) are then the lints' above, not built again at
+# the dev profile's opt-level 2.
+cargo clippy --release -p tactile-firmware -p tactile-qemu -p tactile-f407 --target thumbv7em-none-eabihf -- -D warnings
+cargo clippy --release -p tactile-f407 --target thumbv7em-none-eabihf --features controller-designed -- -D warnings
 
 step "QEMU for the firmware-in-the-loop test (qemu-system-arm)"
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
