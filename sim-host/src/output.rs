@@ -86,14 +86,15 @@ impl Output {
         File::create(&self.path).map_err(Error::io(&self.path))
     }
 
-    /// Writes `bytes` as the file's whole content.
-    pub fn write(mut self, bytes: impl AsRef<[u8]>) -> Result<(), Error> {
+    /// Writes `bytes` as the file's whole content; returns its path, to say what was written.
+    pub fn write(mut self, bytes: impl AsRef<[u8]>) -> Result<PathBuf, Error> {
         self.created = false;
-        std::fs::write(&self.path, bytes).map_err(Error::io(&self.path))
+        std::fs::write(&self.path, bytes).map_err(Error::io(&self.path))?;
+        Ok(std::mem::take(&mut self.path))
     }
 
-    /// Writes `value` as pretty JSON.
-    pub fn write_json(self, value: &impl serde::Serialize) -> Result<(), Error> {
+    /// Writes `value` as pretty JSON; returns its path.
+    pub fn write_json(self, value: &impl serde::Serialize) -> Result<PathBuf, Error> {
         let text = serde_json::to_string_pretty(value).map_err(Error::json(&self.path))?;
         self.write(text)
     }

@@ -612,9 +612,10 @@ fn a_panic_and_a_hardfault_zero_the_actuator_before_reporting() {
 /// Dynamic calibration end to end (issue 7): the firmware runs the calibration protocol with the
 /// probe over a taxel of the simulated finger (parameters unlike the nominal models'), streams
 /// it over defmt; the host decodes the record, fits the taxel (`tactile calibrate`'s code) and
-/// writes the table; that table must match the host simulator's calibration of the same taxel (what the firmware build carries)
-/// and bring the observer under 0.2 g, where the nominal models err by several grams (another
-/// taxel of another finger, by command: `the_board_calibrates_a_taxel_by_command`). A second
+/// writes the table; that table must match the host simulator's calibration of the same taxel
+/// (what the firmware build carries) and bring the observer under 0.2 g, where the nominal
+/// models err by several grams (another taxel of another finger, by command:
+/// `the_board_calibrates_a_taxel_by_command`). A second
 /// run calibrates a taxel of a finger whose springs stiffen by other laws (issue 15): its
 /// calibration must be the host's and meet the issue's 0.3 g there too.
 #[test]

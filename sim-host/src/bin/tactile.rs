@@ -325,10 +325,9 @@ fn print_and_write(
     data: &impl serde::Serialize,
 ) -> Result<(), Error> {
     out!("{text}");
-    let shown = md.path().display().to_string();
-    md.write(text)?;
+    let md = md.write(text)?;
     json.write_json(data)?;
-    outln!("wrote {shown}");
+    outln!("wrote {}", md.display());
     Ok(())
 }
 
@@ -470,7 +469,6 @@ fn run(command: Command) -> Result<(), Error> {
                 outln!("  not an applicator's model: {why} (the design leaves such a preload out)");
             }
             if let Some(json) = json {
-                let shown = json.path().display().to_string();
                 #[derive(serde::Serialize)]
                 struct Out<'a> {
                     model: &'a sim_host::identify::ApplicatorModel,
@@ -479,13 +477,13 @@ fn run(command: Command) -> Result<(), Error> {
                     plain_model: &'a sim_host::identify::ApplicatorModel,
                     response: &'a [sim_host::identify::ResponsePoint],
                 }
-                json.write_json(&Out {
+                let path = json.write_json(&Out {
                     model: &model,
                     stiction_g,
                     plain_model: &plain,
                     response: &response,
                 })?;
-                outln!("  wrote {shown}");
+                outln!("  wrote {}", path.display());
             }
         }
         Command::Design {
@@ -577,18 +575,16 @@ fn run(command: Command) -> Result<(), Error> {
                 tactile_core::tracking::TOUCH_TAU_S
             );
             if let Some(json) = json {
-                let shown = json.path().display().to_string();
-                json.write_json(&r)?;
-                outln!("wrote {shown}");
+                let path = json.write_json(&r)?;
+                outln!("wrote {}", path.display());
             }
             if let Some(table) = table {
                 let bytes = d
                     .config
                     .encode()
                     .map_err(|e| Error::Failed(format!("the designed controller: {e}")))?;
-                let shown = table.path().display().to_string();
-                table.write(bytes)?;
-                outln!("wrote {shown} ({} bytes)", bytes.len());
+                let path = table.write(bytes)?;
+                outln!("wrote {} ({} bytes)", path.display(), bytes.len());
             }
         }
         Command::Fit { file, model, json } => {
