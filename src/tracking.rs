@@ -10,9 +10,10 @@
 //!   the reference force (the inertia–finger mode stiffens with load). A series needs no poles
 //!   of its own, so nothing in the feed-forward can ring; truncated after s³ it is exact for the
 //!   mode and the amplifier's pole and a few per cent off at 40 Hz for the beam.
-//! - **Feedback**: proportional and integral action on the error against the reference force
-//!   `delay_ticks` ago (the loop's delay: the feedback must not fight the feed-forward for what
-//!   no controller can have earlier), the error through a biquad the design chooses (none, a
+//! - **Feedback**: proportional and integral action on the error against the reading the
+//!   reference predicts ([`READING_LAG_TICKS`], and the tip's inertia the gauge reads besides
+//!   the contact force: `gauge_s2`): against anything else the feedback fights the feed-forward
+//!   over what the gauge cannot read. The error passes a biquad the design chooses (none, a
 //!   notch at the beam's mode or a low-pass: the gauge sits on the beam, whose mode is barely
 //!   damped; unfiltered, a gain of 0.2 left a gain margin of 0.6–1.0 on the friction-free
 //!   plant). Its gains are set by the margins; it removes what the model and the stiction
@@ -57,8 +58,13 @@ pub const TRACKING_POINTS: usize = 9;
 /// The reference's rate at which the friction compensation is whole, g/s (below it, in
 /// proportion: a hold gets none, and the compensation does not chatter about it).
 pub const FRICTION_RATE_G_PER_S: f32 = 20.0;
-/// Ticks of reference kept for the feedback's comparison.
-const HISTORY: usize = 8;
+/// How far the reading lags the reference computed at the same tick, ticks: the gauge's
+/// reading is the mean of the period that ends at the tick, and the feed-forward puts the
+/// contact force on the reference at the tick. Measured on the simulated rigs (a sine's
+/// reading over the reference of the tick, no friction, the feed-forward alone): 0.2–0.5 at
+/// 10–40 Hz. The two ticks compared before put 0.5 dB of spurious feedback into the memo
+/// rig's 10 Hz and about as much again at 40 Hz on a rig of fast amplifier.
+pub const READING_LAG_TICKS: f32 = 0.5;
 /// The friction compensation's adaptation (see `FrictionAdapt`): the share of each
 /// reversal's measured shortfall taken, the most one reversal may move it (a share of the
 /// identified stiction), and its range (shares of the identified stiction).
@@ -122,6 +128,10 @@ pub struct InverseSeries {
     pub load_g: f32,
     pub c: [f32; 4],
     pub feedback: f32,
+    /// The gauge's reading over the contact force, its s² term, s²: it sits on the beam and
+    /// reads the tip's inertia besides the force, reading = force + `gauge_s2`·force''
+    /// (1/ω_z² of the identified anti-resonance; −1.2 dB at 40 Hz about 50 g on the memo rig).
+    pub gauge_s2: f32,
 }
 
 /// Everything the designed controller is configured by (what its table carries).
@@ -137,10 +147,12 @@ pub struct TrackingConfig {
     /// The motor's Coulomb friction at the probe, g: added in the direction the force is
     /// moving (the motor moves with it), reached at [`FRICTION_RATE_G_PER_S`].
     pub friction_g: f32,
-    /// How far ahead of the reference's rate the friction compensation turns, s: the
-    /// amplifier's lag, which the series undoes for the force but not for this term (the
-    /// design's `friction_lead_s`).
-    pub friction_lead_s: f32,
+    /// The current amplifier's time constant, s (1/2πf_p of the identified pole): the friction
+    /// compensation is added after the series, so it passes (1 + τs) itself, a backward
+    /// difference. Turned only a time ahead instead, its step at a reversal reached the motor
+    /// over a few τ while the motor stuck: the slow amplifier's 2 g sine about 10 g lost
+    /// 11.6 dB at 40 Hz.
+    pub amplifier_tau_s: f32,
     /// Friction held once the reference stops, g, in the direction it last moved: a motor
     /// that stuck short of a step's end sits anywhere within its stiction band, and the
     /// integral alone, which still carries the last hold's friction (of the other sign after
@@ -151,8 +163,6 @@ pub struct TrackingConfig {
     pub kp: f32,
     /// Integral gain, drive g per g·s of error.
     pub ki_per_s: f32,
-    /// Ticks between the reference and the reading it is compared with.
-    pub delay_ticks: u8,
     /// The biquad the error passes before the feedback's gains: (b₀, b₁, b₂, a₁, a₂) of
     /// (b₀ + b₁z⁻¹ + b₂z⁻²)/(1 + a₁z⁻¹ + a₂z⁻²), designed on the host.
     pub feedback_filter: [f32; 5],
@@ -215,14 +225,14 @@ impl TrackingConfig {
             load_g: 0.0,
             c: [1.0, 0.0, 0.0, 0.0],
             feedback: 1.0,
+            gauge_s2: 0.0,
         }; TRACKING_POINTS],
         points: 1,
         friction_g: 0.0,
-        friction_lead_s: 0.0,
+        amplifier_tau_s: 0.0,
         held_friction_g: 0.0,
         kp: 0.0,
         ki_per_s: 20.0,
-        delay_ticks: 2,
         feedback_filter: FEEDBACK_PASS,
         integral_limit_g: 10.0,
         approach_hold_g: 0.0,
@@ -255,7 +265,7 @@ impl TrackingConfig {
         non_negative(self.integral_limit_g, "integral_limit_g")?;
         non_negative(self.friction_g, "friction_g")?;
         non_negative(self.held_friction_g, "held_friction_g")?;
-        non_negative(self.friction_lead_s, "friction_lead_s")?;
+        non_negative(self.amplifier_tau_s, "amplifier_tau_s")?;
         non_negative(self.approach_hold_g, "approach_hold_g")?;
         positive(self.approach_push_g, "approach_push_g")?;
         non_negative(-self.approach_brake_g, "approach_brake_g")?;
@@ -272,9 +282,6 @@ impl TrackingConfig {
         {
             return Err(TrackingError::Invalid("drive range"));
         }
-        if usize::from(self.delay_ticks) >= HISTORY {
-            return Err(TrackingError::Invalid("delay_ticks"));
-        }
         let n = usize::from(self.points);
         let used = self
             .schedule
@@ -285,7 +292,8 @@ impl TrackingConfig {
             if !(p.load_g.is_finite()
                 && p.c.iter().all(|c| c.is_finite())
                 && p.c[0] > 0.0
-                && (0.0..=1.0).contains(&p.feedback))
+                && (0.0..=1.0).contains(&p.feedback)
+                && p.gauge_s2.is_finite())
             {
                 return Err(TrackingError::Invalid("schedule"));
             }
@@ -299,16 +307,20 @@ impl TrackingConfig {
         Ok(())
     }
 
-    /// The inverse's series and the feedback's share at `load_g`: linear between the
-    /// schedule's loads, the heaviest's beyond it; below the lightest the series is the
-    /// lightest's and the feedback's share falls in proportion to the load (zero at no load,
-    /// where the contact has no stiffness to speak of).
+    /// The schedule at `load_g`: linear between its loads, the heaviest's beyond it; below the
+    /// lightest the lightest's, with the feedback's share falling in proportion to the load
+    /// (zero at no load, where the contact has no stiffness to speak of).
     #[inline]
-    pub fn series_at(&self, load_g: f32) -> ([f32; 4], f32) {
+    pub fn point_at(&self, load_g: f32) -> InverseSeries {
         let n = usize::from(self.points).clamp(1, TRACKING_POINTS);
         let used = self.schedule.get(..n).unwrap_or(&[]);
         let Some((a, b, t)) = crate::bracket(used, |p| p.load_g, load_g) else {
-            return ([1.0, 0.0, 0.0, 0.0], 0.0);
+            return InverseSeries {
+                load_g,
+                c: [1.0, 0.0, 0.0, 0.0],
+                feedback: 0.0,
+                gauge_s2: 0.0,
+            };
         };
         if load_g <= a.load_g {
             // At or below the lightest point (`a` is it): the feedback fades out.
@@ -317,13 +329,29 @@ impl TrackingConfig {
             } else {
                 1.0
             };
-            return (a.c, a.feedback * share);
+            return InverseSeries {
+                load_g,
+                feedback: a.feedback * share,
+                ..*a
+            };
         }
         let mut c = a.c;
         for (ci, bi) in c.iter_mut().zip(b.c) {
             *ci += t * (bi - *ci);
         }
-        (c, a.feedback + t * (b.feedback - a.feedback))
+        InverseSeries {
+            load_g,
+            c,
+            feedback: a.feedback + t * (b.feedback - a.feedback),
+            gauge_s2: a.gauge_s2 + t * (b.gauge_s2 - a.gauge_s2),
+        }
+    }
+
+    /// The inverse's series and the feedback's share at `load_g` ([`Self::point_at`]).
+    #[inline]
+    pub fn series_at(&self, load_g: f32) -> ([f32; 4], f32) {
+        let p = self.point_at(load_g);
+        (p.c, p.feedback)
     }
 
     /// How c₂ changes with the load at `load_g`, s²/g: the difference of [`Self::series_at`]
@@ -343,17 +371,17 @@ impl TrackingConfig {
 }
 
 /// The controller table's header (what the firmware checks at start-up, as it checks the
-/// calibration table): `TCTL`, version, then the delay in ticks and the schedule's length.
+/// calibration table): `TCTL`, version, a byte reserved (zero) and the schedule's length.
 pub const TABLE_MAGIC: [u8; 4] = *b"TCTL";
-pub const TABLE_VERSION: u16 = 5;
+pub const TABLE_VERSION: u16 = 6;
 const TABLE_HEADER_BYTES: usize = 8;
 /// dt, reference, kp, ki, friction, integral bound, drive range, the feedback's biquad, the
-/// touch-down's hold, push, brake and contact, the held friction, the friction's lead; then
-/// per point load, c₀…c₃, feedback share.
+/// touch-down's hold, push, brake and contact, the held friction, the amplifier's τ; then
+/// per point load, c₀…c₃, feedback share, the gauge's s² term.
 const TABLE_SCALARS: usize = 19;
 /// The biquad that passes the error unchanged.
 pub const FEEDBACK_PASS: [f32; 5] = [1.0, 0.0, 0.0, 0.0, 0.0];
-const POINT_FLOATS: usize = 6;
+const POINT_FLOATS: usize = 7;
 /// The encoded table's length, bytes (the whole schedule, used points or not, and a CRC-32).
 pub const TABLE_BYTES: usize =
     TABLE_HEADER_BYTES + 4 * (TABLE_SCALARS + TRACKING_POINTS * POINT_FLOATS) + 4;
@@ -382,16 +410,17 @@ impl TrackingConfig {
             self.approach_brake_g,
             self.contact_g,
             self.held_friction_g,
-            self.friction_lead_s,
+            self.amplifier_tau_s,
         ];
-        let points = self
-            .schedule
-            .iter()
-            .flat_map(|p| [p.load_g, p.c[0], p.c[1], p.c[2], p.c[3], p.feedback]);
+        let points = self.schedule.iter().flat_map(|p| {
+            [
+                p.load_g, p.c[0], p.c[1], p.c[2], p.c[3], p.feedback, p.gauge_s2,
+            ]
+        });
         let floats = scalars.into_iter().chain(points);
         let (header, rest) = out.split_at_mut(TABLE_HEADER_BYTES);
         if let Some(slot) = header.get_mut(6..8) {
-            slot.copy_from_slice(&[self.delay_ticks, self.points]);
+            slot.copy_from_slice(&[0, self.points]);
         }
         for (slot, v) in rest.chunks_exact_mut(4).zip(floats) {
             slot.copy_from_slice(&v.to_le_bytes());
@@ -421,6 +450,7 @@ impl TrackingConfig {
                 load_g: f(at),
                 c: [f(at + 1), f(at + 2), f(at + 3), f(at + 4)],
                 feedback: f(at + 5),
+                gauge_s2: f(at + 6),
             }
         };
         let config = TrackingConfig {
@@ -438,10 +468,9 @@ impl TrackingConfig {
             approach_brake_g: f(15),
             contact_g: f(16),
             held_friction_g: f(17),
-            friction_lead_s: f(18),
+            amplifier_tau_s: f(18),
             schedule: core::array::from_fn(point),
             points: all.get(7).copied().unwrap_or(0),
-            delay_ticks: all.get(6).copied().unwrap_or(0),
         };
         config.check()?;
         Ok(config)
@@ -491,8 +520,8 @@ pub struct Tracking {
     past_y2: [f32; 2],
     /// The last command (where this tick's input ramp starts).
     last_command_g: f32,
-    history: [f32; HISTORY],
-    head: usize,
+    /// Last tick's Coulomb compensation, g, before the amplifier's (1 + τs).
+    coulomb_g: f32,
     integral_g: f32,
     /// The feedback biquad's state (transposed direct form II).
     filter_state: [f32; 2],
@@ -689,8 +718,7 @@ impl Tracking {
             x: [0.0; 3],
             past_y2: [0.0; 2],
             last_command_g: 0.0,
-            history: [0.0; HISTORY],
-            head: 0,
+            coulomb_g: 0.0,
             integral_g: 0.0,
             moved: 0.0,
             still_ticks: 0,
@@ -717,7 +745,7 @@ impl Tracking {
         self.x = [0.0; 3];
         self.past_y2 = [0.0; 2];
         self.last_command_g = 0.0;
-        self.history = [0.0; HISTORY];
+        self.coulomb_g = 0.0;
         self.integral_g = 0.0;
         self.filter_state = [0.0; 2];
         self.adapt.cancel();
@@ -752,7 +780,7 @@ impl Tracking {
             self.x = [force_g, 0.0, 0.0];
             self.past_y2 = [0.0; 2];
             self.last_command_g = force_g;
-            self.history = [force_g; HISTORY];
+            self.coulomb_g = 0.0;
             self.filter_state = [0.0; 2];
             self.moved = 0.0;
             self.still_ticks = 0;
@@ -859,7 +887,8 @@ impl Tracking {
         let [y2_1, y2_2] = self.past_y2;
         let third = (3.0 * self.x[2] - 4.0 * y2_1 + y2_2) / (2.0 * c.dt_s);
         self.past_y2 = [self.x[2], y2_1];
-        let (k, share) = c.series_at(self.x[0]);
+        let point = c.point_at(self.x[0]);
+        let (k, share) = (point.c, point.feedback);
         let (kp, ki) = (share * c.kp, share * c.ki_per_s);
         let rate = self.x[1] / FRICTION_RATE_G_PER_S;
         if rate.abs() >= 0.5 {
@@ -886,11 +915,16 @@ impl Tracking {
             self.still_ticks = self.still_ticks.saturating_add(1).min(REST_TICKS);
         }
         let still = (1.0 - 2.0 * rate.abs()).max(0.0);
-        // NOTE: the compensation reaches the motor through the amplifier, so it turns with the
-        // reference's rate that far ahead.
-        let ahead = (self.x[1] + self.x[2] * c.friction_lead_s) / FRICTION_RATE_G_PER_S;
-        let friction = self.adapt.friction_g * crate::limit(ahead, -1.0, 1.0)
-            + c.held_friction_g * still * self.moved;
+        // NOTE: the compensation reaches the motor through the amplifier, so it passes the
+        // amplifier's inverse: at a reversal a tick of τ/dt times the step, then the step.
+        let coulomb_g = self.adapt.friction_g * crate::limit(rate, -1.0, 1.0);
+        let turning = if coulomb_g * self.coulomb_g < 0.0 {
+            c.amplifier_tau_s / c.dt_s * (coulomb_g - self.coulomb_g)
+        } else {
+            0.0
+        };
+        let friction = coulomb_g + turning + c.held_friction_g * still * self.moved;
+        self.coulomb_g = coulomb_g;
         // NOTE: the contact stiffens with load, so the force's rate itself takes drive: a mass
         // on a spring F(x) needs m·ẍ = m·(F''/k − k'·F'²/k²), whose second part is
         // dc₂/dF·F'² (c₂ = m/k). Without it a 6 g sine about 10 g at 40 Hz rang +2…+3 dB on
@@ -902,17 +936,13 @@ impl Tracking {
             + k[3] * third
             + stiffening
             + friction;
-        // The reference `delay_ticks` ago (the slot about to be overwritten is HISTORY ago).
-        self.head = (self.head + 1) % HISTORY;
-        if let Some(slot) = self.history.get_mut(self.head) {
-            *slot = self.x[0];
-        }
-        let back = (self.head + HISTORY - usize::from(c.delay_ticks)) % HISTORY;
-        let past = self.history.get(back).copied().unwrap_or(self.x[0]);
+        // The reading the reference predicts: the period's mean, and the tip's inertia.
+        let expected_g =
+            self.x[0] - READING_LAG_TICKS * c.dt_s * self.x[1] + point.gauge_s2 * self.x[2];
         let [b0, b1, b2, a1, a2] = c.feedback_filter;
-        let x = past - sensed_g;
+        let x = expected_g - sensed_g;
         if integrate {
-            self.adapt.observe(x, past, c, k[0]);
+            self.adapt.observe(x, expected_g, c, k[0]);
         }
         let error_g = b0 * x + self.filter_state[0];
         self.filter_state = [
@@ -1103,13 +1133,21 @@ mod tests {
             load_g: 10.0,
             c: [1.0, 2.0, 3.0, 4.0],
             feedback: 0.5,
+            gauge_s2: 1e-5,
         };
         cfg.schedule[1] = InverseSeries {
             load_g: 50.0,
             c: [2.0, 4.0, 6.0, 8.0],
             feedback: 1.0,
+            gauge_s2: 3e-5,
         };
         assert_eq!(cfg.series_at(5.0), ([1.0, 2.0, 3.0, 4.0], 0.25));
+        for (load_g, gauge_s2) in [(5.0, 1e-5), (30.0, 2e-5), (90.0, 3e-5)] {
+            assert!(
+                (cfg.point_at(load_g).gauge_s2 - gauge_s2).abs() < 1e-9,
+                "{load_g}"
+            );
+        }
         assert_eq!(cfg.series_at(0.0), ([1.0, 2.0, 3.0, 4.0], 0.0));
         assert_eq!(cfg.series_at(30.0), ([1.5, 3.0, 4.5, 6.0], 0.75));
         assert_eq!(cfg.series_at(90.0), ([2.0, 4.0, 6.0, 8.0], 1.0));
@@ -1137,8 +1175,11 @@ mod tests {
             TrackingError::ScheduleOrder
         );
         let mut cfg = TrackingConfig::UNIT_PLANT;
-        cfg.delay_ticks = 200;
-        assert!(Tracking::new(cfg).is_err());
+        cfg.schedule[0].gauge_s2 = f32::INFINITY;
+        assert_eq!(
+            Tracking::new(cfg).unwrap_err(),
+            TrackingError::Invalid("schedule")
+        );
     }
 
     #[test]
@@ -1363,6 +1404,46 @@ mod tests {
     }
 
     #[test]
+    fn the_friction_turns_through_the_amplifiers_inverse_at_a_reversal_only() {
+        // A unit plant with 1 g of friction, no feedback, the same readings: with τ = 2 ms the
+        // drive differs from τ = 0 only on the tick the compensation turns through zero, by
+        // τ/dt times its change (from +1 g to −1 g: −4 g). A move from rest and a stop get
+        // nothing of it: there the motor sticks anyway and the held share carries the friction.
+        let cfg = TrackingConfig {
+            ki_per_s: 0.0,
+            friction_g: 1.0,
+            ..TrackingConfig::UNIT_PLANT
+        };
+        let (mut with, mut without) = (
+            Tracking::new(TrackingConfig {
+                amplifier_tau_s: 2e-3,
+                ..cfg
+            })
+            .unwrap(),
+            Tracking::new(cfg).unwrap(),
+        );
+        // Rest at 10 g, up 500 g/s for 20 ticks, straight down as fast, then rest at 10 g.
+        let command = |k: i32| match k {
+            ..=100 => 10.0,
+            101..=120 => 10.0 + 0.5 * (k - 100) as f32,
+            121..=140 => 20.0 - 0.5 * (k - 120) as f32,
+            _ => 10.0,
+        };
+        let mut turns = 0;
+        for k in 0..300 {
+            let (a, b) = (
+                with.update(command(k), 10.0, true).force_g,
+                without.update(command(k), 10.0, true).force_g,
+            );
+            if (a - b).abs() > 1e-4 {
+                turns += 1;
+                assert!((a - b + 4.0).abs() < 1e-3, "tick {k}: {a} against {b}");
+            }
+        }
+        assert_eq!(turns, 1);
+    }
+
+    #[test]
     fn a_rest_unloads_down_a_ramp_then_drives_nothing() {
         // A unit plant on a finger (contact at 0.4 g) whose friction takes 0.8 g: held at 8 g
         // the held share and the integral carry it. Commanded to rest, the reference unloads
@@ -1554,20 +1635,21 @@ mod tests {
             load_g: 50.0,
             c: [1.1, 2e-3, 1e-5, 1e-8],
             feedback: 0.5,
+            gauge_s2: 2.2e-6,
         };
         cfg.held_friction_g = 0.3;
-        cfg.friction_lead_s = 2.2e-3;
+        cfg.amplifier_tau_s = 2.2e-3;
         let bytes = cfg.encode().unwrap();
         assert_eq!(TrackingConfig::decode(&bytes), Ok(cfg));
-        // 8 + 4·(19 + 9·6) + 4 bytes.
-        assert_eq!(bytes.len(), 304);
+        // 8 + 4·(19 + 9·7) + 4 bytes.
+        assert_eq!(bytes.len(), 340);
         let behind = TrackingConfig {
-            friction_lead_s: -1e-3,
+            amplifier_tau_s: -1e-3,
             ..cfg
         };
         assert_eq!(
             behind.encode(),
-            Err(TrackingError::Invalid("friction_lead_s"))
+            Err(TrackingError::Invalid("amplifier_tau_s"))
         );
         let mut bad = bytes;
         bad[20] ^= 1;

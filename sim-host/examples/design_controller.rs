@@ -8,8 +8,8 @@
 //! identified models (what the design would do with a perfect identification).
 //! `SEED=N`: the rig's seed (1). `FF_ONLY=1`: the feed-forward alone (no feedback). `ONLY=1`: skip A1. `FRICTION=G`: G grams
 //! of stiction compensated instead of `design::FRICTION_SHARE` of the identified.
-//! `LEAD_MS=T`: the compensation turned T ms ahead of the reference's rate instead of
-//! `design::friction_lead_s`. `HELD=S`: S times the stiction compensated held once the
+//! `TAU_MS=T`: the compensation through (1 + sT) instead of the amplifier's identified τ
+//! (`design::amplifier_tau_s`). `HELD=S`: S times the stiction compensated held once the
 //! reference stops instead of `design::HELD_FRICTION_SHARE`. `SINES=L:A,…`: sines of A g
 //! about L g instead of 2 about 10, 10 about 50 and 10 about 100.
 use sim_host::design;
@@ -97,12 +97,12 @@ fn main() {
     {
         d.config.friction_g = friction_g;
     }
-    // `LEAD_MS=T`: the friction compensation turned T ms ahead instead of the design's.
-    if let Some(lead_ms) = std::env::var("LEAD_MS")
+    // `TAU_MS=T`: the friction compensation through (1 + sT) instead of the design's τ.
+    if let Some(tau_ms) = std::env::var("TAU_MS")
         .ok()
         .and_then(|v| v.parse::<f32>().ok())
     {
-        d.config.friction_lead_s = 1e-3 * lead_ms;
+        d.config.amplifier_tau_s = 1e-3 * tau_ms;
     }
     // `HELD=S`: S times the identified stiction held once the reference stops.
     if let Some(share) = std::env::var("HELD")
@@ -118,12 +118,12 @@ fn main() {
         );
     }
     println!(
-        "kp {:.3}, ki {:.1}/s, {}, friction {:.2} g turned {:.2} ms ahead",
+        "kp {:.3}, ki {:.1}/s, {}, friction {:.2} g through the amplifier's τ {:.2} ms",
         d.feedback.kp,
         d.feedback.ki_per_s,
         d.feedback.filter,
         d.config.friction_g,
-        1e3 * d.config.friction_lead_s,
+        1e3 * d.config.amplifier_tau_s,
     );
     // On stderr: a wall-clock time is no figure for docs/results.md.
     eprintln!(

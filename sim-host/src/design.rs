@@ -943,12 +943,15 @@ pub fn design(
         load_g: 0.0,
         c: [1.0, 0.0, 0.0, 0.0],
         feedback: 0.0,
+        gauge_s2: 0.0,
     }; TRACKING_POINTS];
     for ((slot, m), plants) in schedule.iter_mut().zip(models).zip(&families) {
+        let w_z = 2.0 * std::f64::consts::PI * m.model.anti_resonance.hz;
         *slot = InverseSeries {
             load_g: m.load_g,
             c: inverse_series(m).map(|v| v as f32),
             feedback: share_at(plants) as f32,
+            gauge_s2: (1.0 / (w_z * w_z)) as f32,
         };
     }
     // The touch-down's pulses: the momentum a push gives the probe beyond the friction is what
@@ -977,11 +980,10 @@ pub fn design(
         schedule,
         points: models.len().min(TRACKING_POINTS) as u8,
         friction_g,
-        friction_lead_s: friction_lead_s(identified_models) as f32,
+        amplifier_tau_s: amplifier_tau_s(identified_models) as f32,
         held_friction_g: (HELD_FRICTION_SHARE * f64::from(stiction_g)) as f32,
         kp: feedback.kp as f32,
         ki_per_s: feedback.ki_per_s as f32,
-        delay_ticks: 2,
         feedback_filter: feedback.filter.biquad().map(|v| v as f32),
         // What the model's static gain can be off by: the light rig's small chirps read its
         // gain 0.65–0.81 through twice the stiction, and the feed-forward overdrove 70 g by 21 g
@@ -1012,7 +1014,7 @@ pub fn design(
 }
 
 /// The share of the identified stiction the feed-forward pushes against, in the direction the
-/// reference moves ([`friction_lead_s`] ahead): all of it, now that the models are fitted to
+/// reference moves (through the amplifier's inverse, [`amplifier_tau_s`]): all of it, now that the models are fitted to
 /// the drive less the friction ([`crate::identify::PeriodMeans::less_friction`]) and refined
 /// with it simulated ([`crate::stick_slip`]). Near the
 /// inertia–finger mode a sine needs less drive than the stiction, and only a compensation of
@@ -1025,31 +1027,25 @@ pub fn design(
 /// now within −0.86…+0.72 dB to 40 Hz on the memo's rig, −3.3…+1.0 dB on the heavy rig's.
 pub const FRICTION_SHARE: f64 = 1.0;
 
-/// How far ahead of the reference's rate the friction compensation turns, s
-/// (`TrackingConfig::friction_lead_s`): the identified models' lag at low frequency,
-/// 1/(2πf_p) + τ (the amplifier's pole and the fitted delay), their median over the loads (the
-/// amplifier is one whatever the load; the light loads' fits scatter most: the light rig's
-/// 10 g model put the pole at 309 Hz, the others at 126–182 Hz). The feed-forward's series
-/// already undoes the amplifier for the force, so the force, and the motor's velocity with it,
-/// follow the reference by the loop's own delay; the compensation, added after the series, must
-/// make up the amplifier's lag alone to meet the motor when it moves. Measured (`LEAD_MS=T
-/// ONLY=1 cargo run --release -p sim-host --example design_controller FILE`): on the memo's
-/// rig 10 g about 50 and 100 g at 40 Hz within 0.05 dB at 0.7–1.0 ms, −0.68 / −0.53 dB at
-/// 2.2 ms; on the slow amplifier's 0.7 ms +0.52 / +0.68, 1.7 ms +0.05 / +0.29, 2.2 ms −0.24 /
-/// +0.06; on the light rig, the 20 → 30 g step at seeds 1–3 took 29, 21, 49 ms with its
-/// lightest model's 0.43 ms, 19–20 ms with 1.0 ms (it stopped 1.5 g short in the stiction's
-/// band). With the third derivative taken at the tick's end, 37° early at 40 Hz, the best lead
-/// had been a tick and a half more.
-pub fn friction_lead_s(models: &[LoadModel]) -> f64 {
-    let mut lags: Vec<f64> = models
+/// The current amplifier's time constant, s (`TrackingConfig::amplifier_tau_s`): 1/(2πf_p) of
+/// the identified pole, the median over the loads (the amplifier is one whatever the load;
+/// the light loads' fits scatter most). The feed-forward's series already undoes the amplifier
+/// for the force; the friction compensation, added after it, passes (1 + τs) on the chip so
+/// its step at a reversal reaches the motor as the motor turns. Measured (`ONLY=1 SINES=10:2
+/// cargo run --release -p sim-host --example design_controller applicators/slow-amplifier.toml`):
+/// the slow amplifier's (80 Hz) 2 g sine about 10 g at 40 Hz −11.6 dB while the compensation
+/// only turned 1/(2πf_p) + τ ahead, −1.7 dB through (1 + τs). The fitted delay stays out: it
+/// is the series' (`inverse_series`).
+pub fn amplifier_tau_s(models: &[LoadModel]) -> f64 {
+    let mut taus: Vec<f64> = models
         .iter()
-        .map(|m| (1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz) + m.model.delay_s).max(0.0))
+        .map(|m| 1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz))
         .collect();
-    lags.sort_by(f64::total_cmp);
-    match lags.len() {
+    taus.sort_by(f64::total_cmp);
+    match taus.len() {
         0 => 0.0,
-        n if n % 2 == 1 => lags[n / 2],
-        n => 0.5 * (lags[n / 2 - 1] + lags[n / 2]),
+        n if n % 2 == 1 => taus[n / 2],
+        n => 0.5 * (taus[n / 2 - 1] + taus[n / 2]),
     }
 }
 

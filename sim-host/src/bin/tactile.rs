@@ -555,12 +555,12 @@ fn run(command: Command) -> Result<(), Error> {
                 );
             }
             outln!(
-                "feedback kp {:.3}, ki {:.1}/s through {}; stiction compensated {:.2} g moving (turned {:.2} ms ahead), {:.2} g held; reference model {} Hz",
+                "feedback kp {:.3}, ki {:.1}/s through {}; stiction compensated {:.2} g moving (through the amplifier's τ {:.2} ms), {:.2} g held; reference model {} Hz",
                 d.feedback.kp,
                 d.feedback.ki_per_s,
                 d.feedback.filter,
                 d.config.friction_g,
-                1e3 * d.config.friction_lead_s,
+                1e3 * d.config.amplifier_tau_s,
                 d.config.held_friction_g,
                 d.config.reference_hz
             );
