@@ -11,7 +11,8 @@
 //! `TAU_MS=T`: the compensation through (1 + sT) instead of the amplifier's identified τ
 //! (`design::amplifier_tau_s`). `HELD=S`: S times the stiction compensated held once the
 //! reference stops instead of `design::HELD_FRICTION_SHARE`. `SINES=L:A,…`: sines of A g
-//! about L g instead of 2 about 10, 10 about 50 and 10 about 100.
+//! about L g instead of 2 about 10, 10 about 50 and 10 about 100. `NO_GAUGE_S2=1`: the
+//! feedback compares the reading without the tip's inertia (`InverseSeries::gauge_s2` zero).
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -103,6 +104,10 @@ fn main() {
         .and_then(|v| v.parse::<f32>().ok())
     {
         d.config.amplifier_tau_s = 1e-3 * tau_ms;
+    }
+    // `NO_GAUGE_S2=1`: the feedback compares the reading without the tip's inertia.
+    if std::env::var("NO_GAUGE_S2").is_ok() {
+        d.config.schedule.iter_mut().for_each(|p| p.gauge_s2 = 0.0);
     }
     // `HELD=S`: S times the identified stiction held once the reference stops.
     if let Some(share) = std::env::var("HELD")

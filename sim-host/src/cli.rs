@@ -594,6 +594,18 @@ pub fn calibrate(
 ) -> Result<String, crate::Error> {
     use crate::calibrate::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS};
     use crate::Error::{Failed, Usage};
+    // Bad usage is refused before any output is claimed or record read.
+    if let Some((t, _)) = records
+        .iter()
+        .enumerate()
+        .find_map(|(i, (t, _))| records[..i].iter().find(|(u, _)| u == t))
+    {
+        return Err(Usage(format!(
+            "taxel ({}, {}) given twice",
+            t.row(),
+            t.col()
+        )));
+    }
     let inputs: Vec<&Path> = records.iter().map(|(_, p)| p.as_path()).collect();
     let table_out = crate::output::Output::claim(out, &inputs)?;
     let json_out = crate::output::Output::claim(&out.with_extension("json"), &inputs)?;
@@ -607,18 +619,6 @@ pub fn calibrate(
     } else {
         let mut table = tactile_core::calibration::CalibrationTable::default();
         let mut reports = Vec::new();
-        // Bad usage is refused before any record is read.
-        if let Some((t, _)) = records
-            .iter()
-            .enumerate()
-            .find_map(|(i, (t, _))| records[..i].iter().find(|(u, _)| u == t))
-        {
-            return Err(Usage(format!(
-                "taxel ({}, {}) given twice",
-                t.row(),
-                t.col()
-            )));
-        }
         for (taxel, path) in records {
             let taxel = *taxel;
             let r = crate::record::read_record(path)?;

@@ -22,3 +22,20 @@ pub fn tactile<S: AsRef<OsStr>>(
 pub fn scratch(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{}-{name}", std::process::id()))
 }
+
+/// The shared records' folder (`labels.json`, the development records, `real/`): beside the
+/// project (`../shared/data`, as on CI), or where `TACTILE_SHARED_DATA` says. A clone without
+/// it fails the tests that read it with this reason, not a bare file error.
+pub fn shared_data() -> std::path::PathBuf {
+    let dir = std::env::var_os("TACTILE_SHARED_DATA").map_or_else(
+        || std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"),
+        std::path::PathBuf::from,
+    );
+    assert!(
+        dir.join("labels.json").is_file(),
+        "the shared records are not in {}: clone the project beside ../shared, or set \
+         TACTILE_SHARED_DATA to the folder that holds labels.json and real/",
+        dir.display()
+    );
+    dir
+}

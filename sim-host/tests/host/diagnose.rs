@@ -89,7 +89,7 @@ fn simulator_effects_are_named() {
 
 #[test]
 fn the_shared_examples_get_their_labels() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    let dir = crate::common::shared_data();
     let labels: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("labels.json")).unwrap()).unwrap();
     for entry in labels.as_array().unwrap() {
@@ -102,8 +102,7 @@ fn the_shared_examples_get_their_labels() {
 /// Scaling a column (another unit) does not move the verdict, and the grams follow the force.
 #[test]
 fn scaling_a_column_does_not_change_the_verdict() {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/example_stiffening.csv");
+    let path = crate::common::shared_data().join("example_stiffening.csv");
     let r = read_record(&path).unwrap();
     let base = run(&r);
     let mut scaled = r.clone();
@@ -121,7 +120,7 @@ fn scaling_a_column_does_not_change_the_verdict() {
 /// out worse on the chip than the baseline.
 #[test]
 fn real_records_give_finite_results_and_never_a_worse_chip() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/real");
+    let dir = crate::common::shared_data().join("real");
     for name in ["fsi_skin_water.csv", "fsi_skin_oil.csv", "fsi_skin_air.csv"] {
         let d = run(&read_record(&dir.join(name)).unwrap());
         let g = &d.diagnosis;

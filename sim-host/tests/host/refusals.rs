@@ -345,6 +345,13 @@ fn a_path_that_cannot_be_written_is_refused_before_the_work() {
     let (code, _, stderr) = tactile(["diagnose", arg(&flat), "--json", arg(&json)]);
     assert_eq!(code, Some(1), "{stderr}");
     assert!(!json.exists());
+    // A usage error is named before the outputs are: a taxel given twice with an output that
+    // cannot be written is the usage (exit 2), as it is with a good one.
+    let twice = format!("3,2={}", arg(&rec));
+    let (code, _, stderr) = tactile(["calibrate", &twice, &twice, "--out", arg(&bad)]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("taxel (3, 2) given twice"), "{stderr}");
+    assert!(!stderr.contains(&blocker.display().to_string()), "{stderr}");
 }
 
 /// A time column in milliseconds (a 100 Hz record read as one sample every 10 s) is refused by
