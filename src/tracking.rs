@@ -130,7 +130,8 @@ pub struct InverseSeries {
     pub feedback: f32,
     /// The gauge's reading over the contact force, its s² term, s²: it sits on the beam and
     /// reads the tip's inertia besides the force, reading = force + `gauge_s2`·force''
-    /// (1/ω_z² of the identified anti-resonance; −1.2 dB at 40 Hz about 50 g on the memo rig).
+    /// (1/ω_z² of the identified anti-resonance; about 50 g at 40 Hz, −1.2 dB on the light
+    /// motor's fast-amplifier rig, −1.9 dB on the slow amplifier's).
     pub gauge_s2: f32,
 }
 
@@ -148,10 +149,12 @@ pub struct TrackingConfig {
     /// moving (the motor moves with it), reached at [`FRICTION_RATE_G_PER_S`].
     pub friction_g: f32,
     /// The current amplifier's time constant, s (1/2πf_p of the identified pole): the friction
-    /// compensation is added after the series, so it passes (1 + τs) itself, a backward
-    /// difference. Turned only a time ahead instead, its step at a reversal reached the motor
-    /// over a few τ while the motor stuck: the slow amplifier's 2 g sine about 10 g lost
-    /// 11.6 dB at 40 Hz.
+    /// compensation is added after the series, so where its sign turns (a reversal on the move)
+    /// it passes (1 + τs) itself, a backward difference: τ/dt times the turn on that tick.
+    /// Turned only a time ahead instead, its step reached the motor over a few τ while the
+    /// motor stuck: the slow amplifier's 2 g sine about 10 g lost 11.6 dB at 40 Hz. Starts and
+    /// stops get none (there the motor sticks anyway, and the held share carries the friction:
+    /// with it an unseen rig's 100 → 90 g step went 1.37 g over).
     pub amplifier_tau_s: f32,
     /// Friction held once the reference stops, g, in the direction it last moved: a motor
     /// that stuck short of a step's end sits anywhere within its stiction band, and the
@@ -915,8 +918,8 @@ impl Tracking {
             self.still_ticks = self.still_ticks.saturating_add(1).min(REST_TICKS);
         }
         let still = (1.0 - 2.0 * rate.abs()).max(0.0);
-        // NOTE: the compensation reaches the motor through the amplifier, so it passes the
-        // amplifier's inverse: at a reversal a tick of τ/dt times the step, then the step.
+        // NOTE: the compensation reaches the motor through the amplifier, so where its sign
+        // turns it passes the amplifier's inverse: a tick of τ/dt times the turn, then the step.
         let coulomb_g = self.adapt.friction_g * crate::limit(rate, -1.0, 1.0);
         let turning = if coulomb_g * self.coulomb_g < 0.0 {
             c.amplifier_tau_s / c.dt_s * (coulomb_g - self.coulomb_g)

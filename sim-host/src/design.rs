@@ -1014,9 +1014,10 @@ pub fn design(
 }
 
 /// The share of the identified stiction the feed-forward pushes against, in the direction the
-/// reference moves (through the amplifier's inverse, [`amplifier_tau_s`]): all of it, now that the models are fitted to
-/// the drive less the friction ([`crate::identify::PeriodMeans::less_friction`]) and refined
-/// with it simulated ([`crate::stick_slip`]). Near the
+/// reference moves (through the amplifier's inverse where it turns, [`amplifier_tau_s`]): all
+/// of it, now that the models are fitted to the drive less the friction
+/// ([`crate::identify::PeriodMeans::less_friction`]) and refined with it simulated
+/// ([`crate::stick_slip`]). Near the
 /// inertia–finger mode a sine needs less drive than the stiction, and only a compensation of
 /// the whole moves the motor there. Measured (`FRICTION=G ONLY=1 cargo run --release -p
 /// sim-host --example design_controller [applicators/FILE.toml]`): with models fitted to the
