@@ -13,6 +13,7 @@
 //! reference stops instead of `design::HELD_FRICTION_SHARE`. `SINES=L:A,…`: sines of A g
 //! about L g instead of 2 about 10, 10 about 50 and 10 about 100. `NO_GAUGE_S2=1`: the
 //! feedback compares the reading without the tip's inertia (`InverseSeries::gauge_s2` zero).
+//! `TRUE_FRICTION=1`: the file's stiction compensated (an oracle: what the identified one costs).
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -97,6 +98,17 @@ fn main() {
         .and_then(|v| v.parse::<f32>().ok())
     {
         d.config.friction_g = friction_g;
+    }
+    if std::env::var("TRUE_FRICTION").is_ok() {
+        let p = &config.applicator;
+        let scale = p.drive_g_per_v() / f64::from(config.firmware.actuator.grams_per_volt);
+        let true_g =
+            p.static_friction_nm / p.arm_m / sim_host::applicator::NEWTONS_PER_GRAM / scale;
+        println!(
+            "stiction identified {:.3} g, the file's {true_g:.3} g",
+            d.config.friction_g
+        );
+        d.config.friction_g = true_g as f32;
     }
     // `TAU_MS=T`: the friction compensation through (1 + sT) instead of the design's τ.
     if let Some(tau_ms) = std::env::var("TAU_MS")

@@ -5,7 +5,8 @@
 //!
 //! cargo run --release -p sim-host --example lowforce_trace -- applicators/F.toml FROM_S TO_S EVERY
 //!
-//! `STEPS=1`: `force-steps` instead.
+//! `STEPS=1`: `force-steps` instead. `SINE=L:A:HZ`: a sine of A g at HZ about L g instead
+//! (ramped up over the first second, as `metrics::closed_loop_gain` runs it).
 use sim_host::design;
 use sim_host::rig::{Rig, RigConfig};
 use tactile_core::profile::{CommandSource, Protocol};
@@ -29,6 +30,9 @@ fn main() {
             .config,
     );
     let (from_s, to_s, every) = (arg(1, 3.9), arg(2, 5.4), arg(3, 10.0) as usize);
+    if std::env::var("SINE").is_ok() {
+        config.command_slew_g_per_s = f32::INFINITY;
+    }
     let mut rig = Rig::new(config).expect("rig");
     // `STEPS=1`: the force steps instead.
     let protocol = if std::env::var("STEPS").is_ok() {
@@ -37,9 +41,18 @@ fn main() {
         Protocol::LowForce { hold_s: 3.0 }
     };
     let mut source = CommandSource::new(protocol);
+    let sine: Option<Vec<f64>> = std::env::var("SINE")
+        .ok()
+        .map(|v| v.split(':').filter_map(|x| x.parse().ok()).collect());
     for k in 0..(to_s * 1e3) as usize {
         let t_s = k as f64 * 1e-3;
-        let command_g = source.command_g(t_s as f32);
+        let command_g = match sine.as_deref() {
+            Some(&[load, _, _]) if t_s < 1.0 => (load * t_s) as f32,
+            Some(&[load, amp, hz]) => {
+                (load + amp * (2.0 * std::f64::consts::PI * hz * (t_s - 1.0)).sin()) as f32
+            }
+            _ => source.command_g(t_s as f32),
+        };
         let r = rig.tick(command_g, |_, _| {});
         if t_s >= from_s && k % every.max(1) == 0 {
             let (tip_m, motor_m) = rig.hardware.positions_m();
