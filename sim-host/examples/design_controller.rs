@@ -36,10 +36,7 @@ fn main() {
     let t0 = std::time::Instant::now();
     let d = if std::env::var("ANALYTIC").is_ok() {
         let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
-        // The drive's grams are the firmware's (its volts per gram): on a rig whose amplifier,
-        // motor or arm differ from the memo's, a drive gram moves the probe by this many.
-        let scale =
-            config.applicator.drive_g_per_v() / f64::from(config.firmware.actuator.grams_per_volt);
+        let scale = drive_scale(&config);
         let models: Vec<design::LoadModel> = design::DESIGN_LOADS_G
             .iter()
             .map(|&load_g| {
@@ -68,16 +65,13 @@ fn main() {
                 }
             })
             .collect();
-        let p = &config.applicator;
-        // The stiction in drive grams.
-        let stiction_g =
-            p.static_friction_nm / p.arm_m / sim_host::applicator::NEWTONS_PER_GRAM / scale;
+        let stiction_g = file_stiction_g(&config);
         let law = config.firmware.law;
         design::design(
             &models,
             stiction_g as f32,
             (law.adjusted_min_g, law.adjusted_max_g),
-            p.gauge_noise_g as f32,
+            config.applicator.gauge_noise_g as f32,
         )
         .expect("design")
     } else {
@@ -100,10 +94,7 @@ fn main() {
         d.config.friction_g = friction_g;
     }
     if std::env::var("TRUE_FRICTION").is_ok() {
-        let p = &config.applicator;
-        let scale = p.drive_g_per_v() / f64::from(config.firmware.actuator.grams_per_volt);
-        let true_g =
-            p.static_friction_nm / p.arm_m / sim_host::applicator::NEWTONS_PER_GRAM / scale;
+        let true_g = file_stiction_g(&config);
         println!(
             "stiction identified {:.3} g, the file's {true_g:.3} g",
             d.config.friction_g
@@ -205,6 +196,19 @@ fn main() {
             );
         }
     }
+}
+
+/// A drive gram's force at the probe, in the rig's own grams: the drive's grams are the
+/// firmware's (its volts per gram), and on a rig whose amplifier, motor or arm differ from the
+/// memo's a drive gram moves the probe by this many.
+fn drive_scale(config: &RigConfig) -> f64 {
+    config.applicator.drive_g_per_v() / f64::from(config.firmware.actuator.grams_per_volt)
+}
+
+/// The applicator file's stiction in drive grams.
+fn file_stiction_g(config: &RigConfig) -> f64 {
+    let p = &config.applicator;
+    p.static_friction_nm / p.arm_m / sim_host::applicator::NEWTONS_PER_GRAM / drive_scale(config)
 }
 
 /// The closed loop's sines, (load, amplitude) in g: `SINES=L:A,…` or the three.

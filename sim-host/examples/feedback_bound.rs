@@ -11,7 +11,6 @@
 //! `DELAY_TICKS=D`: the ticks the loop waits for the reading (1, the firmware's), to see what
 //! a faster read-out would buy.
 use num_complex::Complex64;
-use sim_host::applicator::ApplicatorParams;
 use sim_host::{analysis, design, rig::TICK_S};
 use std::f64::consts::PI;
 
@@ -50,31 +49,18 @@ fn main() {
         .unwrap_or(1.0);
     let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
     let grid = design::loop_grid_hz();
-    type Field = fn(&mut ApplicatorParams) -> &mut f64;
-    let fields: [Field; 6] = [
-        |p| &mut p.motor_inertia_kg_m2,
-        |p| &mut p.beam_stiffness_n_per_m,
-        |p| &mut p.tip_mass_kg,
-        |p| &mut p.amplifier_pole_hz,
-        |p| &mut p.contact_loss_factor,
-        |p| &mut p.indentation_mm_per_100pct,
-    ];
     let mut rigs = vec![nominal];
-    for field in fields {
+    for (_, field) in analysis::MECHANICAL_PARAMETERS {
         for f in [0.8, 1.2] {
             let mut p = nominal;
             *field(&mut p) *= f;
             rigs.push(p);
         }
     }
-    // The plant with the hold, on the loop's grid: gauge grams per drive gram.
-    let on_grid = |p: &ApplicatorParams, load_g: f64| -> Vec<Complex64> {
+    // The plant as the loop sees it, on the loop's grid: gauge grams per drive gram.
+    let on_grid = |p, load_g| -> Vec<Complex64> {
         grid.iter()
-            .map(|&hz| {
-                let s = Complex64::new(0.0, 2.0 * PI * hz);
-                let hold = (1.0 - (-s * TICK_S).exp()) / (s * TICK_S);
-                analysis::applicator_response(p, &law, load_g, 2.0 * PI * hz) * hold
-            })
+            .map(|&hz| analysis::held_response(p, &law, load_g, hz))
             .collect()
     };
     let loads = [2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 120.0];

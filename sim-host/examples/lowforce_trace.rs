@@ -6,7 +6,8 @@
 //! cargo run --release -p sim-host --example lowforce_trace -- applicators/F.toml FROM_S TO_S EVERY
 //!
 //! `STEPS=1`: `force-steps` instead. `SINE=L:A:HZ`: a sine of A g at HZ about L g instead
-//! (ramped up over the first second, as `metrics::closed_loop_gain` runs it).
+//! (L ramped up over the first second, then L + A·sin(2π·HZ·t), as
+//! `metrics::closed_loop_gain` runs it).
 use sim_host::design;
 use sim_host::rig::{Rig, RigConfig};
 use tactile_core::profile::{CommandSource, Protocol};
@@ -41,17 +42,20 @@ fn main() {
         Protocol::LowForce { hold_s: 3.0 }
     };
     let mut source = CommandSource::new(protocol);
-    let sine: Option<Vec<f64>> = std::env::var("SINE")
-        .ok()
-        .map(|v| v.split(':').filter_map(|x| x.parse().ok()).collect());
+    let sine: Option<[f64; 3]> = std::env::var("SINE").ok().map(|v| {
+        let parts: Vec<f64> = v.split(':').filter_map(|x| x.parse().ok()).collect();
+        parts
+            .try_into()
+            .unwrap_or_else(|_| panic!("SINE={v}: give LOAD:AMPLITUDE:HZ, three numbers"))
+    });
     for k in 0..(to_s * 1e3) as usize {
         let t_s = k as f64 * 1e-3;
-        let command_g = match sine.as_deref() {
-            Some(&[load, _, _]) if t_s < 1.0 => (load * t_s) as f32,
-            Some(&[load, amp, hz]) => {
-                (load + amp * (2.0 * std::f64::consts::PI * hz * (t_s - 1.0)).sin()) as f32
+        let command_g = match sine {
+            Some([load, _, _]) if t_s < 1.0 => (load * t_s) as f32,
+            Some([load, amp, hz]) => {
+                (load + amp * (2.0 * std::f64::consts::PI * hz * t_s).sin()) as f32
             }
-            _ => source.command_g(t_s as f32),
+            None => source.command_g(t_s as f32),
         };
         let r = rig.tick(command_g, |_, _| {});
         if t_s >= from_s && k % every.max(1) == 0 {

@@ -54,6 +54,27 @@ pub fn applicator_response(
     amp * mechanical_response(p, law, load_g, omega_rad_s)
 }
 
+/// [`applicator_response`] at `hz` as the control loop sees it: through the drive's hold over
+/// a tick, (1 − e^(−sT))/(sT). What the designed feedback's margins are checked on.
+pub fn held_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, hz: f64) -> Complex64 {
+    let t = crate::rig::TICK_S;
+    let s = Complex64::new(0.0, 2.0 * core::f64::consts::PI * hz);
+    applicator_response(p, law, load_g, s.im) * ((1.0 - (-s * t).exp()) / (s * t))
+}
+
+/// One of an applicator's parameters, to move it.
+pub type ParamField = fn(&mut ApplicatorParams) -> &mut f64;
+
+/// The mechanical parameters the margins must hold against, each 20 % off in turn.
+pub const MECHANICAL_PARAMETERS: [(&str, ParamField); 6] = [
+    ("motor inertia", |p| &mut p.motor_inertia_kg_m2),
+    ("beam stiffness", |p| &mut p.beam_stiffness_n_per_m),
+    ("tip mass", |p| &mut p.tip_mass_kg),
+    ("amplifier pole", |p| &mut p.amplifier_pole_hz),
+    ("contact loss", |p| &mut p.contact_loss_factor),
+    ("indentation scale", |p| &mut p.indentation_mm_per_100pct),
+];
+
 /// Measures the same response from the simulated plant: a sine of `amplitude_g` about
 /// `load_g` at `hz`, friction off, lock-in over whole periods after the transient.
 pub fn measured_response(

@@ -168,6 +168,19 @@ fn upper_median(mut values: Vec<f64>) -> Option<f64> {
     values.get(values.len() / 2).copied()
 }
 
+/// The median: the middle value, the mean of the two for an even count (`None` for none).
+fn median(mut values: Vec<f64>) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    let upper = *values.get(n / 2)?;
+    // An even count that has a value at n/2 has one below it.
+    Some(if n.is_multiple_of(2) {
+        0.5 * (values[n / 2 - 1] + upper)
+    } else {
+        upper
+    })
+}
+
 /// How far a load's fitted amplifier pole may be from the others' median, as a factor (the
 /// four rigs' fits spread 126–309 Hz about medians of 130–160 Hz).
 pub const POLE_SPREAD: f64 = 2.5;
@@ -1038,16 +1051,13 @@ pub const FRICTION_SHARE: f64 = 1.0;
 /// only turned 1/(2πf_p) + τ ahead, −1.7 dB through (1 + τs). The fitted delay stays out: it
 /// is the series' (`inverse_series`).
 pub fn amplifier_tau_s(models: &[LoadModel]) -> f64 {
-    let mut taus: Vec<f64> = models
-        .iter()
-        .map(|m| 1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz))
-        .collect();
-    taus.sort_by(f64::total_cmp);
-    match taus.len() {
-        0 => 0.0,
-        n if n % 2 == 1 => taus[n / 2],
-        n => 0.5 * (taus[n / 2 - 1] + taus[n / 2]),
-    }
+    median(
+        models
+            .iter()
+            .map(|m| 1.0 / (2.0 * std::f64::consts::PI * m.model.pole_hz))
+            .collect(),
+    )
+    .unwrap_or(0.0)
 }
 
 /// The share of the identified stiction held, once the reference stops, in the direction it

@@ -116,19 +116,13 @@ fn friction_free_margins(
     loads_g: &[f64],
 ) -> (f64, f64) {
     let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
-    let t = sim_host::rig::TICK_S;
     loads_g
         .iter()
         .fold((f64::INFINITY, 180.0f64), |(gm, pm), &load| {
             let feedback = design::table_feedback(c, load as f32);
             let l: Vec<_> = design::loop_grid_hz()
                 .into_iter()
-                .map(|hz| {
-                    let w = 2.0 * std::f64::consts::PI * hz;
-                    let s = num_complex::Complex64::new(0.0, w);
-                    let hold = (1.0 - (-s * t).exp()) / (s * t);
-                    feedback(hz) * sim_host::analysis::applicator_response(p, &law, load, w) * hold
-                })
+                .map(|hz| feedback(hz) * sim_host::analysis::held_response(p, &law, load, hz))
                 .collect();
             let m = design::margins(&l);
             (gm.min(m.gain), pm.min(m.phase_deg))
@@ -151,16 +145,7 @@ fn the_designed_feedback_keeps_its_margins_on_the_friction_free_plant() {
             continue;
         }
         let p = cfg.applicator;
-        type Field = fn(&mut sim_host::applicator::ApplicatorParams) -> &mut f64;
-        let fields: [(&str, Field); 6] = [
-            ("motor inertia", |p| &mut p.motor_inertia_kg_m2),
-            ("beam stiffness", |p| &mut p.beam_stiffness_n_per_m),
-            ("tip mass", |p| &mut p.tip_mass_kg),
-            ("amplifier pole", |p| &mut p.amplifier_pole_hz),
-            ("contact loss", |p| &mut p.contact_loss_factor),
-            ("indentation scale", |p| &mut p.indentation_mm_per_100pct),
-        ];
-        for (name, field) in fields {
+        for (name, field) in sim_host::analysis::MECHANICAL_PARAMETERS {
             for f in [0.8, 1.2] {
                 let mut q = p;
                 *field(&mut q) *= f;
