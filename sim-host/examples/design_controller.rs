@@ -14,6 +14,9 @@
 //! about L g instead of 2 about 10, 10 about 50 and 10 about 100. `NO_GAUGE_S2=1`: the
 //! feedback compares the reading without the tip's inertia (`InverseSeries::gauge_s2` zero).
 //! `TRUE_FRICTION=1`: the file's stiction compensated (an oracle: what the identified one costs).
+//! `RUN_OFF=NAME:F`: the design run on the rig with one of `analysis::MECHANICAL_PARAMETERS`
+//! (`"motor inertia"`, …) F times the file's: what a model that far off costs (with
+//! `ANALYTIC=1`, a perfect model of the file's rig).
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -30,7 +33,8 @@ fn main() {
     };
     if let Some(path) = std::env::args().nth(1) {
         config.set_applicator(
-            sim_host::error::read_applicator(std::path::Path::new(&path)).expect("applicator"),
+            sim_host::error::read_applicator(std::path::Path::new(&path))
+                .unwrap_or_else(|e| refuse(&e)),
         );
     }
     let t0 = std::time::Instant::now();
@@ -73,9 +77,9 @@ fn main() {
             (law.adjusted_min_g, law.adjusted_max_g),
             config.applicator.gauge_noise_g as f32,
         )
-        .expect("design")
+        .unwrap_or_else(|e| refuse(&e))
     } else {
-        let r = design::design_for_rig(&config).expect("design");
+        let r = design::design_for_rig(&config).unwrap_or_else(|e| refuse(&e));
         println!(
             "static gain {:.3}, stiction {:.2} g, gauge noise {:.2} g (identified from the holds)",
             r.identified.static_gain, r.identified.stiction_g, r.identified.gauge_noise_g
@@ -145,6 +149,22 @@ fn main() {
         tc.ki_per_s = 0.0;
     }
     designed.firmware.tracking = Some(tc);
+    // `RUN_OFF=NAME:F`: the design runs on the rig with one mechanical parameter F times the
+    // file's (what a model that far off costs; names as `analysis::MECHANICAL_PARAMETERS`).
+    if let Ok(v) = std::env::var("RUN_OFF") {
+        let (name, factor) = v
+            .split_once(':')
+            .and_then(|(n, f)| Some((n, f.parse::<f64>().ok()?)))
+            .unwrap_or_else(|| panic!("RUN_OFF={v}: want NAME:FACTOR"));
+        let (_, field) = sim_host::analysis::MECHANICAL_PARAMETERS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .unwrap_or_else(|| panic!("RUN_OFF: no mechanical parameter named {name:?}"));
+        let mut off = designed.applicator;
+        *field(&mut off) *= factor;
+        println!("run on the rig with its {name} {factor} times the file's");
+        designed.set_applicator(off);
+    }
     let mut runs = vec![("designed", &designed)];
     if std::env::var("ONLY").is_err() {
         runs.insert(0, ("A1", &config));
@@ -224,4 +244,10 @@ fn sines() -> Vec<(f64, f64)> {
                 .collect()
         })
         .unwrap_or_else(|| vec![(10.0, 2.0), (50.0, 10.0), (100.0, 10.0)])
+}
+
+/// A rig the design refuses (or a bad file): the reason, and exit status 2, as `tactile design`.
+fn refuse(e: &dyn std::fmt::Display) -> ! {
+    eprintln!("error: {e}");
+    std::process::exit(2)
 }
