@@ -37,6 +37,19 @@ fn main() {
                 .unwrap_or_else(|e| refuse(&e)),
         );
     }
+    // `RUN_OFF=NAME:F`: the design runs on the rig with one mechanical parameter F times the
+    // file's (what a model that far off costs; names as `analysis::MECHANICAL_PARAMETERS`).
+    let run_off = std::env::var("RUN_OFF").ok().map(|v| {
+        let (name, factor) = v
+            .split_once(':')
+            .and_then(|(n, f)| Some((n.to_string(), f.parse::<f64>().ok()?)))
+            .unwrap_or_else(|| refuse(&format!("RUN_OFF={v}: want NAME:FACTOR")));
+        let (_, field) = sim_host::analysis::MECHANICAL_PARAMETERS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .unwrap_or_else(|| refuse(&format!("RUN_OFF: no mechanical parameter named {name:?}")));
+        (name, *field, factor)
+    });
     let t0 = std::time::Instant::now();
     let d = if std::env::var("ANALYTIC").is_ok() {
         let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
@@ -149,17 +162,7 @@ fn main() {
         tc.ki_per_s = 0.0;
     }
     designed.firmware.tracking = Some(tc);
-    // `RUN_OFF=NAME:F`: the design runs on the rig with one mechanical parameter F times the
-    // file's (what a model that far off costs; names as `analysis::MECHANICAL_PARAMETERS`).
-    if let Ok(v) = std::env::var("RUN_OFF") {
-        let (name, factor) = v
-            .split_once(':')
-            .and_then(|(n, f)| Some((n, f.parse::<f64>().ok()?)))
-            .unwrap_or_else(|| panic!("RUN_OFF={v}: want NAME:FACTOR"));
-        let (_, field) = sim_host::analysis::MECHANICAL_PARAMETERS
-            .iter()
-            .find(|(n, _)| *n == name)
-            .unwrap_or_else(|| panic!("RUN_OFF: no mechanical parameter named {name:?}"));
+    if let Some((name, field, factor)) = run_off {
         let mut off = designed.applicator;
         *field(&mut off) *= factor;
         println!("run on the rig with its {name} {factor} times the file's");
@@ -246,8 +249,9 @@ fn sines() -> Vec<(f64, f64)> {
         .unwrap_or_else(|| vec![(10.0, 2.0), (50.0, 10.0), (100.0, 10.0)])
 }
 
-/// A rig the design refuses (or a bad file): the reason, and exit status 2, as `tactile design`.
+/// A rig the design refuses, a bad file or knob: the reason, and exit status 1, as
+/// `tactile design` (the example's output is read by `scripts/controller-summary.py`).
 fn refuse(e: &dyn std::fmt::Display) -> ! {
     eprintln!("error: {e}");
-    std::process::exit(2)
+    std::process::exit(1)
 }
