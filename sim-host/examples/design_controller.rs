@@ -249,8 +249,8 @@ fn sines() -> Vec<(f64, f64)> {
         .unwrap_or_else(|| vec![(10.0, 2.0), (50.0, 10.0), (100.0, 10.0)])
 }
 
-/// A rig the design refuses, a bad file or knob: the reason, and exit status 1, as
-/// `tactile design` (the example's output is read by `scripts/controller-summary.py`).
+/// A rig the design refuses, a bad file or knob: the reason on stderr and exit status 1, as
+/// `tactile design` (`scripts/controller-sweep.sh` logs it and goes on to the next rig).
 fn refuse(e: &dyn std::fmt::Display) -> ! {
     eprintln!("error: {e}");
     std::process::exit(1)
