@@ -11,14 +11,20 @@
 //! ([`CURVE_KNOTS`] stresses, then the strain at each); N₁, α, N₂; the notch frequency (Hz,
 //! 0 for none); the calibrated range (g, 0 unknown); each estimator's held-out RMS error on the
 //! calibration record (g, in [`EstimatorKind::ALL`]'s order; negative: not measured); the
-//! hysteresis as [`PLAYS`] play radii (g), then their weights (%/g; 0: no play).
+//! hysteresis as [`PLAYS`] play radii (g), then their weights (%/g; 0: no play); the force
+//! bank ([`BankModel`]): its strain scale (%), [`BANK_FILTERS`] time constants (s),
+//! [`BANK_KNOTS`] hinges, [`BANK_PLAYS`] play radii, [`BANK_FEATURES`] weights (g), and its
+//! re-zero's bound (g, 0: none), quiet band and time constant (s).
 //! Version 2 added the notch; version 3 the curves (version 2's three-coefficient laws could
 //! not follow a spring that stiffens by another law), the range, the held-out errors, the
-//! chosen estimator and the flags; version 4 the hysteresis (`tactile diagnose`'s plays).
+//! chosen estimator and the flags; version 4 the hysteresis (`tactile diagnose`'s plays);
+//! version 5 the force bank and its held-out error.
 
 use heapless::Vec;
 
-use crate::estimator::TaxelEstimator;
+use crate::estimator::{
+    BankModel, Rezero, TaxelEstimator, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS,
+};
 use crate::hysteresis::{Plays, PLAYS};
 use crate::lti::{ModelError, ModelParameter};
 use crate::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
@@ -40,15 +46,33 @@ pub enum EstimatorKind {
     ScheduledInverse,
     /// [`MkObserver`](crate::estimator::MkObserver).
     Observer,
+    /// [`ForceBank`](crate::estimator::ForceBank).
+    Bank,
 }
 
 impl EstimatorKind {
-    pub const ALL: [EstimatorKind; 4] = [
+    pub const ALL: [EstimatorKind; 5] = [
         EstimatorKind::Elastic,
         EstimatorKind::SecondOrderInverse,
         EstimatorKind::ScheduledInverse,
         EstimatorKind::Observer,
+        EstimatorKind::Bank,
     ];
+    pub const COUNT: usize = Self::ALL.len();
+
+    /// Index in [`Self::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The loop taken off this estimator's input: the calibration's plays, but none before
+    /// the bank (fitted with plays of its own).
+    pub fn loop_taken_off(self, model: &TaxelModel) -> Plays {
+        match self {
+            EstimatorKind::Bank => Plays::default(),
+            _ => model.hysteresis,
+        }
+    }
 
     /// The parameters of a [`TaxelModel`] this estimator runs on.
     fn parameter(self) -> ModelParameter {
@@ -57,6 +81,7 @@ impl EstimatorKind {
             EstimatorKind::SecondOrderInverse => ModelParameter::SecondOrder,
             EstimatorKind::ScheduledInverse => ModelParameter::ScheduleEntry,
             EstimatorKind::Observer => ModelParameter::Observer,
+            EstimatorKind::Bank => ModelParameter::Bank,
         }
     }
 
@@ -66,6 +91,7 @@ impl EstimatorKind {
             EstimatorKind::SecondOrderInverse => "second-order inverse",
             EstimatorKind::ScheduledInverse => "scheduled inverse",
             EstimatorKind::Observer => "observer (EKF)",
+            EstimatorKind::Bank => "force bank",
         }
     }
 }
@@ -143,14 +169,24 @@ pub fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
 }
 
 pub const MAGIC: [u8; 4] = *b"TCAL";
-pub const VERSION: u16 = 4;
+pub const VERSION: u16 = 5;
 const HEADER_BYTES: usize = 8;
 /// Bytes of a record before its floats.
 const LEAD_BYTES: usize = 8;
 const CRC_BYTES: usize = 4;
 /// Floats in a record after its four leading bytes.
-const RECORD_FLOATS: usize =
-    2 + 5 + SCHEDULE_POINTS * 6 + 2 * CURVE_FLOATS + 3 + 1 + 1 + 4 + 2 * PLAYS;
+const RECORD_FLOATS: usize = 2
+    + 5
+    + SCHEDULE_POINTS * 6
+    + 2 * CURVE_FLOATS
+    + 3
+    + 1
+    + 1
+    + EstimatorKind::COUNT
+    + 2 * PLAYS
+    + BANK_FLOATS;
+/// A bank's floats: scale, time constants, knots, radii, weights, re-zero.
+const BANK_FLOATS: usize = 1 + BANK_FILTERS + BANK_KNOTS + BANK_PLAYS + BANK_FEATURES + 3;
 /// A curve's floats: its knots' stresses, then its strains there.
 const CURVE_FLOATS: usize = 2 * CURVE_KNOTS;
 pub const RECORD_BYTES: usize = LEAD_BYTES + 4 * RECORD_FLOATS;
@@ -207,12 +243,14 @@ pub struct TaxelModel {
     pub range_g: f64,
     /// Each estimator's RMS force error on the held-out part of the calibration record, g, in
     /// [`EstimatorKind::ALL`]'s order (`None`: not measured, as for the nominal models).
-    pub held_out_g: Option<[f64; 4]>,
+    pub held_out_g: Option<[f64; EstimatorKind::COUNT]>,
     /// The estimator the firmware runs on this taxel (the one that held out best).
     pub estimator: EstimatorKind,
     pub flags: CalibrationFlags,
     /// A loop in the strain, taken off before the taxel's estimator (none: empty).
     pub hysteresis: Plays,
+    /// The force bank (without a fit: the elastic spring).
+    pub bank: BankModel,
 }
 
 impl TaxelModel {
@@ -244,6 +282,7 @@ impl TaxelModel {
             estimator: EstimatorKind::Observer,
             flags: CalibrationFlags::empty(),
             hysteresis: Plays::default(),
+            bank: BankModel::elastic(so.b2 / so.a2),
         }
     }
 
@@ -286,11 +325,23 @@ impl TaxelModel {
                 let _ = values.push(f64::from(*x));
             }
         }
-        let held_out = self.held_out_g.unwrap_or([-1.0; 4]);
+        let held_out = self.held_out_g.unwrap_or([-1.0; EstimatorKind::COUNT]);
         let _ = values.extend_from_slice(&[e.n1, e.alpha, e.n2, self.notch_hz, self.range_g]);
         let _ = values.extend_from_slice(&held_out);
         let h = &self.hysteresis;
         for x in h.radius_g.iter().chain(&h.weight_pct_per_g) {
+            let _ = values.push(f64::from(*x));
+        }
+        let b = &self.bank;
+        let r = &b.rezero;
+        for x in [b.strain_scale_pct]
+            .iter()
+            .chain(&b.tau_s)
+            .chain(&b.knots)
+            .chain(&b.play_radius)
+            .chain(&b.weights_g)
+            .chain(&[r.below_g, r.quiet, r.tau_s])
+        {
             let _ = values.push(f64::from(*x));
         }
         for (slot, x) in v.iter_mut().zip(values) {
@@ -334,13 +385,14 @@ impl TaxelModel {
         };
         let (g1, g2) = (curve(e)?, curve(e + CURVE_FLOATS)?);
         let p = e + 2 * CURVE_FLOATS;
-        let held_out: [f64; 4] = core::array::from_fn(|k| d(p + 5 + k));
-        let h = p + 9;
+        let held_out: [f64; EstimatorKind::COUNT] = core::array::from_fn(|k| d(p + 5 + k));
+        let h = p + 5 + EstimatorKind::COUNT;
         let hysteresis = Plays {
             radius_g: core::array::from_fn(|k| at(h + k)),
             weight_pct_per_g: core::array::from_fn(|k| at(h + PLAYS + k)),
         };
         hysteresis.check().ok()?;
+        let bank = bank_from(&f[h + 2 * PLAYS..])?;
         Some(TaxelModel {
             taxel,
             strain_offset_pct: d(0),
@@ -360,8 +412,34 @@ impl TaxelModel {
             estimator,
             flags,
             hysteresis,
+            bank,
         })
     }
+}
+
+/// A bank from its floats in the record's order; `None` if out of range.
+fn bank_from(f: &[f32]) -> Option<BankModel> {
+    let (scale, f) = f.split_first()?;
+    let (tau, f) = f.split_at_checked(BANK_FILTERS)?;
+    let (knots, f) = f.split_at_checked(BANK_KNOTS)?;
+    let (radii, f) = f.split_at_checked(BANK_PLAYS)?;
+    let (weights, f) = f.split_at_checked(BANK_FEATURES)?;
+    let [below_g, quiet, tau_s, ..] = *f else {
+        return None;
+    };
+    let bank = BankModel {
+        strain_scale_pct: *scale,
+        tau_s: tau.try_into().ok()?,
+        knots: knots.try_into().ok()?,
+        play_radius: radii.try_into().ok()?,
+        weights_g: weights.try_into().ok()?,
+        rezero: Rezero {
+            below_g,
+            quiet,
+            tau_s,
+        },
+    };
+    bank.check().ok().map(|()| bank)
 }
 
 /// The scheduled inverse's table from an element with load-dependent springs: its secant
@@ -605,9 +683,16 @@ mod tests {
             m.element.g1 = m.element.g1.scaled(k);
             m.strain_offset_pct = 0.03 * k;
             m.schedule.truncate(2 + i % 3);
-            m.estimator = EstimatorKind::ALL[i % 4];
+            m.estimator = EstimatorKind::ALL[i % 5];
             m.flags = CalibrationFlags::from_bits_truncate(i as u8);
-            m.held_out_g = (i > 0).then_some([3.0, 2.5, 0.4, 0.2 * k]);
+            m.held_out_g = (i > 0).then_some([3.0, 2.5, 0.4, 0.2 * k, 0.3]);
+            m.bank.tau_s[2] = 3.5 * k as f32;
+            m.bank.weights_g[7] = -1.25;
+            m.bank.rezero = Rezero {
+                below_g: 4.0,
+                quiet: 0.02,
+                tau_s: 2.0,
+            };
             m.range_g = 90.0 * k;
             m.hysteresis = Plays::new(&[(0.5, 0.01), (8.0 * k as f32, -0.002)]).unwrap();
             t.taxels.push(m).unwrap();
@@ -651,9 +736,10 @@ mod tests {
         let mut buf = [0u8; MAX_TABLE_BYTES];
         let n = t.encode(&mut buf).unwrap();
         assert_eq!(n, 8 + 3 * RECORD_BYTES + 4);
-        // 8 lead bytes and 90 floats: offset, elastic, eq. 17, 4 × 6 schedule, 2 × 20 curve,
-        // N₁ α N₂, notch, range, 4 held-out errors, 5 play radii and 5 weights.
-        assert_eq!(RECORD_BYTES, 8 + 4 * 90);
+        // 8 lead bytes and 125 floats: offset, elastic, eq. 17, 4 × 6 schedule, 2 × 20 curve,
+        // N₁ α N₂, notch, range, 5 held-out errors, 5 play radii and 5 weights; the bank's
+        // scale, 8 time constants, 3 knots, 3 radii, 16 weights and 3 re-zero values.
+        assert_eq!(RECORD_BYTES, 8 + 4 * 125);
         // Trailing bytes (the rest of a sector) are ignored.
         let back = CalibrationTable::decode(&buf[..n + 100]).unwrap();
         assert_eq!(back.taxels.len(), 3);
@@ -695,7 +781,7 @@ mod tests {
                 "byte {i}"
             );
         }
-        for old in [1u8, 2, 3] {
+        for old in [1u8, 2, 3, 4] {
             let mut v = good.clone();
             v[4] = old;
             assert_eq!(
@@ -703,9 +789,9 @@ mod tests {
                 Err(TableError::UnsupportedVersion { found: old.into() })
             );
         }
-        assert!(TableError::UnsupportedVersion { found: 3 }
+        assert!(TableError::UnsupportedVersion { found: 4 }
             .to_string()
-            .contains("version 3; this build reads version 4"));
+            .contains("version 4; this build reads version 5"));
         // Well-formed but wrong inside (checksum recomputed): a position off the array.
         let mut off = good.clone();
         off[8] = 9;

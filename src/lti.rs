@@ -84,6 +84,8 @@ pub enum ModelParameter {
     ScheduleEntry,
     Observer,
     Elastic,
+    /// A force-fitted bank's scale, time constants, radii, weights or re-zero.
+    Bank,
 }
 
 impl core::fmt::Display for ModelParameter {
@@ -99,6 +101,7 @@ impl core::fmt::Display for ModelParameter {
             ModelParameter::ScheduleEntry => "schedule entry a1, a2, b0, b1, b2",
             ModelParameter::Observer => "observer N1, N2, alpha or dt_s",
             ModelParameter::Elastic => "elastic_g_per_pct",
+            ModelParameter::Bank => "force bank scale, time constants, radii, weights or re-zero",
         })
     }
 }

@@ -12,10 +12,14 @@
 //! error). Errors are in strain
 //! (what was measured) and in grams through one fixed secant stiffness per record.
 //!
+//! [`force_fit`] fits the chip's force bank in the direction it is used: force from the
+//! strain's history, its terms chosen by the same blocked cross-validation on the force error.
+//!
 //! [`synth`] is a second record generator, different in form from the project's simulator,
 //! for tests and benchmarks.
 
 pub mod diagnose;
+pub mod force_fit;
 pub mod residual;
 pub mod series;
 pub mod solve;

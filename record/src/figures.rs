@@ -14,9 +14,9 @@ pub struct FirmwareFigures {
     pub frames: usize,
     /// RMS of estimate − true contact force on the probed taxel (g), in
     /// `EstimatorKind::ALL`'s order.
-    pub rms_g: [f64; 4],
+    pub rms_g: [f64; EstimatorKind::COUNT],
     /// Instructions per taxel update, (min, max), same order.
-    pub instructions: [(u32, u32); 4],
+    pub instructions: [(u32, u32); EstimatorKind::COUNT],
 }
 
 impl FirmwareFigures {
@@ -25,10 +25,11 @@ impl FirmwareFigures {
         let f = self;
         let names = EstimatorKind::ALL.map(EstimatorKind::name);
         let mut s = format!(
-        "On the QEMU firmware ({}, probed taxel, the build's calibration table, {} frames):\n\n| | {} |\n|---|---|---|---|---|\n| RMS (g) |",
+        "On the QEMU firmware ({}, probed taxel, the build's calibration table, {} frames):\n\n| | {} |\n|---{}|\n| RMS (g) |",
         f.protocol,
         f.frames,
-        names.join(" | ")
+        names.join(" | "),
+        "|---".repeat(names.len())
     );
         for v in f.rms_g {
             let _ = write!(s, " {v:.3} |");

@@ -28,7 +28,7 @@ use tactile_core::calibration::{
     secant_schedule, CalibrationFlags, CalibrationTable, TaxelModel, LARGE_OFFSET_PCT, POOR_FIT_G,
 };
 use tactile_core::estimator::StructuralInverse;
-use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
+use tactile_core::estimator::{BankModel, EstimatorKind, TaxelEstimators};
 use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G, CALIBRATION_REST_S};
 use tactile_core::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use tactile_core::tactile::{ScanConfig, TaxelId};
@@ -74,14 +74,14 @@ pub struct TaxelFitReport {
     pub alpha_prior_share: f64,
     /// Held-out RMS force error (g) of each estimator, calibrated and nominal, in
     /// `EstimatorKind::ALL`'s order.
-    pub held_out_g: [f64; 4],
-    pub nominal_held_out_g: [f64; 4],
+    pub held_out_g: [f64; EstimatorKind::COUNT],
+    pub nominal_held_out_g: [f64; EstimatorKind::COUNT],
     pub estimator: String,
     pub flags: Vec<String>,
 }
 
 /// A fold: which frames its fit saw, and every estimator's output over the record.
-type FoldRun = (Vec<bool>, Vec<[f32; 4]>);
+type FoldRun = (Vec<bool>, Vec<[f32; EstimatorKind::COUNT]>);
 
 /// Frame period the estimators run at on the chip, s.
 fn frame_s() -> f64 {
@@ -257,7 +257,7 @@ pub fn fit_taxel(
             .map(|r| r.join().unwrap_or_else(|_| Err(failed("element"))))
             .collect()
     });
-    let mut sums = [[0.0f64; 4]; 2];
+    let mut sums = [[0.0f64; EstimatorKind::COUNT]; 2];
     let mut scored = 0usize;
     for fold in folds {
         let (in_fit, calibrated_est) = fold?;
@@ -274,7 +274,11 @@ pub fn fit_taxel(
     }
     let [held_out, nominal_held_out] = sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt()));
     // The estimator that held out best, by its index in `EstimatorKind::ALL`.
-    let best = |e: &[f64; 4]| (0..4).min_by(|a, b| e[*a].total_cmp(&e[*b])).unwrap_or(0);
+    let best = |e: &[f64; EstimatorKind::COUNT]| {
+        (0..EstimatorKind::COUNT)
+            .min_by(|a, b| e[*a].total_cmp(&e[*b]))
+            .unwrap_or(0)
+    };
     let mut model = model_from(&whole, &everything)?;
     let mut flags = CalibrationFlags::empty();
     let (calibrated_best, nominal_best) = (best(&held_out), best(&nominal_held_out));
@@ -319,7 +323,10 @@ pub fn fit_taxel(
 
 /// Every on-chip estimator of `model` over the record (its frames, from its raw strain: the
 /// conditioner removes the offset as on the chip).
-fn run_estimators(model: &TaxelModel, raw: &Frames) -> Result<Vec<[f32; 4]>, CalibrationError> {
+fn run_estimators(
+    model: &TaxelModel,
+    raw: &Frames,
+) -> Result<Vec<[f32; EstimatorKind::COUNT]>, CalibrationError> {
     let mut chip =
         TaxelEstimators::new(model, raw.dt_s).map_err(|source| CalibrationError::Model {
             taxel: model.taxel,
@@ -387,6 +394,10 @@ fn memo_models(
     // on the level's 13 s alone, its slow pole runs to zero: the 0.017 Hz sinusoid does not
     // complete a period.)
     let second_order = element.element.linearized(load).second_order();
+    // The force bank, fitted for force on the same samples.
+    let bank =
+        tactile_ident::force_fit::fit_bank(frames.dt_s, &frames.force, &frames.strain, in_fit)
+            .map_or(BankModel::elastic(elastic_g), |b| b.model);
     Some(TaxelModel {
         taxel,
         strain_offset_pct: offset,
@@ -395,6 +406,7 @@ fn memo_models(
         schedule: secant_schedule(&element.element, levels),
         element: element.element,
         range_g,
+        bank,
         ..TaxelModel::nominal(taxel)
     })
 }

@@ -658,10 +658,12 @@ pub fn calibrate(
     let summary = serde_json::json!({ "taxels": reports, "table_bytes": n });
     let json = json_out.write_json(&summary)?;
     let mut text = format!(
-        "calibrated {} taxel(s) from {source}\n\nheld out: RMS force error (g) on the blocks of the record each fold did not fit, elastic / second order / scheduled / observer; alpha's prior's share: how much of what the fit knows of alpha is its prior's (element 4,2's 5) rather than the record's, above 50 % alpha is the prior's\n\n| taxel | rest offset (%) | G1(30 g) | N1 | alpha (prior's share) | N2 | G2(30 g) | range (g) | element RMS (%) | held out, calibrated | held out, nominal | runs | flags |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "calibrated {} taxel(s) from {source}\n\nheld out: RMS force error (g) on the blocks of the record each fold did not fit, elastic / second order / scheduled / observer / force bank; alpha's prior's share: how much of what the fit knows of alpha is its prior's (element 4,2's 5) rather than the record's, above 50 % alpha is the prior's\n\n| taxel | rest offset (%) | G1(30 g) | N1 | alpha (prior's share) | N2 | G2(30 g) | range (g) | element RMS (%) | held out, calibrated | held out, nominal | runs | flags |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         table.taxels.len()
     );
-    let four = |v: &[f64; 4]| v.map(|x| format!("{x:.2}")).join(" / ");
+    let four = |v: &[f64; tactile_core::estimator::EstimatorKind::COUNT]| {
+        v.map(|x| format!("{x:.2}")).join(" / ")
+    };
     for (m, r) in table.taxels.iter().zip(&reports) {
         let e = &m.element;
         let _ = writeln!(

@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 use tactile_core::calibration::{secant_schedule, EstimatorKind, TaxelModel};
-use tactile_core::estimator::TaxelEstimators;
+use tactile_core::estimator::{StrainConditioner, TaxelEstimators};
 use tactile_core::hysteresis::{Plays, PLAYS};
 use tactile_core::spring::SpringCurve;
 use tactile_core::tactile::TaxelId;
@@ -14,6 +14,7 @@ pub use tactile_ident::diagnose::{Diagnosis, Term};
 // Every play the diagnosis fits reaches the chip.
 const _: () = assert!(tactile_ident::diagnose::PLAY_SHARES.len() <= PLAYS);
 use tactile_ident::diagnose::stiffening_load;
+use tactile_ident::force_fit;
 use tactile_ident::solve::Sign;
 use tactile_ident::{Refusal, Series};
 
@@ -441,35 +442,68 @@ fn taxel_model_of(
     })
 }
 
-/// Held-out RMS (g) of the observer and the scheduled inverse built per fold from `fold_terms`.
+/// The estimators whose model the diagnosis' terms give (the bank is fitted apart).
+const MODEL_KINDS: [EstimatorKind; 4] = [
+    EstimatorKind::Elastic,
+    EstimatorKind::SecondOrderInverse,
+    EstimatorKind::ScheduledInverse,
+    EstimatorKind::Observer,
+];
+/// Where [`MODEL_KINDS`] puts the observer and the scheduled inverse.
+const OBSERVER: usize = 3;
+const SCHEDULED: usize = 2;
+
+/// Held-out RMS (g) of each of [`MODEL_KINDS`] built per fold from `fold_terms`.
 fn held_out_force(
     fold_terms: &[Vec<(Term, f64)>],
     d: &Diagnosis,
     series: &Series,
     form: ChipForm,
-) -> Option<(f64, f64)> {
-    let (mut observer, mut scheduled, mut count) = (0.0, 0.0, 0usize);
+) -> Option<[f64; 4]> {
+    let (mut sums, mut count) = ([0.0; 4], 0usize);
     for (terms, &(a, b)) in fold_terms.iter().zip(&d.model.folds) {
         let model = taxel_model_of(terms, d, series, TaxelId::default(), form)?;
         let mut est = TaxelEstimators::new(&model, series.dt_s).ok()?;
         for i in 0..b {
-            let [scheduled_g, observer_g] = est.update_kinds(
-                series.strain_pct[i] as f32,
-                [EstimatorKind::ScheduledInverse, EstimatorKind::Observer],
-            );
+            let forces = est.update_kinds(series.strain_pct[i] as f32, MODEL_KINDS);
             if i >= a && !series.excluded[i] {
                 let f = series.force_g[i];
                 // An estimate that ran away counts as the chip would show it: no force.
                 let v = |x: f32| if x.is_finite() { f64::from(x) } else { 0.0 };
-                observer += (v(observer_g) - f).powi(2);
-                scheduled += (v(scheduled_g) - f).powi(2);
+                for (sum, x) in sums.iter_mut().zip(forces) {
+                    *sum += (v(x) - f).powi(2);
+                }
                 count += 1;
             }
         }
     }
-    let n = count.max(1) as f64;
-    let (o, s) = ((observer / n).sqrt(), (scheduled / n).sqrt());
-    (o.is_finite() && s.is_finite()).then_some((o, s))
+    let rms = sums.map(|s| (s / count.max(1) as f64).sqrt());
+    rms.iter().all(|v| v.is_finite()).then_some(rms)
+}
+
+/// `model` with the force bank fitted on the record, every estimator's held-out error (the
+/// model's four from `held_out`) and the one that held out best as the one the chip runs.
+fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> TaxelModel {
+    let mut conditioner = StrainConditioner::new(&model, series.dt_s);
+    let strain: Vec<f64> = series
+        .strain_pct
+        .iter()
+        .map(|e| f64::from(conditioner.update(*e as f32)))
+        .collect();
+    let scored: Vec<bool> = series.excluded.iter().map(|x| !x).collect();
+    let bank = force_fit::fit_bank(series.dt_s, &series.force_g, &strain, &scored);
+    let bank_g = bank.as_ref().map_or(f64::INFINITY, |b| b.held_out_g);
+    if let Some(b) = bank {
+        model.bank = b.model;
+    }
+    let all = [held_out[0], held_out[1], held_out[2], held_out[3], bank_g];
+    let best = (0..EstimatorKind::COUNT)
+        .min_by(|a, b| all[*a].total_cmp(&all[*b]))
+        .unwrap_or(0);
+    model.estimator = EstimatorKind::ALL[best];
+    // Not measured (the bank did not fit): negative, as the table stores it.
+    model.held_out_g = Some(all.map(|v| if v.is_finite() { v } else { -1.0 }));
+    model
 }
 
 /// The form among `forms` whose observer holds out best on the chip, with its held-out errors
@@ -479,8 +513,8 @@ fn best_form(
     d: &Diagnosis,
     series: &Series,
     forms: &[ChipForm],
-) -> (ChipForm, Option<(f64, f64)>) {
-    let scored: Vec<(ChipForm, Option<(f64, f64)>)> = std::thread::scope(|scope| {
+) -> (ChipForm, Option<[f64; 4]>) {
+    let scored: Vec<(ChipForm, Option<[f64; 4]>)> = std::thread::scope(|scope| {
         let runs: Vec<_> = forms
             .iter()
             .map(|&form| scope.spawn(move || held_out_force(fold_terms, d, series, form)))
@@ -491,11 +525,54 @@ fn best_form(
             .map(|(form, run)| (*form, run.join().ok().flatten()))
             .collect()
     });
-    let key = |x: &Option<(f64, f64)>| x.map_or(f64::INFINITY, |v| v.0);
+    let key = |x: &Option<[f64; 4]>| x.map_or(f64::INFINITY, |v| v[OBSERVER]);
     scored
         .into_iter()
         .min_by(|a, b| key(&a.1).total_cmp(&key(&b.1)))
         .unwrap_or((ChipForm::ALL[0], None))
+}
+
+/// What the chip runs and why: every estimator's held-out error, the one it runs marked.
+pub fn chip_choice(m: &TaxelModel) -> String {
+    let Some(held_out) = m.held_out_g else {
+        return format!(
+            "  the chip runs its {} (not measured)\n",
+            m.estimator.name()
+        );
+    };
+    let all: Vec<String> = EstimatorKind::ALL
+        .iter()
+        .zip(held_out)
+        .map(|(k, v)| {
+            let mark = if *k == m.estimator { " ←" } else { "" };
+            if v >= 0.0 {
+                format!("{} {v:.3} g{mark}", k.name())
+            } else {
+                format!("{} not fitted{mark}", k.name())
+            }
+        })
+        .collect();
+    let b = &m.bank;
+    let uses = |range: core::ops::Range<usize>| b.weights_g[range].iter().any(|w| *w != 0.0);
+    let hinges = 2..2 + tactile_core::estimator::BANK_KNOTS;
+    let plays = hinges.end + tactile_core::estimator::BANK_FILTERS..b.weights_g.len();
+    let rezero = if b.rezero.is_on() {
+        format!(
+            "re-zeroes where it reads under {:.1} g and the strain is still",
+            b.rezero.below_g
+        )
+    } else {
+        "no re-zero".to_string()
+    };
+    format!(
+        "  the chip runs its {} (held-out force error, g: {})\n  the force bank: lowpasses of {:.2}–{:.0} s{}{}; {rezero}\n",
+        m.estimator.name(),
+        all.join(", "),
+        b.tau_s[0],
+        b.tau_s[b.tau_s.len() - 1],
+        if uses(hinges) { ", a curve in hinges" } else { "" },
+        if uses(plays) { ", plays" } else { "" },
+    )
 }
 
 /// Diagnoses a checked record and carries the result to the chip.
@@ -520,8 +597,10 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     } else {
         best_form(&d.model.chip_fold_terms, &d, series, &ChipForm::ALL)
     };
-    let (before_o, before_s) = before.unwrap_or((f64::NAN, f64::NAN));
-    let (after_o, after_s) = after.unwrap_or((before_o, before_s));
+    let before_all = before.unwrap_or([f64::NAN; 4]);
+    let after_all = after.unwrap_or(before_all);
+    let (before_o, before_s) = (before_all[OBSERVER], before_all[SCHEDULED]);
+    let (after_o, after_s) = (after_all[OBSERVER], after_all[SCHEDULED]);
     let exported = !d.effects.is_empty() && after_o < before_o;
     let (chosen, form) = if exported {
         (&d.model.chip_terms, form)
@@ -532,7 +611,8 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     let table_model = if inverted || before.is_none() {
         None
     } else {
-        taxel_model_of(chosen, &d, series, taxel, form)
+        let held_out = if exported { after_all } else { before_all };
+        taxel_model_of(chosen, &d, series, taxel, form).map(|m| with_bank(m, series, held_out))
     };
     if inverted {
         summary.push_str("  on the chip: the strain falls as the force rises; the chip's estimators assume it rises, so no calibration is exported\n");
@@ -542,6 +622,9 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         summary.push_str(&format!(
             "  force from strain on the chip (held-out folds): observer {before_o:.3} g → {after_o:.3} g, scheduled inverse {before_s:.3} g → {after_s:.3} g\n"
         ));
+        if let Some(m) = &table_model {
+            summary.push_str(&chip_choice(m));
+        }
         if !d.effects.is_empty() {
             if exported {
                 summary.push_str(

@@ -19,6 +19,7 @@ pub enum Estimator {
     SecondOrder,
     Scheduled,
     Observer,
+    Bank,
 }
 
 impl Estimator {
@@ -28,6 +29,7 @@ impl Estimator {
             Estimator::SecondOrder => EstimatorKind::SecondOrderInverse,
             Estimator::Scheduled => EstimatorKind::ScheduledInverse,
             Estimator::Observer => EstimatorKind::Observer,
+            Estimator::Bank => EstimatorKind::Bank,
         }
     }
     fn column(self) -> &'static str {
@@ -36,15 +38,27 @@ impl Estimator {
             Estimator::SecondOrder => "second_order_g",
             Estimator::Scheduled => "scheduled_g",
             Estimator::Observer => "observer_g",
+            Estimator::Bank => "bank_g",
+        }
+    }
+
+    fn of(kind: EstimatorKind) -> Estimator {
+        match kind {
+            EstimatorKind::Elastic => Estimator::Elastic,
+            EstimatorKind::SecondOrderInverse => Estimator::SecondOrder,
+            EstimatorKind::ScheduledInverse => Estimator::Scheduled,
+            EstimatorKind::Observer => Estimator::Observer,
+            EstimatorKind::Bank => Estimator::Bank,
         }
     }
 }
 
-const ALL: [Estimator; 4] = [
+const ALL: [Estimator; EstimatorKind::COUNT] = [
     Estimator::Elastic,
     Estimator::SecondOrder,
     Estimator::Scheduled,
     Estimator::Observer,
+    Estimator::Bank,
 ];
 
 /// Runs the estimators; writes `t_s,force_g,strain_pct,<estimates>` to `out` (default: beside
@@ -91,12 +105,8 @@ pub fn run(
         ))
     })?;
     let chosen: Vec<Estimator> = only.map_or(ALL.to_vec(), |e| vec![e]);
-    let index = |e: Estimator| {
-        EstimatorKind::ALL
-            .iter()
-            .position(|k| *k == e.kind())
-            .unwrap_or(0)
-    };
+    let index = |e: Estimator| e.kind().index();
+    let runs = Estimator::of(model.estimator);
     let out_path: PathBuf = out.map(Path::to_path_buf).unwrap_or_else(|| {
         let stem = file
             .file_stem()
@@ -119,6 +129,7 @@ pub fn run(
     )
     .map_err(io)?;
     writeln!(w, "# sample_rate_hz={}", 1.0 / dt).map_err(io)?;
+    writeln!(w, "# chip_runs={}", runs.column()).map_err(io)?;
     let names: Vec<&str> = chosen.iter().map(|e| e.column()).collect();
     writeln!(w, "t_s,force_g,strain_pct,{}", names.join(",")).map_err(io)?;
     let mut sums = vec![0.0f64; chosen.len()];
@@ -144,13 +155,15 @@ pub fn run(
         taxel.col(),
         table.display()
     );
+    text.push_str(&crate::diagnose::chip_choice(&model));
     for (k, e) in chosen.iter().enumerate() {
         let rms = (sums[k] / record.len().max(1) as f64).sqrt();
         let _ = if rms.is_finite() {
             writeln!(
                 text,
-                "  {:<22} RMS against the record's force {rms:.3} g",
-                e.kind().name()
+                "  {:<22} RMS against the record's force {rms:.3} g{}",
+                e.kind().name(),
+                if *e == runs { " (the chip's)" } else { "" }
             )
         } else {
             writeln!(

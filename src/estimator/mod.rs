@@ -10,6 +10,8 @@
 //! - [`MkObserver`]: an extended Kalman filter on the modified Maxwell–Kelvin element with
 //!   load-dependent springs (eq. 10 with α), estimating the stress, the Kelvin strain and the
 //!   Maxwell (permanent) strain from the measured strain.
+//! - [`ForceBank`]: the strain's own terms (hinges, lowpasses, plays) weighted to give the force,
+//!   fitted for force rather than inverted, with a zero that re-settles at rest.
 //!
 //! Everything on the update path is `f32`, allocation-free and panic-free; construction (once,
 //! at start-up) may use `f64`.
@@ -19,10 +21,14 @@ use crate::filter::{Biquad, BiquadState};
 use crate::hysteresis::LoopCompensator;
 use crate::viscoelastic::{ModelError, ModelParameter};
 
+mod bank;
 mod inverse;
 mod observer;
 mod scheduled;
 
+pub use bank::{
+    BankModel, ForceBank, Rezero, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS, QUIET_TAU_S,
+};
 pub use inverse::{InverseEstimator, StructuralInverse};
 pub use observer::{MkObserver, ObserverTuning};
 pub use scheduled::{ChainStep, Schedule, ScheduledInverse};
@@ -37,6 +43,7 @@ pub enum TaxelEstimator {
     SecondOrderInverse(InverseEstimator),
     ScheduledInverse(ScheduledInverse),
     Observer(MkObserver),
+    Bank(ForceBank),
 }
 
 impl TaxelEstimator {
@@ -65,6 +72,7 @@ impl TaxelEstimator {
                 dt_s,
                 ObserverTuning::DESIGN,
             )?),
+            EstimatorKind::Bank => TaxelEstimator::Bank(ForceBank::new(&model.bank, dt_s)?),
         })
     }
 
@@ -83,6 +91,7 @@ impl TaxelEstimator {
             TaxelEstimator::SecondOrderInverse(e) => e.force_g(strain_pct),
             TaxelEstimator::ScheduledInverse(e) => e.force_g(strain_pct),
             TaxelEstimator::Observer(e) => e.force_g(strain_pct),
+            TaxelEstimator::Bank(e) => e.force_g(strain_pct),
         }
     }
 }
@@ -142,9 +151,10 @@ impl StrainConditioner {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TaxelEstimators {
     conditioner: StrainConditioner,
-    estimators: [TaxelEstimator; 4],
-    /// The calibration's loop taken off each estimator's input (from its own last force).
-    loops: [LoopCompensator; 4],
+    estimators: [TaxelEstimator; EstimatorKind::COUNT],
+    /// The calibration's loop taken off each estimator's input (from its own last force); none
+    /// before the bank, which was fitted with its own plays.
+    loops: [LoopCompensator; EstimatorKind::COUNT],
 }
 
 impl TaxelEstimators {
@@ -157,8 +167,9 @@ impl TaxelEstimators {
                 e(EstimatorKind::SecondOrderInverse)?,
                 e(EstimatorKind::ScheduledInverse)?,
                 e(EstimatorKind::Observer)?,
+                e(EstimatorKind::Bank)?,
             ],
-            loops: [LoopCompensator::new(model.hysteresis); 4],
+            loops: EstimatorKind::ALL.map(|k| LoopCompensator::new(k.loop_taken_off(model))),
         })
     }
 
@@ -169,7 +180,7 @@ impl TaxelEstimators {
     }
 
     /// Each estimator's force, in [`EstimatorKind::ALL`]'s order, from the conditioned strain.
-    pub fn update(&mut self, strain_pct: f32) -> [f32; 4] {
+    pub fn update(&mut self, strain_pct: f32) -> [f32; EstimatorKind::COUNT] {
         self.update_kinds(strain_pct, EstimatorKind::ALL)
     }
 
@@ -190,12 +201,13 @@ impl TaxelEstimators {
 
     /// One estimator and the loop taken off its input.
     fn pair_mut(&mut self, kind: EstimatorKind) -> (&mut TaxelEstimator, &mut LoopCompensator) {
-        let ([a, b, c, d], [la, lb, lc, ld]) = (&mut self.estimators, &mut self.loops);
+        let ([a, b, c, d, e], [la, lb, lc, ld, le]) = (&mut self.estimators, &mut self.loops);
         match kind {
             EstimatorKind::Elastic => (a, la),
             EstimatorKind::SecondOrderInverse => (b, lb),
             EstimatorKind::ScheduledInverse => (c, lc),
             EstimatorKind::Observer => (d, ld),
+            EstimatorKind::Bank => (e, le),
         }
     }
 

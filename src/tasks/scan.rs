@@ -6,7 +6,7 @@
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
 use crate::calibration::{CalibrationFlags, TableError, TableView, TaxelModel, MAX_LOOP_TAXELS};
-use crate::estimator::{StrainConditioner, TaxelEstimator, TaxelEstimators};
+use crate::estimator::{EstimatorKind, StrainConditioner, TaxelEstimator, TaxelEstimators};
 use crate::gauge::AdcScale;
 use crate::hysteresis::LoopCompensator;
 use crate::io::ScanIo;
@@ -34,8 +34,8 @@ pub struct ArrayEstimate {
     /// The probed element's force from the scan (frame rate), grams.
     pub probe_force_g: f32,
     /// The probed element's force by every estimator, side by side (elastic, second-order
-    /// inverse, scheduled inverse, observer), grams.
-    pub probe_estimates_g: [f32; 4],
+    /// inverse, scheduled inverse, observer, force bank), grams.
+    pub probe_estimates_g: [f32; EstimatorKind::COUNT],
     /// Taxels whose force this frame lies beyond the load their calibration covered (the
     /// spring curves extrapolated): bit `TaxelId::index`.
     pub extrapolated_taxels: u64,
@@ -78,7 +78,7 @@ pub struct Scanner {
     loops: heapless::Vec<(u8, LoopCompensator), MAX_LOOP_TAXELS>,
     /// `None` until [`Scanner::reset`] has run.
     probe_bench: Option<TaxelEstimators>,
-    probe_estimates_g: [f32; 4],
+    probe_estimates_g: [f32; EstimatorKind::COUNT],
     status: CalibrationStatus,
     bad_taxels: u64,
     /// The load each taxel's calibration covered, grams (infinite without a calibration).
@@ -114,7 +114,7 @@ impl Scanner {
             conditioners: [StrainConditioner::default(); TAXELS],
             loops: heapless::Vec::new(),
             probe_bench: None,
-            probe_estimates_g: [0.0; 4],
+            probe_estimates_g: [0.0; EstimatorKind::COUNT],
             status: CalibrationStatus {
                 calibrated_taxels: 0,
                 flagged_taxels: 0,
@@ -205,10 +205,12 @@ impl Scanner {
                 (*est, *cond) = build(&m)?;
             }
             // The table's check allows no more loops than there is room for.
-            if !m.hysteresis.is_empty() {
-                let _ = self
-                    .loops
-                    .push((i as u8, LoopCompensator::new(m.hysteresis)));
+            let plays = config
+                .array_estimator
+                .unwrap_or(m.estimator)
+                .loop_taken_off(&m);
+            if !plays.is_empty() {
+                let _ = self.loops.push((i as u8, LoopCompensator::new(plays)));
             }
             if let Some(range) = self.range_g.get_mut(i).filter(|_| m.range_g > 0.0) {
                 *range = m.range_g as f32;
@@ -230,7 +232,7 @@ impl Scanner {
         self.probe = config.probe;
         self.strain_pct = ArrayFrame::default();
         self.force_g = ArrayFrame::default();
-        self.probe_estimates_g = [0.0; 4];
+        self.probe_estimates_g = [0.0; EstimatorKind::COUNT];
         self.status = status;
         self.bad_taxels = 0;
         self.extrapolated_taxels = 0;

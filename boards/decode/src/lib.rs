@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use defmt_decoder::{DecodeError, Table};
+use tactile_core::estimator::EstimatorKind;
 use tactile_core::tactile::{COLS, ROWS};
 use tactile_core::telemetry::{ControlFrame, FaultFlags, SequenceCheck, TaxelFrame};
 use tactile_firmware::ArrayEstimate;
@@ -555,7 +556,11 @@ fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
         probe_estimates_g: {
             let v: Vec<f32> = f.numbers("probe_estimates_g")?;
             v.try_into().map_err(|v: Vec<f32>| {
-                format!("probe_estimates_g: {} values, expected 4", v.len())
+                format!(
+                    "probe_estimates_g: {} values, expected {}",
+                    v.len(),
+                    EstimatorKind::COUNT
+                )
             })?
         },
         extrapolated_taxels: f.num("extrapolated_taxels")?,
@@ -566,13 +571,13 @@ impl Run {
     /// RMS of each estimator of the probed taxel against the simulator's true force at the
     /// instant the scan sampled it (the truth riding with the next control tick), over the
     /// frames after `after_s`; with the number of frames scored.
-    pub fn probe_estimator_rms(&self, after_s: f64) -> ([f64; 4], usize) {
+    pub fn probe_estimator_rms(&self, after_s: f64) -> ([f64; EstimatorKind::COUNT], usize) {
         let truth: std::collections::HashMap<u32, f32> = self
             .ticks
             .iter()
             .filter_map(|t| Some((t.frame.tick, t.true_force_g?)))
             .collect();
-        let mut sums = [0.0f64; 4];
+        let mut sums = [0.0f64; EstimatorKind::COUNT];
         let mut n = 0usize;
         for (frame, estimate) in &self.frames {
             let (Some(e), Some(&f)) = (estimate, truth.get(&frame.tick.wrapping_add(1))) else {
@@ -675,7 +680,7 @@ pub fn write_run(
     }
     writeln!(
         w,
-        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g,probe_elastic_g,probe_second_order_g,probe_scheduled_g,probe_observer_g,extrapolated_taxels"
+        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g,probe_elastic_g,probe_second_order_g,probe_scheduled_g,probe_observer_g,probe_bank_g,extrapolated_taxels"
     )?;
     for (f, e) in &run.frames {
         if let Some(e) = e {

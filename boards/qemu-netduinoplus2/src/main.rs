@@ -427,7 +427,7 @@ mod app {
                 (report, elapsed(t0, t1))
             });
             // Once a frame, each estimator's update on the probed taxel's strain, timed alone.
-            let mut per_estimator = [None; 4];
+            let mut per_estimator = [None; EstimatorKind::COUNT];
             if let (Some(_), Some(bench)) = (&report, local.bench.as_mut()) {
                 let strain = bench.corrected(scanner.probe_strain_pct());
                 for (slot, kind) in per_estimator.iter_mut().zip(EstimatorKind::ALL) {

@@ -5,6 +5,7 @@ use core::cell::Cell;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU8, AtomicUsize, Ordering};
 
+use tactile_core::estimator::EstimatorKind;
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::{TaxelCalibration, TAXELS};
 use tactile_firmware::{Controller, Scanner};
@@ -342,8 +343,8 @@ pub struct Cost {
     /// The scan step that completes a frame (adds the array sums and the frame).
     pub scan_frame_step: Span,
     /// One taxel update of each estimator (elastic, second-order inverse, scheduled inverse,
-    /// observer), timed one at a time on the probed taxel's strain.
-    pub estimator_update: [Span; 4],
+    /// observer, force bank), timed one at a time on the probed taxel's strain.
+    pub estimator_update: [Span; EstimatorKind::COUNT],
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, defmt::Format)]
@@ -359,8 +360,8 @@ pub struct InstructionCounts {
     pub control_tick: InstructionSpan,
     pub scan_step: InstructionSpan,
     pub scan_frame_step: InstructionSpan,
-    /// Per taxel update: elastic, second-order inverse, scheduled inverse, observer.
-    pub estimator_update: [InstructionSpan; 4],
+    /// Per taxel update: elastic, second-order inverse, scheduled inverse, observer, force bank.
+    pub estimator_update: [InstructionSpan; EstimatorKind::COUNT],
     pub simulated_plant_ms: InstructionSpan,
 }
 

@@ -1,0 +1,482 @@
+//! The chip's force bank ([`ForceBank`]) fitted for force: its terms computed by the chip's own
+//! code over a record's strain, their weights by ridge regression of the force, the terms kept
+//! (relaxation span, hinges, plays), the ridge's strength and the re-zero chosen by blocked
+//! validation on the force error, forward in time: each block scored by a fit on the blocks
+//! before it.
+//!
+//! Stages: [`candidates`] lays out the banks worth trying from the record's length, rate and
+//! strain; [`terms_of`] runs one over the record; [`Ridge`] scores it on contiguous folds and
+//! fits it on all; [`fit_bank`] keeps the best and then tries the re-zero on it.
+
+use nalgebra::{DMatrix, DVector};
+use tactile_core::estimator::{
+    BankModel, ForceBank, Rezero, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS,
+};
+
+use crate::stats::quantile;
+
+/// Contiguous folds of the cross-validation.
+pub const FOLDS: usize = 5;
+/// Ridge strengths tried, on terms scaled to unit variance.
+const LAMBDAS: [f64; 10] = [1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0];
+/// The plays' radii and the hinges' corners as shares of the strain's range (its 99th
+/// percentile): a small, a middle and a wide loop; corners where a spring curve bends.
+const PLAY_SHARES: [f32; BANK_PLAYS] = [0.05, 0.15, 0.4];
+const KNOT_QUANTILES: [f64; BANK_KNOTS] = [0.3, 0.6, 0.85];
+/// The zero follows at rest with this time constant, s.
+const REZERO_TAU_S: f32 = 1.0;
+/// At rest: an estimate under this share of the calibrated range.
+const REZERO_BELOW_SHARE: f64 = 0.05;
+/// Strain units the strain may stray from its 0.1 s average at rest, at least: a strain moving
+/// by a tenth of its range a second is a press coming or going, not a rest.
+const QUIET_FLOOR: f64 = 0.01;
+/// Rounds of the re-zero's fit (its zero from the last round's weights).
+const REZERO_ROUNDS: usize = 3;
+/// The re-zero is kept where it lowers the held-out error by at least this share.
+const REZERO_GAIN: f64 = 0.02;
+
+/// Which of the bank's terms a candidate uses (the bias, the strain and the lowpasses always).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Terms {
+    pub hinges: bool,
+    pub plays: bool,
+}
+
+/// A fitted bank and what it held out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BankFit {
+    pub model: BankModel,
+    /// RMS force error on the held-out folds (before the chip's clamp at zero), g.
+    pub held_out_g: f64,
+    pub terms: Terms,
+    pub lambda: f64,
+}
+
+impl Terms {
+    const ALL: [Terms; 4] = [
+        Terms {
+            hinges: false,
+            plays: false,
+        },
+        Terms {
+            hinges: true,
+            plays: false,
+        },
+        Terms {
+            hinges: false,
+            plays: true,
+        },
+        Terms {
+            hinges: true,
+            plays: true,
+        },
+    ];
+
+    /// The bank's terms weighed, in its order (the bias first).
+    fn used(self) -> Vec<usize> {
+        (0..BANK_FEATURES)
+            .filter(|&j| {
+                let hinge = (2..2 + BANK_KNOTS).contains(&j);
+                let play = j >= 2 + BANK_KNOTS + BANK_FILTERS;
+                (!hinge || self.hinges) && (!play || self.plays)
+            })
+            .collect()
+    }
+}
+
+/// Fits the bank to force `force_g` from `strain_pct` (the strain as the chip conditions it)
+/// sampled every `dt_s`; `scored[i]` false leaves sample `i` out of the fit and the score (its
+/// terms still run). `None`: too short, no strain, or nothing finite.
+pub fn fit_bank(
+    dt_s: f64,
+    force_g: &[f64],
+    strain_pct: &[f64],
+    scored: &[bool],
+) -> Option<BankFit> {
+    let n = force_g.len();
+    if n < 20 * FOLDS || strain_pct.len() != n || scored.len() != n || !(dt_s > 0.0) {
+        return None;
+    }
+    let kept = |v: &[f64]| -> Vec<f64> {
+        v.iter()
+            .zip(scored)
+            .filter(|(x, s)| **s && x.is_finite())
+            .map(|(x, _)| *x)
+            .collect()
+    };
+    let abs_strain: Vec<f64> = kept(strain_pct).iter().map(|e| e.abs()).collect();
+    let scale = quantile(&abs_strain, 0.99);
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    // Then the best layout and terms without re-zero.
+    let mut best: Option<BankFit> = None;
+    for layout in layouts(dt_s, n, strain_pct, scale) {
+        let moments = Moments::new(&terms_of(&layout, dt_s, strain_pct), force_g, scored);
+        for terms in Terms::ALL {
+            let Some((held_out_g, lambda)) = moments.cross_validate(&terms.used()) else {
+                continue;
+            };
+            if best.as_ref().is_none_or(|b| held_out_g < b.held_out_g) {
+                best = Some(BankFit {
+                    model: layout,
+                    held_out_g,
+                    terms,
+                    lambda,
+                });
+            }
+        }
+    }
+    let mut plain = best?;
+    let moments = Moments::new(&terms_of(&plain.model, dt_s, strain_pct), force_g, scored);
+    plain.model.weights_g = moments.fit(&plain.terms.used(), plain.lambda)?;
+    // Then the re-zero, fitted on the terms the chip sees with it running.
+    Some(with_rezero(plain, dt_s, force_g, strain_pct, scored).unwrap_or_else(|p| p))
+}
+
+/// The layouts worth trying: lowpasses log-spaced from a few samples to a twentieth or a fifth
+/// of the record, the grid at three shifts of a third of its spacing (a single relaxation's
+/// inverse pole falls near one of them).
+fn layouts(dt_s: f64, n: usize, strain_pct: &[f64], scale: f64) -> Vec<BankModel> {
+    let duration_s = dt_s * n as f64;
+    let fastest = (3.0 * dt_s).max(0.02);
+    let loaded: Vec<f64> = strain_pct
+        .iter()
+        .map(|e| e / scale)
+        .filter(|u| *u > 0.05)
+        .collect();
+    let knots: [f32; BANK_KNOTS] = if loaded.len() > 10 {
+        KNOT_QUANTILES.map(|q| quantile(&loaded, q) as f32)
+    } else {
+        KNOT_QUANTILES.map(|q| q as f32)
+    };
+    let mut out = Vec::new();
+    for share in [20.0, 5.0] {
+        let slowest = (duration_s / share).clamp(10.0 * fastest, 3000.0);
+        let ratio = (slowest / fastest).powf(1.0 / (BANK_FILTERS - 1) as f64);
+        for shift in [0.0, 1.0 / 3.0, 2.0 / 3.0] {
+            let tau_s: [f32; BANK_FILTERS] =
+                core::array::from_fn(|k| (fastest * ratio.powf(k as f64 + shift)) as f32);
+            out.push(BankModel {
+                strain_scale_pct: scale as f32,
+                tau_s,
+                knots,
+                play_radius: PLAY_SHARES,
+                weights_g: [0.0; BANK_FEATURES],
+                rezero: Rezero::OFF,
+            });
+        }
+    }
+    out
+}
+
+/// The bank's terms over the record, as the chip computes them (no re-zero).
+fn terms_of(layout: &BankModel, dt_s: f64, strain_pct: &[f64]) -> Vec<[f32; BANK_FEATURES]> {
+    let Ok(mut bank) = ForceBank::new(layout, dt_s) else {
+        return Vec::new();
+    };
+    strain_pct.iter().map(|e| bank.advance(*e as f32)).collect()
+}
+
+/// The terms with the re-zero running on `fit`'s weights, then the weights refitted on them;
+/// kept where the held-out error drops (`Err`: the bank without).
+fn with_rezero(
+    fit: BankFit,
+    dt_s: f64,
+    force_g: &[f64],
+    strain_pct: &[f64],
+    scored: &[bool],
+) -> Result<BankFit, BankFit> {
+    let range_g = quantile(
+        &force_g
+            .iter()
+            .zip(scored)
+            .filter(|(_, s)| **s)
+            .map(|(f, _)| *f)
+            .collect::<Vec<_>>(),
+        0.99,
+    );
+    // The strain's noise where the record is at rest (the force under the bound): the band
+    // a still strain stays in.
+    let below_g = REZERO_BELOW_SHARE * range_g;
+    let at_rest: Vec<f64> = strain_pct
+        .iter()
+        .zip(force_g)
+        .zip(scored)
+        .filter(|((_, f), s)| **s && f.abs() < below_g)
+        .map(|((e, _), _)| e / f64::from(fit.model.strain_scale_pct))
+        .collect();
+    let rezero = Rezero {
+        below_g: below_g as f32,
+        quiet: (5.0 * noise(&at_rest)).max(QUIET_FLOOR) as f32,
+        tau_s: REZERO_TAU_S,
+    };
+    if !(rezero.below_g > 0.0 && rezero.quiet.is_finite()) {
+        return Err(fit);
+    }
+    // The zero found with the weights before it changes the terms the weights are fitted
+    // on: a few rounds, each on the terms of the last.
+    let used = fit.terms.used();
+    let mut trial = BankModel {
+        rezero,
+        ..fit.model
+    };
+    let mut held_out_g = f64::INFINITY;
+    for _ in 0..REZERO_ROUNDS {
+        let Ok(mut bank) = ForceBank::new(&trial, dt_s) else {
+            return Err(fit);
+        };
+        let terms: Vec<[f32; BANK_FEATURES]> = strain_pct
+            .iter()
+            .map(|e| {
+                let f = bank.advance(*e as f32);
+                bank.settle_zero(bank.weigh(&f), &f);
+                f
+            })
+            .collect();
+        let moments = Moments::new(&terms, force_g, scored);
+        let (Some(score), Some(weights_g)) = (
+            moments.score(&used, fit.lambda),
+            moments.fit(&used, fit.lambda),
+        ) else {
+            return Err(fit);
+        };
+        held_out_g = score;
+        trial.weights_g = weights_g;
+    }
+    if held_out_g < (1.0 - REZERO_GAIN) * fit.held_out_g {
+        Ok(BankFit {
+            model: trial,
+            held_out_g,
+            ..fit
+        })
+    } else {
+        Err(fit)
+    }
+}
+
+/// The noise of `u`: the median absolute first difference over √2 (a step's worth of change
+/// in a smooth record is far smaller than its noise).
+fn noise(u: &[f64]) -> f64 {
+    let d: Vec<f64> = u
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| d.is_finite())
+        .collect();
+    quantile(&d, 0.5) / core::f64::consts::SQRT_2 / 0.6745
+}
+
+/// The moments of a layout's terms with the force over contiguous folds (each fold's once;
+/// the others' sum for its fit), from which any subset of the terms is fitted and scored.
+/// The raw moments serve every subset: each fit centres and scales its own.
+struct Moments {
+    /// Per fold: Σ x xᵀ, Σ f x and Σ f², x = (1, terms…).
+    folds: Vec<(DMatrix<f64>, DVector<f64>, f64)>,
+}
+
+impl Moments {
+    fn new(terms: &[[f32; BANK_FEATURES]], force_g: &[f64], scored: &[bool]) -> Moments {
+        let kept: Vec<usize> = (0..terms.len().min(force_g.len()))
+            .filter(|&i| {
+                scored.get(i).copied().unwrap_or(false)
+                    && force_g[i].is_finite()
+                    && terms[i].iter().all(|v| v.is_finite())
+            })
+            .collect();
+        let p = BANK_FEATURES;
+        let mut folds = vec![(DMatrix::zeros(p, p), DVector::zeros(p), 0.0); FOLDS];
+        for (k, &i) in kept.iter().enumerate() {
+            let fold = (k * FOLDS / kept.len().max(1)).min(FOLDS - 1);
+            // Term 0 is the bias, 1 in every sample.
+            let x = DVector::from_iterator(p, terms[i].iter().map(|v| f64::from(*v)));
+            let (g, b, ff) = &mut folds[fold];
+            g.syger(1.0, &x, &x, 1.0);
+            b.axpy(force_g[i], &x, 1.0);
+            *ff += force_g[i] * force_g[i];
+        }
+        for (g, _, _) in &mut folds {
+            g.fill_upper_triangle_with_lower_triangle();
+        }
+        Moments { folds }
+    }
+
+    /// Weights of the terms `used` (the bias first) from the folds other than `skip`: ridge on
+    /// the terms centred and scaled to unit variance over those folds (the lowpasses of
+    /// neighbouring time constants are nearly collinear; their raw Gram matrix is not
+    /// positive definite in f64 at the weakest strengths).
+    fn solve(
+        &self,
+        used: &[usize],
+        lambda: f64,
+        train: impl Fn(usize) -> bool,
+    ) -> Option<DVector<f64>> {
+        let p = used.len();
+        let (mut g, mut b) = (DMatrix::zeros(p, p), DVector::zeros(p));
+        for (k, (gk, bk, _)) in self.folds.iter().enumerate() {
+            if train(k) {
+                g += gk.select_rows(used).select_columns(used);
+                b += bk.select_rows(used);
+            }
+        }
+        let n = g[(0, 0)];
+        if n < 1.0 {
+            return None;
+        }
+        let q = p - 1;
+        let mean = g.view((0, 1), (1, q)).transpose() / n;
+        let cov = g.view((1, 1), (q, q)) / n - &mean * mean.transpose();
+        let cross = b.rows(1, q) / n - &mean * (b[0] / n);
+        let scale = cov.diagonal().map(|v| 1.0 / v.max(1e-18).sqrt());
+        let mut r = DMatrix::from_fn(q, q, |i, j| cov[(i, j)] * scale[i] * scale[j]);
+        for i in 0..q {
+            r[(i, i)] += lambda;
+        }
+        let v = r.cholesky()?.solve(&cross.component_mul(&scale));
+        let w = v.component_mul(&scale);
+        let bias = b[0] / n - mean.dot(&w);
+        let out = DVector::from_iterator(p, core::iter::once(bias).chain(w.iter().copied()));
+        out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// Held-out RMS of the terms `used` at `lambda`: each fold after the first scored by a fit
+    /// on the folds before it, as the chip is used after its calibration (a zero that wanders
+    /// on, loads beyond the calibration's).
+    fn score(&self, used: &[usize], lambda: f64) -> Option<f64> {
+        let (mut sum, mut count) = (0.0, 0.0);
+        for (k, (g, b, ff)) in self.folds.iter().enumerate().skip(1) {
+            count += g[(0, 0)];
+            let w = self.solve(used, lambda, |j| j < k)?;
+            let g = g.select_rows(used).select_columns(used);
+            let b = b.select_rows(used);
+            sum += (w.dot(&(&g * &w)) - 2.0 * w.dot(&b) + ff).max(0.0);
+        }
+        let rms = (sum / f64::max(count, 1.0)).sqrt();
+        (count > 0.0 && rms.is_finite()).then_some(rms)
+    }
+
+    /// The best of [`LAMBDAS`] for the terms `used`: its held-out RMS and the strength.
+    fn cross_validate(&self, used: &[usize]) -> Option<(f64, f64)> {
+        LAMBDAS
+            .iter()
+            .filter_map(|&l| self.score(used, l).map(|rms| (rms, l)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// The bank's weights, fitted on every fold (the terms not used weigh 0).
+    fn fit(&self, used: &[usize], lambda: f64) -> Option<[f32; BANK_FEATURES]> {
+        let w = self.solve(used, lambda, |_| true)?;
+        let mut out = [0.0f32; BANK_FEATURES];
+        for (c, &j) in used.iter().enumerate() {
+            out[j] = w[c] as f32;
+        }
+        out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Force through a first-order creep: strain = σ/G₀ + a Kelvin branch of τ = 2 s holding
+    /// half as much again; from rest, steps every 3–7 s between 0 and 80 g, sampled at 100 Hz.
+    fn creep_record(seed: u64, n: usize) -> (Vec<f64>, Vec<f64>) {
+        let dt = 0.01;
+        let mut x = seed;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % 1000) as f64 / 1000.0
+        };
+        let (mut force, mut hold, mut level) = (Vec::new(), 300usize, 0.0);
+        for _ in 0..n {
+            if hold == 0 {
+                level = 80.0 * next();
+                hold = (300.0 + 400.0 * next()) as usize;
+            }
+            hold -= 1;
+            force.push(level);
+        }
+        let (mut kelvin, phi) = (0.0, (-dt / 2.0f64).exp());
+        let strain = force
+            .iter()
+            .map(|f| {
+                kelvin = phi * kelvin + (1.0 - phi) * 0.5 * f / 20.0;
+                f / 20.0 + kelvin
+            })
+            .collect();
+        (force, strain)
+    }
+
+    #[test]
+    fn a_creeping_spring_is_inverted_where_the_elastic_law_misses_by_a_third() {
+        for seed in [3u64, 17, 40] {
+            let (force, strain) = creep_record(seed, 12_000);
+            let scored = vec![true; force.len()];
+            let fit = fit_bank(0.01, &force, &strain, &scored).unwrap();
+            // The elastic law through the static gain (20/1.5 g/%) misses each step's first
+            // seconds by up to a third of it. The inverse's pole (1.5/τ: 1.33 s) falls between
+            // the bank's lowpasses (0.48 and 1.9 s), which combine to near it.
+            let mut bank = ForceBank::new(&fit.model, 0.01).unwrap();
+            let (mut sum, mut elastic) = (0.0, 0.0);
+            for (f, e) in force.iter().zip(&strain) {
+                sum += (f64::from(bank.force_g(*e as f32)) - f).powi(2);
+                elastic += (e * 20.0 / 1.5 - f).powi(2);
+            }
+            let n = force.len() as f64;
+            let (rms, elastic) = ((sum / n).sqrt(), (elastic / n).sqrt());
+            assert!(
+                rms < 0.15 * elastic && rms < 1.0,
+                "seed {seed}: {rms} vs {elastic} {fit:?}"
+            );
+            assert!(fit.held_out_g < 1.0, "{}", fit.held_out_g);
+        }
+    }
+
+    #[test]
+    fn a_wandering_zero_is_taken_off_at_rest() {
+        // The same sensor whose strain at rest wanders by ±0.6 % (±8 g through the static
+        // gain) over 120 s, with rests of 4 s between presses: the re-zero is kept, and the
+        // zero moves by at most 1 g during a press.
+        let (mut force, _) = creep_record(5, 15_000);
+        for (i, f) in force.iter_mut().enumerate() {
+            if (i / 400) % 2 == 0 {
+                *f = 0.0;
+            }
+        }
+        let (mut kelvin, phi) = (0.0, (-0.01 / 2.0f64).exp());
+        let strain: Vec<f64> = force
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                kelvin = phi * kelvin + (1.0 - phi) * 0.5 * f / 20.0;
+                f / 20.0 + kelvin + 0.6 * (i as f64 * 0.01 * core::f64::consts::TAU / 120.0).sin()
+            })
+            .collect();
+        let fit = fit_bank(0.01, &force, &strain, &vec![true; force.len()]).unwrap();
+        assert!(fit.model.rezero.is_on(), "{fit:?}");
+        let rms = |model: &BankModel| {
+            let mut bank = ForceBank::new(model, 0.01).unwrap();
+            let sum: f64 = force
+                .iter()
+                .zip(&strain)
+                .map(|(f, e)| (f64::from(bank.force_g(*e as f32)) - f).powi(2))
+                .sum();
+            (sum / force.len() as f64).sqrt()
+        };
+        let without = BankModel {
+            rezero: Rezero::OFF,
+            ..fit.model
+        };
+        let (with, without) = (rms(&fit.model), rms(&without));
+        assert!(with < 0.5 * without, "{with} vs {without}");
+    }
+
+    #[test]
+    fn records_with_nothing_to_fit_are_refused() {
+        let flat = vec![0.0; 1000];
+        assert!(fit_bank(0.01, &flat, &flat, &vec![true; 1000]).is_none());
+        assert!(fit_bank(0.01, &flat[..50], &flat[..50], &[true; 50]).is_none());
+        assert!(fit_bank(f64::NAN, &flat, &flat, &vec![true; 1000]).is_none());
+    }
+}
