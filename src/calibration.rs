@@ -392,7 +392,7 @@ impl TaxelModel {
             weight_pct_per_g: core::array::from_fn(|k| at(h + PLAYS + k)),
         };
         hysteresis.check().ok()?;
-        let bank = bank_from(&f[h + 2 * PLAYS..])?;
+        let bank = bank_from(f.get(h + 2 * PLAYS..)?)?;
         Some(TaxelModel {
             taxel,
             strain_offset_pct: d(0),

@@ -802,7 +802,7 @@ mod tests {
             }
         );
         assert_eq!(
-            refused(OP_ESTIMATOR, &[4]),
+            refused(OP_ESTIMATOR, &[5]),
             Refusal::OutOfRange {
                 param: Param::Estimator
             }

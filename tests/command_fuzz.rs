@@ -29,7 +29,7 @@ fn any_command() -> impl Strategy<Value = Command> {
         Just(Command::ClearFaults),
         prop_oneof![Just(ControllerChoice::A1), Just(ControllerChoice::Designed)]
             .prop_map(Command::Controller),
-        (0usize..4).prop_map(|i| Command::Estimator(EstimatorKind::ALL[i])),
+        (0usize..EstimatorKind::COUNT).prop_map(|i| Command::Estimator(EstimatorKind::ALL[i])),
         (
             table.clone(),
             any::<u16>(),

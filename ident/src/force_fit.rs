@@ -94,7 +94,8 @@ pub fn fit_bank(
     scored: &[bool],
 ) -> Option<BankFit> {
     let n = force_g.len();
-    if n < 20 * FOLDS || strain_pct.len() != n || scored.len() != n || !(dt_s > 0.0) {
+    if n < 20 * FOLDS || strain_pct.len() != n || scored.len() != n || dt_s.is_nan() || dt_s <= 0.0
+    {
         return None;
     }
     let kept = |v: &[f64]| -> Vec<f64> {
@@ -131,7 +132,7 @@ pub fn fit_bank(
     let moments = Moments::new(&terms_of(&plain.model, dt_s, strain_pct), force_g, scored);
     plain.model.weights_g = moments.fit(&plain.terms.used(), plain.lambda)?;
     // Then the re-zero, fitted on the terms the chip sees with it running.
-    Some(with_rezero(plain, dt_s, force_g, strain_pct, scored).unwrap_or_else(|p| p))
+    Some(with_rezero(&plain, dt_s, force_g, strain_pct, scored).unwrap_or(plain))
 }
 
 /// The layouts worth trying: lowpasses log-spaced from a few samples to a twentieth or a fifth
@@ -179,14 +180,14 @@ fn terms_of(layout: &BankModel, dt_s: f64, strain_pct: &[f64]) -> Vec<[f32; BANK
 }
 
 /// The terms with the re-zero running on `fit`'s weights, then the weights refitted on them;
-/// kept where the held-out error drops (`Err`: the bank without).
+/// `None` where the held-out error does not drop.
 fn with_rezero(
-    fit: BankFit,
+    fit: &BankFit,
     dt_s: f64,
     force_g: &[f64],
     strain_pct: &[f64],
     scored: &[bool],
-) -> Result<BankFit, BankFit> {
+) -> Option<BankFit> {
     let range_g = quantile(
         &force_g
             .iter()
@@ -212,7 +213,7 @@ fn with_rezero(
         tau_s: REZERO_TAU_S,
     };
     if !(rezero.below_g > 0.0 && rezero.quiet.is_finite()) {
-        return Err(fit);
+        return None;
     }
     // The zero found with the weights before it changes the terms the weights are fitted
     // on: a few rounds, each on the terms of the last.
@@ -224,7 +225,7 @@ fn with_rezero(
     let mut held_out_g = f64::INFINITY;
     for _ in 0..REZERO_ROUNDS {
         let Ok(mut bank) = ForceBank::new(&trial, dt_s) else {
-            return Err(fit);
+            return None;
         };
         let terms: Vec<[f32; BANK_FEATURES]> = strain_pct
             .iter()
@@ -239,20 +240,16 @@ fn with_rezero(
             moments.score(&used, fit.lambda),
             moments.fit(&used, fit.lambda),
         ) else {
-            return Err(fit);
+            return None;
         };
         held_out_g = score;
         trial.weights_g = weights_g;
     }
-    if held_out_g < (1.0 - REZERO_GAIN) * fit.held_out_g {
-        Ok(BankFit {
-            model: trial,
-            held_out_g,
-            ..fit
-        })
-    } else {
-        Err(fit)
-    }
+    (held_out_g < (1.0 - REZERO_GAIN) * fit.held_out_g).then(|| BankFit {
+        model: trial,
+        held_out_g,
+        ..fit.clone()
+    })
 }
 
 /// The noise of `u`: the median absolute first difference over √2 (a step's worth of change

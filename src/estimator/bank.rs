@@ -77,7 +77,9 @@ impl BankModel {
     /// σ = G ε: a spring of `g_per_pct` and nothing else (a taxel with no bank fitted).
     pub fn elastic(g_per_pct: f64) -> BankModel {
         let mut weights_g = [0.0; BANK_FEATURES];
-        weights_g[1] = g_per_pct as f32;
+        if let Some(w) = weights_g.get_mut(1) {
+            *w = g_per_pct as f32;
+        }
         BankModel {
             strain_scale_pct: 1.0,
             tau_s: [1.0; BANK_FILTERS],
@@ -117,15 +119,17 @@ impl BankModel {
     /// The force's slope in the strain units at rest and settled (every lowpass and play caught
     /// up, the hinges below zero counted): how a strain error at rest shows in the force.
     pub fn rest_gain_g(&self) -> f32 {
-        let w = &self.weights_g;
-        let hinges: f32 = self
-            .knots
+        let hinges = 2..2 + BANK_KNOTS;
+        self.weights_g
             .iter()
-            .zip(&w[2..2 + BANK_KNOTS])
-            .filter(|(k, _)| **k < 0.0)
+            .enumerate()
+            .filter(|(j, _)| match j.checked_sub(hinges.start) {
+                None => *j == 1,
+                Some(k) if hinges.contains(j) => self.knots.get(k).is_some_and(|knot| *knot < 0.0),
+                Some(_) => true,
+            })
             .map(|(_, w)| *w)
-            .sum();
-        w[1] + hinges + w[2 + BANK_KNOTS..].iter().sum::<f32>()
+            .sum()
     }
 }
 
@@ -222,10 +226,8 @@ impl ForceBank {
     #[inline]
     pub fn settle_zero(&mut self, force_g: f32, features: &[f32; BANK_FEATURES]) {
         let r = &self.model.rezero;
-        if self.rezero_step > 0.0
-            && force_g < r.below_g
-            && (features[1] - self.average).abs() <= r.quiet
-        {
+        let u = features.get(1).copied().unwrap_or(f32::NAN);
+        if self.rezero_step > 0.0 && force_g < r.below_g && (u - self.average).abs() <= r.quiet {
             self.zero += self.rezero_step * force_g;
         }
     }
