@@ -22,7 +22,9 @@ use tactile_core::telemetry::{FaultFlags, TaxelFrame};
 use tactile_firmware::{FilRun, FIL_SESSION};
 
 const QEMU: &str = "qemu-system-arm";
-const QEMU_TIMEOUT: Duration = Duration::from_secs(150);
+/// A guard against a firmware that never exits, not a timing test: the main session took 45 s
+/// alone and over 150 s beside the calibration runs on two cores.
+const QEMU_TIMEOUT: Duration = Duration::from_secs(600);
 /// A calibration run simulates 122 s (one QEMU per run; the three of the session took 456 s
 /// of wall time one after another on CI).
 const CALIBRATION_TIMEOUT: Duration = Duration::from_secs(900);
@@ -515,8 +517,9 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         .probe_estimator_rms(1.0);
     eprintln!(
         "pseudo-random on the firmware, probed taxel, calibrated, {n} frames: RMS elastic {:.3} g, \
-         second-order inverse {:.3} g, scheduled inverse {:.3} g, observer {:.3} g",
-        rms[0], rms[1], rms[2], rms[3]
+         second-order inverse {:.3} g, scheduled inverse {:.3} g, observer {:.3} g, force bank \
+         {:.3} g",
+        rms[0], rms[1], rms[2], rms[3], rms[4]
     );
     assert!(n > 500, "{n} frames with estimates");
     assert!(
@@ -527,10 +530,11 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
     assert_eq!(figures.rms_g, rms);
     eprint!("{}", figures.render());
     // Instructions per taxel update: elastic < inverse < scheduled < observer, the observer
-    // under 1 000 (the budget: 8 400 a millisecond for control and four taxel updates).
+    // and the force bank each under 1 000 (the budget: 8 400 a millisecond for control and
+    // four taxel updates).
     let worst: Vec<u32> = figures.instructions.iter().map(|(_, hi)| *hi).collect();
     assert!(
-        worst.windows(2).all(|w| w[0] < w[1]) && worst[3] < 1000,
+        worst[..4].windows(2).all(|w| w[0] < w[1]) && worst[3] < 1000 && worst[4] < 1000,
         "{worst:?}"
     );
     assert!(
