@@ -65,6 +65,16 @@ impl EstimatorKind {
         self as usize
     }
 
+    /// The estimator with the least of `held_out_g` (in [`Self::ALL`]'s order; the first of
+    /// equals).
+    pub fn best(held_out_g: &[f64; Self::COUNT]) -> EstimatorKind {
+        Self::ALL
+            .into_iter()
+            .zip(held_out_g)
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(EstimatorKind::Elastic, |(k, _)| k)
+    }
+
     /// The loop taken off this estimator's input: the calibration's plays, but none before
     /// the bank (fitted with plays of its own).
     pub fn loop_taken_off(self, model: &TaxelModel) -> Plays {

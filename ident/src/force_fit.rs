@@ -10,7 +10,8 @@
 
 use nalgebra::{DMatrix, DVector};
 use tactile_core::estimator::{
-    BankModel, ForceBank, Rezero, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS,
+    BankModel, ForceBank, Rezero, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS, HINGE_TERMS,
+    PLAY_TERMS,
 };
 
 use crate::stats::quantile;
@@ -75,10 +76,8 @@ impl Terms {
     /// The bank's terms weighed, in its order (the bias first).
     fn used(self) -> Vec<usize> {
         (0..BANK_FEATURES)
-            .filter(|&j| {
-                let hinge = (2..2 + BANK_KNOTS).contains(&j);
-                let play = j >= 2 + BANK_KNOTS + BANK_FILTERS;
-                (!hinge || self.hinges) && (!play || self.plays)
+            .filter(|j| {
+                (!HINGE_TERMS.contains(j) || self.hinges) && (!PLAY_TERMS.contains(j) || self.plays)
             })
             .collect()
     }
@@ -98,29 +97,30 @@ pub fn fit_bank(
     {
         return None;
     }
-    let kept = |v: &[f64]| -> Vec<f64> {
-        v.iter()
-            .zip(scored)
-            .filter(|(x, s)| **s && x.is_finite())
-            .map(|(x, _)| *x)
-            .collect()
-    };
-    let abs_strain: Vec<f64> = kept(strain_pct).iter().map(|e| e.abs()).collect();
+    let abs_strain: Vec<f64> = kept(strain_pct, scored).iter().map(|e| e.abs()).collect();
     let scale = quantile(&abs_strain, 0.99);
     if !(scale.is_finite() && scale > 0.0) {
         return None;
     }
-    // Then the best layout and terms without re-zero.
+    // Then the best layout and terms without re-zero, its weights fitted while its moments
+    // are at hand.
     let mut best: Option<BankFit> = None;
     for layout in layouts(dt_s, n, strain_pct, scale) {
         let moments = Moments::new(&terms_of(&layout, dt_s, strain_pct), force_g, scored);
         for terms in Terms::ALL {
-            let Some((held_out_g, lambda)) = moments.cross_validate(&terms.used()) else {
+            let used = terms.used();
+            let Some((held_out_g, lambda)) = moments.cross_validate(&used) else {
                 continue;
             };
-            if best.as_ref().is_none_or(|b| held_out_g < b.held_out_g) {
+            if best.as_ref().is_some_and(|b| held_out_g >= b.held_out_g) {
+                continue;
+            }
+            if let Some(weights_g) = moments.fit(&used, lambda) {
                 best = Some(BankFit {
-                    model: layout,
+                    model: BankModel {
+                        weights_g,
+                        ..layout
+                    },
                     held_out_g,
                     terms,
                     lambda,
@@ -128,9 +128,7 @@ pub fn fit_bank(
             }
         }
     }
-    let mut plain = best?;
-    let moments = Moments::new(&terms_of(&plain.model, dt_s, strain_pct), force_g, scored);
-    plain.model.weights_g = moments.fit(&plain.terms.used(), plain.lambda)?;
+    let plain = best?;
     // Then the re-zero, fitted on the terms the chip sees with it running.
     Some(with_rezero(&plain, dt_s, force_g, strain_pct, scored).unwrap_or(plain))
 }
@@ -171,12 +169,24 @@ fn layouts(dt_s: f64, n: usize, strain_pct: &[f64], scale: f64) -> Vec<BankModel
     out
 }
 
-/// The bank's terms over the record, as the chip computes them (no re-zero).
-fn terms_of(layout: &BankModel, dt_s: f64, strain_pct: &[f64]) -> Vec<[f32; BANK_FEATURES]> {
-    let Ok(mut bank) = ForceBank::new(layout, dt_s) else {
+/// The bank's terms over the record as the chip computes them, its re-zero running if it has
+/// one (a strain that is not finite is skipped, as the chip skips it: a row of NaN, left out
+/// of the fit).
+fn terms_of(model: &BankModel, dt_s: f64, strain_pct: &[f64]) -> Vec<[f32; BANK_FEATURES]> {
+    let Ok(mut bank) = ForceBank::new(model, dt_s) else {
         return Vec::new();
     };
-    strain_pct.iter().map(|e| bank.advance(*e as f32)).collect()
+    strain_pct
+        .iter()
+        .map(|e| {
+            let e = *e as f32;
+            if e.is_finite() {
+                bank.step(e).0
+            } else {
+                [f32::NAN; BANK_FEATURES]
+            }
+        })
+        .collect()
 }
 
 /// The terms with the re-zero running on `fit`'s weights, then the weights refitted on them;
@@ -188,15 +198,7 @@ fn with_rezero(
     strain_pct: &[f64],
     scored: &[bool],
 ) -> Option<BankFit> {
-    let range_g = quantile(
-        &force_g
-            .iter()
-            .zip(scored)
-            .filter(|(_, s)| **s)
-            .map(|(f, _)| *f)
-            .collect::<Vec<_>>(),
-        0.99,
-    );
+    let range_g = quantile(&kept(force_g, scored), 0.99);
     // The strain's noise where the record is at rest (the force under the bound): the band
     // a still strain stays in.
     let below_g = REZERO_BELOW_SHARE * range_g;
@@ -224,18 +226,7 @@ fn with_rezero(
     };
     let mut held_out_g = f64::INFINITY;
     for _ in 0..REZERO_ROUNDS {
-        let Ok(mut bank) = ForceBank::new(&trial, dt_s) else {
-            return None;
-        };
-        let terms: Vec<[f32; BANK_FEATURES]> = strain_pct
-            .iter()
-            .map(|e| {
-                let f = bank.advance(*e as f32);
-                bank.settle_zero(bank.weigh(&f), &f);
-                f
-            })
-            .collect();
-        let moments = Moments::new(&terms, force_g, scored);
+        let moments = Moments::new(&terms_of(&trial, dt_s, strain_pct), force_g, scored);
         let (Some(score), Some(weights_g)) = (
             moments.score(&used, fit.lambda),
             moments.fit(&used, fit.lambda),
@@ -252,8 +243,17 @@ fn with_rezero(
     })
 }
 
-/// The noise of `u`: the median absolute first difference over √2 (a step's worth of change
-/// in a smooth record is far smaller than its noise).
+/// The finite values of `v` at the samples `scored`.
+fn kept(v: &[f64], scored: &[bool]) -> Vec<f64> {
+    v.iter()
+        .zip(scored)
+        .filter(|(x, s)| **s && x.is_finite())
+        .map(|(x, _)| *x)
+        .collect()
+}
+
+/// The noise of `u`: the median absolute first difference, over √2 and over 0.6745 (the
+/// median of |N(0, 1)|); a step's worth of change in a smooth record is far below its noise.
 fn noise(u: &[f64]) -> f64 {
     let d: Vec<f64> = u
         .windows(2)

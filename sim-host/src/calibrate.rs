@@ -273,24 +273,21 @@ pub fn fit_taxel(
         scored += in_fit.iter().filter(|b| !**b).count();
     }
     let [held_out, nominal_held_out] = sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt()));
-    // The estimator that held out best, by its index in `EstimatorKind::ALL`.
-    let best = |e: &[f64; EstimatorKind::COUNT]| {
-        (0..EstimatorKind::COUNT)
-            .min_by(|a, b| e[*a].total_cmp(&e[*b]))
-            .unwrap_or(0)
-    };
     let mut model = model_from(&whole, &everything)?;
     let mut flags = CalibrationFlags::empty();
-    let (calibrated_best, nominal_best) = (best(&held_out), best(&nominal_held_out));
-    let mut chosen = held_out[calibrated_best];
+    let (calibrated_best, nominal_best) = (
+        EstimatorKind::best(&held_out),
+        EstimatorKind::best(&nominal_held_out),
+    );
+    let mut chosen = held_out[calibrated_best.index()];
     // The taxel's own calibration unless the nominal models hold out clearly better.
-    if nominal_held_out[nominal_best] < NOMINAL_MARGIN * chosen {
+    if nominal_held_out[nominal_best.index()] < NOMINAL_MARGIN * chosen {
         model = nominal;
-        model.estimator = EstimatorKind::ALL[nominal_best];
-        chosen = nominal_held_out[nominal_best];
+        model.estimator = nominal_best;
+        chosen = nominal_held_out[nominal_best.index()];
         flags |= CalibrationFlags::NOMINAL;
     } else {
-        model.estimator = EstimatorKind::ALL[calibrated_best];
+        model.estimator = calibrated_best;
     }
     if chosen > POOR_FIT_G {
         flags |= CalibrationFlags::POOR;

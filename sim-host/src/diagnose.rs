@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 use tactile_core::calibration::{secant_schedule, EstimatorKind, TaxelModel};
-use tactile_core::estimator::{StrainConditioner, TaxelEstimators};
+use tactile_core::estimator::{StrainConditioner, TaxelEstimators, HINGE_TERMS, PLAY_TERMS};
 use tactile_core::hysteresis::{Plays, PLAYS};
 use tactile_core::spring::SpringCurve;
 use tactile_core::tactile::TaxelId;
@@ -497,10 +497,7 @@ fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> Taxe
         model.bank = b.model;
     }
     let all = [held_out[0], held_out[1], held_out[2], held_out[3], bank_g];
-    let best = (0..EstimatorKind::COUNT)
-        .min_by(|a, b| all[*a].total_cmp(&all[*b]))
-        .unwrap_or(0);
-    model.estimator = EstimatorKind::ALL[best];
+    model.estimator = EstimatorKind::best(&all);
     // Not measured (the bank did not fit): negative, as the table stores it.
     model.held_out_g = Some(all.map(|v| if v.is_finite() { v } else { -1.0 }));
     model
@@ -553,9 +550,6 @@ pub fn chip_choice(m: &TaxelModel) -> String {
         })
         .collect();
     let b = &m.bank;
-    let uses = |range: core::ops::Range<usize>| b.weights_g[range].iter().any(|w| *w != 0.0);
-    let hinges = 2..2 + tactile_core::estimator::BANK_KNOTS;
-    let plays = hinges.end + tactile_core::estimator::BANK_FILTERS..b.weights_g.len();
     let rezero = if b.rezero.is_on() {
         format!(
             "re-zeroes where it reads under {:.1} g and the strain is still",
@@ -568,10 +562,10 @@ pub fn chip_choice(m: &TaxelModel) -> String {
         "  the chip runs its {} (held-out force error, g: {})\n  the force bank: lowpasses of {:.2}–{:.0} s{}{}; {rezero}\n",
         m.estimator.name(),
         all.join(", "),
-        b.tau_s[0],
-        b.tau_s[b.tau_s.len() - 1],
-        if uses(hinges) { ", a curve in hinges" } else { "" },
-        if uses(plays) { ", plays" } else { "" },
+        b.tau_s.first().copied().unwrap_or(0.0),
+        b.tau_s.last().copied().unwrap_or(0.0),
+        if b.uses(HINGE_TERMS) { ", a curve in hinges" } else { "" },
+        if b.uses(PLAY_TERMS) { ", plays" } else { "" },
     )
 }
 

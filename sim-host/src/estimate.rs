@@ -41,16 +41,6 @@ impl Estimator {
             Estimator::Bank => "bank_g",
         }
     }
-
-    fn of(kind: EstimatorKind) -> Estimator {
-        match kind {
-            EstimatorKind::Elastic => Estimator::Elastic,
-            EstimatorKind::SecondOrderInverse => Estimator::SecondOrder,
-            EstimatorKind::ScheduledInverse => Estimator::Scheduled,
-            EstimatorKind::Observer => Estimator::Observer,
-            EstimatorKind::Bank => Estimator::Bank,
-        }
-    }
 }
 
 const ALL: [Estimator; EstimatorKind::COUNT] = [
@@ -106,7 +96,10 @@ pub fn run(
     })?;
     let chosen: Vec<Estimator> = only.map_or(ALL.to_vec(), |e| vec![e]);
     let index = |e: Estimator| e.kind().index();
-    let runs = Estimator::of(model.estimator);
+    let runs = ALL
+        .into_iter()
+        .find(|e| e.kind() == model.estimator)
+        .unwrap_or(Estimator::Elastic);
     let out_path: PathBuf = out.map(Path::to_path_buf).unwrap_or_else(|| {
         let stem = file
             .file_stem()

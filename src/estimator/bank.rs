@@ -19,6 +19,8 @@
 //! The update costs a fixed [`BANK_FEATURES`] multiply-adds, [`BANK_FILTERS`] lowpasses and
 //! [`BANK_PLAYS`] plays per sample: no allocation, no panic.
 
+use core::ops::Range;
+
 use crate::hysteresis::play;
 use crate::lti::{ModelError, ModelParameter};
 
@@ -30,6 +32,10 @@ pub const BANK_KNOTS: usize = 3;
 pub const BANK_PLAYS: usize = 3;
 /// Weights: the bias, the strain, the hinges, the lowpasses, the plays.
 pub const BANK_FEATURES: usize = 2 + BANK_KNOTS + BANK_FILTERS + BANK_PLAYS;
+/// Where each kind of term sits among the weights (the bias at 0, the strain at 1).
+pub const HINGE_TERMS: Range<usize> = 2..2 + BANK_KNOTS;
+pub const LOWPASS_TERMS: Range<usize> = HINGE_TERMS.end..HINGE_TERMS.end + BANK_FILTERS;
+pub const PLAY_TERMS: Range<usize> = LOWPASS_TERMS.end..BANK_FEATURES;
 /// Time constant of the strain's short average the re-zero calls quiet against, s.
 pub const QUIET_TAU_S: f32 = 0.1;
 
@@ -68,7 +74,7 @@ pub struct BankModel {
     pub knots: [f32; BANK_KNOTS],
     /// The plays' radii, in strain units.
     pub play_radius: [f32; BANK_PLAYS],
-    /// Force per term, g, in [`ForceBank::advance`]'s order.
+    /// Force per term, g, in [`ForceBank::step`]'s order.
     pub weights_g: [f32; BANK_FEATURES],
     pub rezero: Rezero,
 }
@@ -93,9 +99,9 @@ impl BankModel {
     /// Every value in range: finite, scale and time constants positive, radii not negative.
     pub fn check(&self) -> Result<(), ModelError> {
         let r = &self.rezero;
-        let finite = self
-            .tau_s
+        let finite = [self.strain_scale_pct]
             .iter()
+            .chain(&self.tau_s)
             .chain(&self.knots)
             .chain(&self.play_radius)
             .chain(&self.weights_g)
@@ -107,7 +113,7 @@ impl BankModel {
             && r.below_g >= 0.0
             && r.quiet >= 0.0
             && r.tau_s > 0.0;
-        if finite && positive && self.strain_scale_pct.is_finite() {
+        if finite && positive {
             Ok(())
         } else {
             Err(ModelError::InvalidParameter {
@@ -119,17 +125,30 @@ impl BankModel {
     /// The force's slope in the strain units at rest and settled (every lowpass and play caught
     /// up, the hinges below zero counted): how a strain error at rest shows in the force.
     pub fn rest_gain_g(&self) -> f32 {
-        let hinges = 2..2 + BANK_KNOTS;
+        // Summed in the terms' order: the bias left out (it does not move with the strain),
+        // a hinge only where its corner is below zero.
         self.weights_g
             .iter()
             .enumerate()
-            .filter(|(j, _)| match j.checked_sub(hinges.start) {
-                None => *j == 1,
-                Some(k) if hinges.contains(j) => self.knots.get(k).is_some_and(|knot| *knot < 0.0),
-                Some(_) => true,
+            .filter(|(j, _)| {
+                if HINGE_TERMS.contains(j) {
+                    j.checked_sub(HINGE_TERMS.start)
+                        .and_then(|k| self.knots.get(k))
+                        .is_some_and(|knot| *knot < 0.0)
+                } else {
+                    *j != 0
+                }
             })
             .map(|(_, w)| *w)
             .sum()
+    }
+
+    /// Whether any of the terms in `terms` (one of [`HINGE_TERMS`], [`LOWPASS_TERMS`],
+    /// [`PLAY_TERMS`]) weighs anything.
+    pub fn uses(&self, terms: Range<usize>) -> bool {
+        self.weights_g
+            .get(terms)
+            .is_some_and(|w| w.iter().any(|w| *w != 0.0))
     }
 }
 
@@ -157,8 +176,8 @@ impl ForceBank {
             });
         }
         let decay = |tau_s: f32| libm::exp(-dt_s / f64::from(tau_s)) as f32;
-        let gain = model.rezero_gain_g();
-        let rezero_step = if model.rezero.is_on() && gain > 0.0 {
+        let gain = model.rest_gain_g();
+        let rezero_step = if model.rezero.is_on() && gain.is_finite() && gain > 0.0 {
             (1.0 - decay(model.rezero.tau_s)) / gain
         } else {
             0.0
@@ -179,7 +198,7 @@ impl ForceBank {
     /// The terms of the latest strain, in the weights' order, with the zero as it stands
     /// (advances the lowpasses and plays; the first sample starts them settled there).
     #[inline]
-    pub fn advance(&mut self, strain_pct: f32) -> [f32; BANK_FEATURES] {
+    fn advance(&mut self, strain_pct: f32) -> [f32; BANK_FEATURES] {
         let u = strain_pct / self.model.strain_scale_pct - self.zero;
         if !self.started {
             self.lowpass = [u; BANK_FILTERS];
@@ -188,7 +207,7 @@ impl ForceBank {
             self.started = true;
         }
         let mut f = [0.0; BANK_FEATURES];
-        let (head, rest) = f.split_at_mut(2);
+        let (head, rest) = f.split_at_mut(HINGE_TERMS.start);
         let (hinges, rest) = rest.split_at_mut(BANK_KNOTS);
         let (lowpasses, plays) = rest.split_at_mut(BANK_FILTERS);
         head.copy_from_slice(&[1.0, u]);
@@ -213,7 +232,7 @@ impl ForceBank {
 
     /// The weighted sum of `features`, g (not clamped).
     #[inline]
-    pub fn weigh(&self, features: &[f32; BANK_FEATURES]) -> f32 {
+    fn weigh(&self, features: &[f32; BANK_FEATURES]) -> f32 {
         features
             .iter()
             .zip(&self.model.weights_g)
@@ -224,12 +243,31 @@ impl ForceBank {
     /// Moves the zero by the estimate `force_g` of a sample at rest: the estimate is below the
     /// re-zero's bound and the strain within its quiet band of its short average.
     #[inline]
-    pub fn settle_zero(&mut self, force_g: f32, features: &[f32; BANK_FEATURES]) {
+    fn settle_zero(&mut self, force_g: f32, features: &[f32; BANK_FEATURES]) {
         let r = &self.model.rezero;
         let u = features.get(1).copied().unwrap_or(f32::NAN);
         if self.rezero_step > 0.0 && force_g < r.below_g && (u - self.average).abs() <= r.quiet {
             self.zero += self.rezero_step * force_g;
         }
+    }
+
+    /// One sample of strain (the calibration's offset already removed): its terms in the
+    /// weights' order and the force they weigh, not clamped; the zero settled after it. A
+    /// force that is not finite starts the bank over (the fit computes its terms this way too).
+    #[inline]
+    pub fn step(&mut self, strain_pct: f32) -> ([f32; BANK_FEATURES], f32) {
+        let features = self.advance(strain_pct);
+        let force = self.weigh(&features);
+        if force.is_finite() {
+            self.settle_zero(force, &features);
+        } else {
+            *self = Self {
+                started: false,
+                zero: 0.0,
+                ..*self
+            };
+        }
+        (features, force)
     }
 
     /// Force from the latest strain (the calibration's offset already removed), clamped at
@@ -239,35 +277,17 @@ impl ForceBank {
         if !strain_pct.is_finite() {
             return 0.0;
         }
-        let features = self.advance(strain_pct);
-        let force = self.weigh(&features);
-        if !force.is_finite() {
-            *self = Self {
-                started: false,
-                zero: 0.0,
-                ..*self
-            };
-            return 0.0;
+        let (_, force) = self.step(strain_pct);
+        if force.is_finite() {
+            force.max(0.0)
+        } else {
+            0.0
         }
-        self.settle_zero(force, &features);
-        force.max(0.0)
     }
 
     /// The zero the re-zero has found, in strain units (0 without re-zero).
     pub fn zero(&self) -> f32 {
         self.zero
-    }
-}
-
-impl BankModel {
-    /// [`rest_gain_g`](Self::rest_gain_g) where it can move the zero: positive and finite.
-    fn rezero_gain_g(&self) -> f32 {
-        let g = self.rest_gain_g();
-        if g.is_finite() && g > 0.0 {
-            g
-        } else {
-            0.0
-        }
     }
 }
 
@@ -280,7 +300,7 @@ mod tests {
         // One lowpass of τ = 1 s at 10 ms, weight 10 g: after a unit step at rest, the term
         // is 1 − e^(−t/τ) by hand; at t = 1 s, 6.32 g.
         let mut m = BankModel::elastic(0.0);
-        m.weights_g[2 + BANK_KNOTS] = 10.0;
+        m.weights_g[LOWPASS_TERMS.start] = 10.0;
         let mut bank = ForceBank::new(&m, 0.01).unwrap();
         assert_eq!(bank.force_g(0.0), 0.0);
         let mut f = 0.0;
@@ -294,14 +314,14 @@ mod tests {
     fn hinges_continue_by_their_slope_and_plays_hold_by_their_radius() {
         let mut m = BankModel::elastic(2.0);
         m.knots = [1.0, 5.0, 5.0];
-        m.weights_g[2] = 3.0;
+        m.weights_g[HINGE_TERMS.start] = 3.0;
         let mut bank = ForceBank::new(&m, 0.01).unwrap();
         // 2·3 + 3·(3 − 1) = 12 g; far beyond: linear, 2·10 + 3·9 = 47 g.
         assert!((bank.force_g(3.0) - 12.0).abs() < 1e-5);
         assert!((bank.force_g(10.0) - 47.0).abs() < 1e-4);
         let mut p = BankModel::elastic(0.0);
         p.play_radius[0] = 0.5;
-        p.weights_g[2 + BANK_KNOTS + BANK_FILTERS] = 1.0;
+        p.weights_g[PLAY_TERMS.start] = 1.0;
         let mut bank = ForceBank::new(&p, 0.01).unwrap();
         // 0 → 2 → 1.8: the play trails by 0.5 on the way up and holds on the way down.
         let out: Vec<f32> = [0.0, 2.0, 1.8].iter().map(|e| bank.force_g(*e)).collect();

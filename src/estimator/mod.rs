@@ -27,7 +27,8 @@ mod observer;
 mod scheduled;
 
 pub use bank::{
-    BankModel, ForceBank, Rezero, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS, QUIET_TAU_S,
+    BankModel, ForceBank, Rezero, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS, HINGE_TERMS,
+    LOWPASS_TERMS, PLAY_TERMS, QUIET_TAU_S,
 };
 pub use inverse::{InverseEstimator, StructuralInverse};
 pub use observer::{MkObserver, ObserverTuning};

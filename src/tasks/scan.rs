@@ -184,11 +184,12 @@ impl Scanner {
         // taxels over them: a start-up that decodes each record once and tabulates the
         // nominal springs once (a new run on the QEMU board resets within a few ticks).
         let nominal = TaxelModel::nominal(config.probe);
+        // The estimator the taxel's calibration held out best with, unless the build fixes one
+        // for the whole array.
+        let kind_of = |m: &TaxelModel| config.array_estimator.unwrap_or(m.estimator);
         let build = |m: &TaxelModel| -> Result<(TaxelEstimator, StrainConditioner), ConfigError> {
-            // The estimator the taxel's calibration held out best with, unless the build fixes
-            // one for the whole array.
-            let kind = config.array_estimator.unwrap_or(m.estimator);
-            let est = TaxelEstimator::new(kind, m, frame_s).map_err(ConfigError::Estimator)?;
+            let est =
+                TaxelEstimator::new(kind_of(m), m, frame_s).map_err(ConfigError::Estimator)?;
             Ok((est, StrainConditioner::new(m, frame_s)))
         };
         let (nominal_est, nominal_cond) = build(&nominal)?;
@@ -205,10 +206,7 @@ impl Scanner {
                 (*est, *cond) = build(&m)?;
             }
             // The table's check allows no more loops than there is room for.
-            let plays = config
-                .array_estimator
-                .unwrap_or(m.estimator)
-                .loop_taken_off(&m);
+            let plays = kind_of(&m).loop_taken_off(&m);
             if !plays.is_empty() {
                 let _ = self.loops.push((i as u8, LoopCompensator::new(plays)));
             }
