@@ -36,6 +36,10 @@ pub const BANK_FEATURES: usize = 2 + BANK_KNOTS + BANK_FILTERS + BANK_PLAYS;
 pub const HINGE_TERMS: Range<usize> = 2..2 + BANK_KNOTS;
 pub const LOWPASS_TERMS: Range<usize> = HINGE_TERMS.end..HINGE_TERMS.end + BANK_FILTERS;
 pub const PLAY_TERMS: Range<usize> = LOWPASS_TERMS.end..BANK_FEATURES;
+/// The start-up zero's band, in re-zero bounds: a bank whose first estimate is within this many
+/// bounds of zero takes it as its zero (a scale's initial zero-setting, up to a fifth of its
+/// range, beside a zero tracking within a twentieth).
+pub const STARTUP_ZERO_BOUNDS: f32 = 4.0;
 /// Time constant of the strain's short average the re-zero calls quiet against, s.
 pub const QUIET_TAU_S: f32 = 0.1;
 
@@ -122,27 +126,6 @@ impl BankModel {
         }
     }
 
-    /// The force's slope in the strain units at rest and settled (every lowpass and play caught
-    /// up, the hinges below zero counted): how a strain error at rest shows in the force.
-    pub fn rest_gain_g(&self) -> f32 {
-        // Summed in the terms' order: the bias left out (it does not move with the strain),
-        // a hinge only where its corner is below zero.
-        self.weights_g
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| {
-                if HINGE_TERMS.contains(j) {
-                    j.checked_sub(HINGE_TERMS.start)
-                        .and_then(|k| self.knots.get(k))
-                        .is_some_and(|knot| *knot < 0.0)
-                } else {
-                    *j != 0
-                }
-            })
-            .map(|(_, w)| *w)
-            .sum()
-    }
-
     /// Whether any of the terms in `terms` (one of [`HINGE_TERMS`], [`LOWPASS_TERMS`],
     /// [`PLAY_TERMS`]) weighs anything.
     pub fn uses(&self, terms: Range<usize>) -> bool {
@@ -158,12 +141,14 @@ pub struct ForceBank {
     model: BankModel,
     phi: [f32; BANK_FILTERS],
     quiet_phi: f32,
-    /// The zero's step per gram of estimate while at rest, strain units (0: no re-zero).
-    rezero_step: f32,
+    /// The share of the estimate at rest the zero takes per sample (0: no re-zero).
+    rezero_share: f32,
     lowpass: [f32; BANK_FILTERS],
     plays: [f32; BANK_PLAYS],
     average: f32,
-    zero: f32,
+    /// The estimate's zero, g: taken off the weighed terms, so that it moves outside the
+    /// bank's dynamics (a step of the zero is a step of the estimate, whatever the weights).
+    zero_g: f32,
     started: bool,
 }
 
@@ -176,9 +161,8 @@ impl ForceBank {
             });
         }
         let decay = |tau_s: f32| libm::exp(-dt_s / f64::from(tau_s)) as f32;
-        let gain = model.rest_gain_g();
-        let rezero_step = if model.rezero.is_on() && gain.is_finite() && gain > 0.0 {
-            (1.0 - decay(model.rezero.tau_s)) / gain
+        let rezero_share = if model.rezero.is_on() {
+            1.0 - decay(model.rezero.tau_s)
         } else {
             0.0
         };
@@ -186,20 +170,20 @@ impl ForceBank {
             model: *model,
             phi: model.tau_s.map(decay),
             quiet_phi: decay(QUIET_TAU_S),
-            rezero_step,
+            rezero_share,
             lowpass: [0.0; BANK_FILTERS],
             plays: [0.0; BANK_PLAYS],
             average: 0.0,
-            zero: 0.0,
+            zero_g: 0.0,
             started: false,
         })
     }
 
-    /// The terms of the latest strain, in the weights' order, with the zero as it stands
-    /// (advances the lowpasses and plays; the first sample starts them settled there).
+    /// The terms of the latest strain, in the weights' order (advances the lowpasses and
+    /// plays; the first sample starts them settled there).
     #[inline]
     fn advance(&mut self, strain_pct: f32) -> [f32; BANK_FEATURES] {
-        let u = strain_pct / self.model.strain_scale_pct - self.zero;
+        let u = strain_pct / self.model.strain_scale_pct;
         if !self.started {
             self.lowpass = [u; BANK_FILTERS];
             self.plays = [u; BANK_PLAYS];
@@ -246,8 +230,8 @@ impl ForceBank {
     fn settle_zero(&mut self, force_g: f32, features: &[f32; BANK_FEATURES]) {
         let r = &self.model.rezero;
         let u = features.get(1).copied().unwrap_or(f32::NAN);
-        if self.rezero_step > 0.0 && force_g < r.below_g && (u - self.average).abs() <= r.quiet {
-            self.zero += self.rezero_step * force_g;
+        if self.rezero_share > 0.0 && force_g < r.below_g && (u - self.average).abs() <= r.quiet {
+            self.zero_g += self.rezero_share * force_g;
         }
     }
 
@@ -256,14 +240,23 @@ impl ForceBank {
     /// force that is not finite starts the bank over (the fit computes its terms this way too).
     #[inline]
     pub fn step(&mut self, strain_pct: f32) -> ([f32; BANK_FEATURES], f32) {
+        let starting = !self.started;
         let features = self.advance(strain_pct);
-        let force = self.weigh(&features);
+        let mut force = self.weigh(&features) - self.zero_g;
+        if starting
+            && self.rezero_share > 0.0
+            && force.abs() < STARTUP_ZERO_BOUNDS * self.model.rezero.below_g
+        {
+            // A first sample within the start-up band is the zero.
+            self.zero_g += force;
+            force = 0.0;
+        }
         if force.is_finite() {
             self.settle_zero(force, &features);
         } else {
             *self = Self {
                 started: false,
-                zero: 0.0,
+                zero_g: 0.0,
                 ..*self
             };
         }
@@ -285,9 +278,10 @@ impl ForceBank {
         }
     }
 
-    /// The zero the re-zero has found, in strain units (0 without re-zero).
-    pub fn zero(&self) -> f32 {
-        self.zero
+    /// The zero the re-zero has found, g (0 without re-zero): the estimate is the weighed
+    /// terms less it.
+    pub fn zero_g(&self) -> f32 {
+        self.zero_g
     }
 }
 
@@ -340,24 +334,47 @@ mod tests {
             tau_s: 0.5,
         };
         let mut bank = ForceBank::new(&m, 0.01).unwrap();
+        assert_eq!(bank.force_g(0.0), 0.0);
         let first = bank.force_g(0.5);
         assert!((first - 5.0).abs() < 1e-5);
         for _ in 0..500 {
             bank.force_g(0.5);
         }
         assert!(bank.force_g(0.5) < 0.01);
-        assert!((bank.zero() - 0.5).abs() < 1e-3, "{}", bank.zero());
+        assert!((bank.zero_g() - 5.0).abs() < 1e-2, "{}", bank.zero_g());
         for _ in 0..200 {
             bank.force_g(5.5);
         }
         assert!((bank.force_g(5.5) - 50.0).abs() < 0.01);
-        assert!((bank.zero() - 0.5).abs() < 1e-3);
+        assert!((bank.zero_g() - 5.0).abs() < 1e-2);
         // Without the re-zero the offset stays in the estimate.
         let mut plain = ForceBank::new(&BankModel::elastic(10.0), 0.01).unwrap();
         for _ in 0..500 {
             plain.force_g(0.5);
         }
         assert!((plain.force_g(0.5) - 5.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn a_zero_within_the_start_up_band_is_taken_at_the_first_sample() {
+        // The same spring and bound (8 g: a band of 32 g at start-up). Started at a strain of
+        // 2 % (20 g), the bank takes it as its zero and reads a later 50 g press as 50 g;
+        // started under 4 % (40 g) it reads 40 g. Without a re-zero there is no start-up zero.
+        let mut m = BankModel::elastic(10.0);
+        m.rezero = Rezero {
+            below_g: 8.0,
+            quiet: 0.05,
+            tau_s: 1.0,
+        };
+        let mut drifted = ForceBank::new(&m, 0.01).unwrap();
+        assert!(drifted.force_g(2.0).abs() < 1e-5);
+        assert!((drifted.zero_g() - 20.0).abs() < 1e-5);
+        assert!((drifted.force_g(7.0) - 50.0).abs() < 1e-4);
+        let mut loaded = ForceBank::new(&m, 0.01).unwrap();
+        assert!((loaded.force_g(4.0) - 40.0).abs() < 1e-4);
+        assert_eq!(loaded.zero_g(), 0.0);
+        let mut plain = ForceBank::new(&BankModel::elastic(10.0), 0.01).unwrap();
+        assert!((plain.force_g(2.0) - 20.0).abs() < 1e-5);
     }
 
     #[test]
