@@ -23,160 +23,15 @@
 use heapless::Vec;
 
 use crate::estimator::{
-    BankModel, Rezero, TaxelEstimator, BANK_FEATURES, BANK_FILTERS, BANK_KNOTS, BANK_PLAYS,
+    BankModel, CalibrationFlags, EstimatorKind, Rezero, TaxelModel, BANK_FEATURES, BANK_FILTERS,
+    BANK_KNOTS, BANK_PLAYS, SCHEDULE_POINTS,
 };
 use crate::hysteresis::{Plays, PLAYS};
-use crate::lti::{ModelError, ModelParameter};
+use crate::lti::ModelParameter;
+use crate::seal::{bytes_at, check_crc, check_head, seal, SealError};
 use crate::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
 use crate::tactile::{TaxelId, TAXELS};
-use crate::viscoelastic::{MaxwellKelvin, NonlinearMk, SecondOrder};
-
-/// Most load levels a schedule holds (the scheduled inverse's table).
-pub const SCHEDULE_POINTS: usize = 4;
-
-/// The estimators a taxel can run, in the order [`TaxelEstimators::update`](crate::estimator::TaxelEstimators::update) reports them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum EstimatorKind {
-    /// σ = G (ε − ε₀), clamped at zero.
-    Elastic,
-    /// The memo's inverted second-order model (Table IV, or the taxel's own fit).
-    SecondOrderInverse,
-    /// [`ScheduledInverse`](crate::estimator::ScheduledInverse).
-    ScheduledInverse,
-    /// [`MkObserver`](crate::estimator::MkObserver).
-    Observer,
-    /// [`ForceBank`](crate::estimator::ForceBank).
-    Bank,
-}
-
-impl EstimatorKind {
-    pub const ALL: [EstimatorKind; 5] = [
-        EstimatorKind::Elastic,
-        EstimatorKind::SecondOrderInverse,
-        EstimatorKind::ScheduledInverse,
-        EstimatorKind::Observer,
-        EstimatorKind::Bank,
-    ];
-    pub const COUNT: usize = Self::ALL.len();
-
-    /// Index in [`Self::ALL`].
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    /// The estimator with the least of `held_out_g` (in [`Self::ALL`]'s order; the first of
-    /// equals).
-    pub fn best(held_out_g: &[f64; Self::COUNT]) -> EstimatorKind {
-        Self::ALL
-            .into_iter()
-            .zip(held_out_g)
-            .min_by(|a, b| a.1.total_cmp(b.1))
-            .map_or(EstimatorKind::Elastic, |(k, _)| k)
-    }
-
-    /// The loop taken off this estimator's input: the calibration's plays, but none before
-    /// the bank (fitted with plays of its own).
-    pub fn loop_taken_off(self, model: &TaxelModel) -> Plays {
-        match self {
-            EstimatorKind::Bank => Plays::default(),
-            _ => model.hysteresis,
-        }
-    }
-
-    /// The parameters of a [`TaxelModel`] this estimator runs on.
-    fn parameter(self) -> ModelParameter {
-        match self {
-            EstimatorKind::Elastic => ModelParameter::Elastic,
-            EstimatorKind::SecondOrderInverse => ModelParameter::SecondOrder,
-            EstimatorKind::ScheduledInverse => ModelParameter::ScheduleEntry,
-            EstimatorKind::Observer => ModelParameter::Observer,
-            EstimatorKind::Bank => ModelParameter::Bank,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            EstimatorKind::Elastic => "elastic",
-            EstimatorKind::SecondOrderInverse => "second-order inverse",
-            EstimatorKind::ScheduledInverse => "scheduled inverse",
-            EstimatorKind::Observer => "observer (EKF)",
-            EstimatorKind::Bank => "force bank",
-        }
-    }
-}
-
-/// CRC-32 (IEEE, as zlib and Ethernet compute it), bit by bit: a lookup table would cost
-/// the firmware 1–16 KB of flash to check a 700-byte table once at start-up.
-pub fn crc32(bytes: &[u8]) -> u32 {
-    const CRC: crc::Crc<u32, crc::NoTable> =
-        crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
-    CRC.checksum(bytes)
-}
-
-/// Why a sealed form (a calibration or controller table, an applicator's form: 4 magic bytes,
-/// a little-endian u16 version, their contents, then the CRC-32 of everything before it) was
-/// refused; each form's own error names it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SealError {
-    TooShort { bytes: usize, needed: usize },
-    BadMagic,
-    UnsupportedVersion { found: u16 },
-    Checksum { stored: u32, computed: u32 },
-}
-
-/// Checks a sealed form's magic and version.
-pub fn check_head(bytes: &[u8], magic: [u8; 4], version: u16) -> Result<(), SealError> {
-    let head = bytes.get(..6).ok_or(SealError::TooShort {
-        bytes: bytes.len(),
-        needed: 6,
-    })?;
-    if head.get(..4) != Some(&magic[..]) {
-        return Err(SealError::BadMagic);
-    }
-    let found = u16::from_le_bytes(bytes_at(head, 4));
-    if found != version {
-        return Err(SealError::UnsupportedVersion { found });
-    }
-    Ok(())
-}
-
-/// Checks the CRC-32 in the last 4 of a sealed form's `len` bytes; the bytes before it.
-pub fn check_crc(bytes: &[u8], len: usize) -> Result<&[u8], SealError> {
-    let all = bytes.get(..len).ok_or(SealError::TooShort {
-        bytes: bytes.len(),
-        needed: len,
-    })?;
-    let (contents, stored) = all.split_at(len.saturating_sub(4));
-    let stored = u32::from_le_bytes(bytes_at(stored, 0));
-    let computed = crc32(contents);
-    if stored != computed {
-        return Err(SealError::Checksum { stored, computed });
-    }
-    Ok(contents)
-}
-
-/// Seals `out`, a form whose contents are written: the magic and version in its first 6 bytes,
-/// the CRC-32 of all before them in its last 4.
-pub fn seal(out: &mut [u8], magic: [u8; 4], version: u16) {
-    let version = version.to_le_bytes();
-    for (slot, b) in out.iter_mut().zip(magic.iter().chain(&version)) {
-        *slot = *b;
-    }
-    let body = out.len().saturating_sub(4);
-    let crc = crc32(out.get(..body).unwrap_or(&[]));
-    if let Some(slot) = out.get_mut(body..) {
-        slot.copy_from_slice(&crc.to_le_bytes());
-    }
-}
-
-/// `N` bytes of `bytes` from `at` (zeros past the end: callers have checked the length).
-pub fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> [u8; N] {
-    bytes
-        .get(at..at + N)
-        .and_then(|b| b.try_into().ok())
-        .unwrap_or([0; N])
-}
+use crate::viscoelastic::{NonlinearMk, SecondOrder};
 
 pub const MAGIC: [u8; 4] = *b"TCAL";
 pub const VERSION: u16 = 5;
@@ -201,27 +56,6 @@ const BANK_FLOATS: usize = 1 + BANK_FILTERS + BANK_KNOTS + BANK_PLAYS + BANK_FEA
 const CURVE_FLOATS: usize = 2 * CURVE_KNOTS;
 pub const RECORD_BYTES: usize = LEAD_BYTES + 4 * RECORD_FLOATS;
 
-bitflags::bitflags! {
-    /// What a calibration says about itself (stored in the table, logged by the firmware).
-    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-    pub struct CalibrationFlags: u8 {
-        /// The best estimator's held-out error is above [`POOR_FIT_G`]: the taxel's force is
-        /// not to be trusted to the memo's ±1 g.
-        const POOR = 1;
-        /// The fitted model misses the strain by more than [`LARGE_OFFSET_PCT`] on average
-        /// with the offset measured at rest: something shifts the strain that the model lacks.
-        const OFFSET = 2;
-        /// The calibration held out worse than the nominal models, which the record carries.
-        const NOMINAL = 4;
-    }
-}
-
-/// Held-out RMS force error above which a calibration is flagged [`CalibrationFlags::POOR`], g
-/// (the memo's ±1 g).
-pub const POOR_FIT_G: f64 = 1.0;
-/// Mean strain the model misses by before a calibration is flagged
-/// [`CalibrationFlags::OFFSET`], percent (about 0.2 g through G₁ at 30 g).
-pub const LARGE_OFFSET_PCT: f64 = 0.05;
 /// Most taxels whose calibration carries hysteresis (the scanner keeps their plays' state in
 /// RAM for these only: the F407's static RAM budget).
 pub const MAX_LOOP_TAXELS: usize = 8;
@@ -233,83 +67,7 @@ pub const fn table_bytes(taxels: usize) -> usize {
     HEADER_BYTES + taxels * RECORD_BYTES + CRC_BYTES
 }
 
-/// One taxel's dynamic calibration.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TaxelModel {
-    pub taxel: TaxelId,
-    /// Strain the fits found at zero force, beyond the rest calibration, percent.
-    pub strain_offset_pct: f64,
-    /// Elastic model ε = σ/G, g/%.
-    pub elastic_g_per_pct: f64,
-    /// Eq. 17 fitted to the whole calibration record (the memo's inverse, recalibrated).
-    pub second_order: SecondOrder,
-    /// Eq. 17 fitted at each load level (the scheduled inverse), in increasing load.
-    pub schedule: Vec<(f32, SecondOrder), SCHEDULE_POINTS>,
-    /// Eq. 14 with load-dependent springs (the observer's model).
-    pub element: NonlinearMk,
-    /// A periodic interference on the strain, notched before every estimator, Hz (0: none).
-    pub notch_hz: f64,
-    /// The largest load the calibration record covered, g (0: unknown).
-    pub range_g: f64,
-    /// Each estimator's RMS force error on the held-out part of the calibration record, g, in
-    /// [`EstimatorKind::ALL`]'s order (`None`: not measured, as for the nominal models).
-    pub held_out_g: Option<[f64; EstimatorKind::COUNT]>,
-    /// The estimator the firmware runs on this taxel (the one that held out best).
-    pub estimator: EstimatorKind,
-    pub flags: CalibrationFlags,
-    /// A loop in the strain, taken off before the taxel's estimator (none: empty).
-    pub hysteresis: Plays,
-    /// The force bank (without a fit: the elastic spring).
-    pub bank: BankModel,
-}
-
 impl TaxelModel {
-    /// Element 4,2 as the memo describes it, for a taxel without a calibration: the Table IV
-    /// fit, Table I's element scheduled at its four loads (with the simulator's α), the guide
-    /// laws of FACTS.md, and the elastic spring that is Table IV's static gain.
-    pub fn nominal(taxel: TaxelId) -> TaxelModel {
-        let mut schedule = Vec::new();
-        for row in MaxwellKelvin::TABLE_I {
-            let (load, row) = (row.load_g as f32, row.element);
-            let mk = MaxwellKelvin {
-                alpha: NonlinearMk::ELEMENT_4_2.alpha,
-                ..row
-            };
-            // Four entries into a Vec of four: cannot fail.
-            let _ = schedule.push((load, mk.second_order()));
-        }
-        let so = SecondOrder::MEMO_FIT;
-        TaxelModel {
-            taxel,
-            strain_offset_pct: 0.0,
-            elastic_g_per_pct: so.b2 / so.a2,
-            second_order: so,
-            schedule,
-            element: NonlinearMk::ELEMENT_4_2,
-            notch_hz: 0.0,
-            range_g: 0.0,
-            held_out_g: None,
-            estimator: EstimatorKind::Observer,
-            flags: CalibrationFlags::empty(),
-            hysteresis: Plays::default(),
-            bank: BankModel::elastic(so.b2 / so.a2),
-        }
-    }
-
-    /// Whether every estimator runs on this calibration: each is built as the firmware builds
-    /// it, at a nominal period (what they refuse, a parameter not finite or not positive or a
-    /// model not stable, does not depend on the period). `Err`: the parameters that cannot.
-    pub fn check(&self) -> Result<(), ModelParameter> {
-        const NOMINAL_PERIOD_S: f64 = 1e-3;
-        for kind in EstimatorKind::ALL {
-            TaxelEstimator::new(kind, self, NOMINAL_PERIOD_S).map_err(|e| match e {
-                ModelError::InvalidParameter { name } => name,
-                _ => kind.parameter(),
-            })?;
-        }
-        Ok(())
-    }
-
     /// The record's floats; `None` if a spring law cannot be tabulated.
     fn floats(&self) -> Option<[f32; RECORD_FLOATS]> {
         let mut v = [0.0f32; RECORD_FLOATS];
@@ -450,20 +208,6 @@ fn bank_from(f: &[f32]) -> Option<BankModel> {
         },
     };
     bank.check().ok().map(|()| bank)
-}
-
-/// The scheduled inverse's table from an element with load-dependent springs: its secant
-/// springs at each of `loads_g` as eq. 17 (Table I's rows, one per load, from one law). Loads
-/// beyond [`SCHEDULE_POINTS`] are left out.
-pub fn secant_schedule(
-    element: &NonlinearMk,
-    loads_g: &[f64],
-) -> Vec<(f32, SecondOrder), SCHEDULE_POINTS> {
-    loads_g
-        .iter()
-        .take(SCHEDULE_POINTS)
-        .map(|&load| (load as f32, element.linearized(load).second_order()))
-        .collect()
 }
 
 impl From<SealError> for TableError {
@@ -685,6 +429,7 @@ impl<'a> TableView<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::seal::crc32;
 
     fn table() -> CalibrationTable {
         let mut t = CalibrationTable::default();
@@ -890,12 +635,6 @@ mod tests {
                 parameter: ModelParameter::Elastic
             })
         );
-    }
-
-    #[test]
-    fn crc_is_the_ieee_check_value() {
-        // The CRC catalogue's check value of CRC-32/ISO-HDLC for "123456789".
-        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     }
 
     #[test]

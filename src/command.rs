@@ -25,7 +25,8 @@
 //! assert_eq!((r.seq, r.command), (7, Ok(Command::Hold { force_g: 30.0 })));
 //! ```
 
-use crate::calibration::{bytes_at, EstimatorKind};
+use crate::estimator::EstimatorKind;
+use crate::seal::bytes_at;
 use crate::tactile::{TaxelId, TAXELS};
 
 /// First byte of every frame.

@@ -11,23 +11,21 @@
 //! `Σ |wᵢ| rᵢ` whatever the estimate does, so it cannot run away.
 //!
 //! ```
-//! use tactile_core::estimator::TaxelEstimator;
 //! use tactile_core::hysteresis::{LoopCompensator, Plays};
 //!
 //! // A spring of 4 g/% with one play of 2 g radius weighing 0.05 %/g.
 //! let plays = Plays::new(&[(2.0, 0.05)]).unwrap();
-//! let mut elastic = TaxelEstimator::Elastic { g_per_pct: 4.0 };
+//! let elastic = |strain_pct: f32| 4.0 * strain_pct;
 //! let mut comp = LoopCompensator::new(plays);
 //! // Loaded to 10 g, the play trails the force by its radius: the strain is 10/4 − 0.05·2.
 //! let strain = 10.0 / 4.0 - 0.05 * 2.0;
 //! let mut force = 0.0;
 //! for _ in 0..20 {
-//!     force = comp.force_g(&mut elastic, strain);
+//!     force = comp.force_g(elastic, strain);
 //! }
 //! assert!((force - 10.0).abs() < 0.05, "{force}");
 //! ```
 
-use crate::estimator::TaxelEstimator;
 use crate::lti::Real;
 
 /// Plays a calibration can carry (the diagnosis's basis).
@@ -125,7 +123,7 @@ impl Plays {
 }
 
 /// A loop's strain taken off an estimator's input, the plays driven by that estimator's last
-/// force.
+/// force (the estimator passed in: this loop wraps any of them).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LoopCompensator {
     plays: Plays,
@@ -141,13 +139,14 @@ impl LoopCompensator {
         }
     }
 
-    /// Force from the latest strain through `estimator`, the loop's strain taken off first.
+    /// Force from the latest strain through `estimate` (an estimator's update: strain in,
+    /// force out), the loop's strain taken off first.
     #[inline]
-    pub fn force_g(&mut self, estimator: &mut TaxelEstimator, strain_pct: f32) -> f32 {
+    pub fn force_g(&mut self, estimate: impl FnOnce(f32) -> f32, strain_pct: f32) -> f32 {
         if self.plays.is_empty() {
-            return estimator.force_g(strain_pct);
+            return estimate(strain_pct);
         }
-        let force = estimator.force_g(strain_pct - self.loop_pct);
+        let force = estimate(strain_pct - self.loop_pct);
         // A force that is not a number leaves the plays where they were.
         if force.is_finite() {
             self.loop_pct = self.plays.loop_pct(&mut self.out_g, force);
@@ -159,6 +158,7 @@ impl LoopCompensator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimator::TaxelEstimator;
 
     #[test]
     fn a_play_follows_by_hand() {
@@ -218,7 +218,7 @@ mod tests {
                 .zip(&force)
                 .map(|(&e, &f)| {
                     let x = match &mut comp {
-                        Some(c) => c.force_g(&mut est, e),
+                        Some(c) => c.force_g(|s| est.force_g(s), e),
                         None => est.force_g(e),
                     };
                     (x - f).powi(2)

@@ -47,6 +47,7 @@ pub mod hysteresis;
 pub mod io;
 pub mod lti;
 pub mod profile;
+pub mod seal;
 pub mod spring;
 pub mod supervisor;
 pub mod tactile;

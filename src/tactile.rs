@@ -8,6 +8,8 @@
 /// Rows (drive strips) and columns (sense strips) of the multiplexed array.
 pub const ROWS: usize = 8;
 pub const COLS: usize = 8;
+/// One 8×8 frame of the array, row-major: strain in percent.
+pub type StrainGrid = [[f32; COLS]; ROWS];
 pub const TAXELS: usize = ROWS * COLS;
 /// The taxel under the force probe: element 4,2 of the memo (row 4, column 2 counted from one),
 /// read on its own channel every control tick.

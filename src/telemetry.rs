@@ -180,6 +180,25 @@ impl SequenceCheck {
     }
 }
 
+/// What one control tick produced.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TickRecord {
+    pub t_s: f64,
+    pub command_g: f32,
+    /// Force from the gauge path (the value the law uses next tick); on a gauge fault, the raw
+    /// reading, with the fault flagged.
+    pub sensed_g: f32,
+    pub adjusted_g: f32,
+    pub strain_pct: f32,
+    pub estimate_g: f32,
+    /// Simulator truth: the contact force at the end of the tick.
+    pub true_force_g: f32,
+    pub in_contact: bool,
+    pub faults: FaultFlags,
+    /// The code written to the actuator's DAC.
+    pub dac_code: u16,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

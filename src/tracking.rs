@@ -184,9 +184,9 @@ pub struct TrackingConfig {
     pub drive_max_g: f32,
 }
 
-impl From<crate::calibration::SealError> for TrackingError {
-    fn from(e: crate::calibration::SealError) -> Self {
-        use crate::calibration::SealError;
+impl From<crate::seal::SealError> for TrackingError {
+    fn from(e: crate::seal::SealError) -> Self {
+        use crate::seal::SealError;
         match e {
             SealError::TooShort { bytes, needed } => TrackingError::TooShort { bytes, needed },
             SealError::BadMagic => TrackingError::BadMagic,
@@ -428,7 +428,7 @@ impl TrackingConfig {
         for (slot, v) in rest.chunks_exact_mut(4).zip(floats) {
             slot.copy_from_slice(&v.to_le_bytes());
         }
-        crate::calibration::seal(&mut out, TABLE_MAGIC, TABLE_VERSION);
+        crate::seal::seal(&mut out, TABLE_MAGIC, TABLE_VERSION);
         Ok(out)
     }
 
@@ -439,14 +439,10 @@ impl TrackingConfig {
             bytes: bytes.len(),
             needed: TABLE_BYTES,
         })?;
-        crate::calibration::check_head(all, TABLE_MAGIC, TABLE_VERSION)?;
-        crate::calibration::check_crc(all, TABLE_BYTES)?;
-        let f = |i: usize| {
-            f32::from_le_bytes(crate::calibration::bytes_at(
-                all,
-                TABLE_HEADER_BYTES + 4 * i,
-            ))
-        };
+        crate::seal::check_head(all, TABLE_MAGIC, TABLE_VERSION)?;
+        crate::seal::check_crc(all, TABLE_BYTES)?;
+        let f =
+            |i: usize| f32::from_le_bytes(crate::seal::bytes_at(all, TABLE_HEADER_BYTES + 4 * i));
         let point = |k: usize| {
             let at = TABLE_SCALARS + k * POINT_FLOATS;
             InverseSeries {

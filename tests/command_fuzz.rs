@@ -2,10 +2,10 @@
 //! survive noise around them, and no corrupted frame is read as a command that was not sent.
 
 use proptest::prelude::*;
-use tactile_core::calibration::EstimatorKind;
 use tactile_core::command::{
     Command, ControllerChoice, Decoder, Received, Run, TableKind, CHUNK_BYTES, SYNC,
 };
+use tactile_core::estimator::EstimatorKind;
 use tactile_core::tactile::TaxelId;
 
 fn any_command() -> impl Strategy<Value = Command> {

@@ -3,19 +3,22 @@
 use std::io::Write;
 use std::path::Path;
 
-use tactile_plant::finger::StrainGrid;
-use tactile_plant::rig::TickRecord;
+use tactile_core::control::ActuatorConfig;
+use tactile_core::tactile::StrainGrid;
+use tactile_core::telemetry::TickRecord;
 
 /// Writes ticks (decimated to every `every`th) as a record with the extra columns the
 /// firmware streams: command, adjusted command, the on-chip estimate and the faults, plus the
-/// simulator's truth (the contact force and whether the probe touches) from the simulator.
+/// simulator's truth (the contact force and whether the probe touches) from the simulator;
+/// the drive in grams through `actuator`, from the code each tick wrote.
 pub fn write_record(
     path: &Path,
     meta: &[(String, String)],
     ticks: &[TickRecord],
     every: usize,
+    actuator: &ActuatorConfig,
 ) -> std::io::Result<()> {
-    write_ticks(path, meta, ticks, every, true)
+    write_ticks(path, meta, ticks, every, true, actuator)
 }
 
 /// [`write_record`] with the truth columns only when `truth` (a board knows no true force).
@@ -25,14 +28,13 @@ pub fn write_ticks(
     ticks: &[TickRecord],
     every: usize,
     truth: bool,
+    actuator: &ActuatorConfig,
 ) -> std::io::Result<()> {
     let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
     for (k, v) in meta {
         writeln!(w, "# {k}={v}")?;
     }
     let truth_header = if truth { ",true_force_g,contact" } else { "" };
-    // The drive in grams from the code the tick wrote (every frame carries it).
-    let actuator = tactile_plant::rig::RigConfig::SIM_FIRMWARE.actuator;
     writeln!(
         w,
         "t_s,force_g,strain_pct,command_g,adjusted_g,estimate_g{truth_header},drive_g,faults"

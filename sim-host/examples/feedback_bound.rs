@@ -11,13 +11,14 @@
 //! `DELAY_TICKS=D`: the ticks the loop waits for the reading (1, the firmware's), to see what
 //! a faster read-out would buy.
 use num_complex::Complex64;
-use sim_host::{analysis, design, rig::TICK_S};
+use sim_host::{analysis, design};
 use std::f64::consts::PI;
+use tactile_core::CONTROL_PERIOD_S;
 
 /// A zero at `zero_hz` and a double pole at `pole_hz`, unit gain at DC, by the bilinear
 /// transform: (b₀, b₁, b₂, a₁, a₂) as `design::ErrorFilter::biquad` gives them.
 fn lead(zero_hz: f64, pole_hz: f64) -> [f64; 5] {
-    let k = 2.0 / TICK_S;
+    let k = 2.0 / CONTROL_PERIOD_S;
     let (z, p) = (k / (2.0 * PI * zero_hz), k / (2.0 * PI * pole_hz));
     let (p0, p1) = (1.0 + p, 1.0 - p);
     let n = p0 * p0;
@@ -32,9 +33,11 @@ fn lead(zero_hz: f64, pole_hz: f64) -> [f64; 5] {
 
 /// (kp + ki·T/(1 − z⁻¹))·F(z)·z^−delay at `hz`.
 fn feedback(kp: f64, ki: f64, [b0, b1, b2, a1, a2]: [f64; 5], delay: f64, hz: f64) -> Complex64 {
-    let z = Complex64::from_polar(1.0, -2.0 * PI * hz * TICK_S);
+    let z = Complex64::from_polar(1.0, -2.0 * PI * hz * CONTROL_PERIOD_S);
     let f = (b0 + z * (b1 + z * b2)) / (1.0 + z * (a1 + z * a2));
-    (kp + ki * TICK_S / (1.0 - z)) * f * Complex64::from_polar(1.0, -2.0 * PI * hz * TICK_S * delay)
+    (kp + ki * CONTROL_PERIOD_S / (1.0 - z))
+        * f
+        * Complex64::from_polar(1.0, -2.0 * PI * hz * CONTROL_PERIOD_S * delay)
 }
 
 fn main() {

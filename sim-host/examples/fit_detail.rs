@@ -46,8 +46,8 @@ fn main() {
         "gauge {lo:.1}..{hi:.1} g (highest at {:.3} s)",
         worst.map_or(0.0, |t| t.t_s)
     );
-    let start =
-        (f64::from(tactile_core::profile::EXCITATION_SETTLE_S) / sim_host::rig::TICK_S) as usize;
+    let start = (f64::from(tactile_core::profile::EXCITATION_SETTLE_S)
+        / tactile_core::CONTROL_PERIOD_S) as usize;
     let chirp = run.ticks.get(start..).unwrap_or(&[]);
     let zero = chirp.iter().filter(|t| t.true_force_g <= 0.0).count();
     let (clo, chi) = chirp.iter().fold((f32::MAX, f32::MIN), |(lo, hi), t| {

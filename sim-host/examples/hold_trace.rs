@@ -24,7 +24,7 @@ fn main() {
         a[3].parse().unwrap(),
     );
     let mut rig = Rig::new(config).unwrap();
-    let n = (sim_host::metrics::STEADY_HOLD_S / sim_host::rig::TICK_S).round() as usize;
+    let n = (sim_host::metrics::STEADY_HOLD_S / tactile_core::CONTROL_PERIOD_S).round() as usize;
     for (i, level) in sim_host::metrics::STEADY_LEVELS_G.iter().enumerate() {
         for k in 0..n {
             let t = rig.tick(*level, |_, _| {});

@@ -57,7 +57,7 @@ pub fn applicator_response(
 /// [`applicator_response`] at `hz` as the control loop sees it: through the drive's hold over
 /// a tick, (1 − e^(−sT))/(sT). What the designed feedback's margins are checked on.
 pub fn held_response(p: &ApplicatorParams, law: &SpringLaw, load_g: f64, hz: f64) -> Complex64 {
-    let t = crate::rig::TICK_S;
+    let t = tactile_core::CONTROL_PERIOD_S;
     let s = Complex64::new(0.0, 2.0 * core::f64::consts::PI * hz);
     applicator_response(p, law, load_g, s.im) * ((1.0 - (-s * t).exp()) / (s * t))
 }

@@ -24,10 +24,11 @@
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
-use tactile_core::calibration::{
-    secant_schedule, CalibrationFlags, CalibrationTable, TaxelModel, LARGE_OFFSET_PCT, POOR_FIT_G,
-};
+use tactile_core::calibration::CalibrationTable;
 use tactile_core::estimator::StructuralInverse;
+use tactile_core::estimator::{
+    secant_schedule, CalibrationFlags, TaxelModel, LARGE_OFFSET_PCT, POOR_FIT_G,
+};
 use tactile_core::estimator::{BankModel, EstimatorKind, TaxelEstimators};
 use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G, CALIBRATION_REST_S};
 use tactile_core::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};

@@ -9,9 +9,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use crate::finger::Effects;
 use crate::metrics;
 use crate::record::{write_frames, write_record};
-use crate::rig::{RigConfig, TICK_S};
+use crate::rig::RigConfig;
 use crate::scenario::{self, Run, Scenario, ScenarioOptions};
 use tactile_core::tactile::TaxelId;
+use tactile_core::CONTROL_PERIOD_S;
 
 /// Effects the command line can switch on, with what their strength means.
 pub const EFFECTS: [(&str, &str); 6] = [
@@ -190,9 +191,9 @@ pub fn experiment(
     }
     // NOTE: the record keeps every k-th tick of the loop; another rate would be written as the
     // nearest such, quietly.
-    let every = ((1.0 / record_hz) / TICK_S).round().max(1.0) as usize;
-    if (1.0 / (every as f64 * TICK_S) - record_hz).abs() > 1e-6 * record_hz {
-        let loop_hz = 1.0 / TICK_S;
+    let every = ((1.0 / record_hz) / CONTROL_PERIOD_S).round().max(1.0) as usize;
+    if (1.0 / (every as f64 * CONTROL_PERIOD_S) - record_hz).abs() > 1e-6 * record_hz {
+        let loop_hz = 1.0 / CONTROL_PERIOD_S;
         let k = (loop_hz / record_hz).floor().max(1.0);
         return Err(crate::Error::Usage(format!(
             "--record-hz {record_hz}: the record keeps every k-th tick of the {loop_hz} Hz loop, so its rate is {loop_hz}/k: {:.3} Hz (k = {k}) or {:.3} Hz (k = {})",
@@ -220,13 +221,20 @@ pub fn experiment(
         ("seed".to_string(), seed.to_string()),
         (
             "sample_rate_hz".to_string(),
-            format!("{}", 1.0 / (every as f64 * TICK_S)),
+            format!("{}", 1.0 / (every as f64 * CONTROL_PERIOD_S)),
         ),
         ("fixed_gains".to_string(), options.fixed_gains.to_string()),
         ("effects".to_string(), format!("{effects:?}")),
     ];
     let record = out.join(format!("{name}.csv"));
-    write_record(&record, &meta, &run.ticks, every).map_err(crate::Error::io(&record))?;
+    write_record(
+        &record,
+        &meta,
+        &run.ticks,
+        every,
+        &crate::rig::RigConfig::SIM_FIRMWARE.actuator,
+    )
+    .map_err(crate::Error::io(&record))?;
     let frames = out.join(format!("{name}_frames.csv"));
     write_frames(&frames, &meta, &run.frames).map_err(crate::Error::io(&frames))?;
     let mut files = vec![record, frames];
@@ -248,7 +256,7 @@ pub fn experiment(
 /// The short summary of a run: speed, and what the scenario is judged by.
 pub fn summarize(run: &Run, wall_s: f64) -> String {
     let t = &run.ticks;
-    let simulated = t.len() as f64 * TICK_S;
+    let simulated = t.len() as f64 * CONTROL_PERIOD_S;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -411,7 +419,7 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
             name.to_string()
         };
         let headline = o.summary.lines().nth(1).unwrap_or("").trim().to_string();
-        let simulated = o.run.ticks.len() as f64 * TICK_S;
+        let simulated = o.run.ticks.len() as f64 * CONTROL_PERIOD_S;
         let _ = writeln!(
             report,
             "| {label} | {simulated:.0} | {:.0} | {headline} |",

@@ -28,8 +28,9 @@ use tactile_core::tracking::{InverseSeries, TrackingConfig, TRACKING_POINTS};
 use tactile_core::profile::Protocol;
 
 use crate::identify::{ApplicatorModel, IdentifyError};
-use crate::rig::{RigConfig, TICK_S};
+use crate::rig::RigConfig;
 use crate::scenario::{run_protocol, ScenarioError};
+use tactile_core::CONTROL_PERIOD_S;
 
 /// The preloads the applicator is identified at, g (the core's, which the firmware's
 /// identification session runs too). Not lighter: a chirp small enough to keep the probe on the
@@ -627,7 +628,7 @@ pub fn loop_grid_hz() -> Vec<f64> {
 const GRID_POINTS: usize = 2000;
 
 fn grid_hz(i: usize) -> f64 {
-    let (lo, hi) = (0.1f64, 0.49 / TICK_S);
+    let (lo, hi) = (0.1f64, 0.49 / CONTROL_PERIOD_S);
     lo * (hi / lo).powf(i as f64 / (GRID_POINTS - 1) as f64)
 }
 
@@ -652,7 +653,7 @@ impl ErrorFilter {
             ErrorFilter::Pass => tactile_core::tracking::FEEDBACK_PASS.map(f64::from),
             ErrorFilter::Notch { hz, damping } => {
                 let w = 2.0 * std::f64::consts::PI * hz;
-                let k = w / (w * TICK_S / 2.0).tan();
+                let k = w / (w * CONTROL_PERIOD_S / 2.0).tan();
                 let a0 = k * k + 2.0 * damping * w * k + w * w;
                 let (n0, n1) = (k * k + w * w, 2.0 * (w * w - k * k));
                 [
@@ -664,7 +665,7 @@ impl ErrorFilter {
                 ]
             }
             ErrorFilter::Lowpass { hz } => {
-                let a = (-2.0 * std::f64::consts::PI * hz * TICK_S).exp();
+                let a = (-2.0 * std::f64::consts::PI * hz * CONTROL_PERIOD_S).exp();
                 [(1.0 - a) * (1.0 - a), 0.0, 0.0, -2.0 * a, a * a]
             }
         }
@@ -691,8 +692,8 @@ fn biquad_at([b0, b1, b2, a1, a2]: [f64; 5], z_inv: Complex64) -> Complex64 {
 /// The feedback's response at `hz`: (kp + ki·T/(1 − z⁻¹))·F(z)·z⁻¹, F the biquad on the
 /// error and z⁻¹ the tick the loop waits for the reading; as `tactile_core::tracking` runs it.
 fn feedback_at(kp: f64, ki_per_s: f64, biquad: [f64; 5], hz: f64) -> Complex64 {
-    let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * TICK_S);
-    (kp + ki_per_s * TICK_S / (1.0 - z_inv)) * biquad_at(biquad, z_inv) * z_inv
+    let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * CONTROL_PERIOD_S);
+    (kp + ki_per_s * CONTROL_PERIOD_S / (1.0 - z_inv)) * biquad_at(biquad, z_inv) * z_inv
 }
 
 /// The feedback a controller table runs at `load_g` (its share there), as [`Feedback::response`]
@@ -759,7 +760,7 @@ pub fn variants(m: &ApplicatorModel, extrapolated: bool) -> Vec<ApplicatorModel>
     // A tick more delay, with the beam's damping at the floor as well: the fitted delay runs
     // negative (a lead of 0.6–0.8 ms where the hold alone delays half a tick) and the fitted
     // phase at the beam's mode leads the friction-free plant's by 40–100°.
-    v.delay_s += TICK_S;
+    v.delay_s += CONTROL_PERIOD_S;
     out.push(v);
     for f in [1.0 - PLANT_TOLERANCE, 1.0 + PLANT_TOLERANCE] {
         let mut v = *m;
@@ -893,7 +894,7 @@ pub fn design(
     )
     .unwrap_or(f64::NAN);
     let mut filters = vec![ErrorFilter::Pass];
-    if beam_hz.is_finite() && beam_hz < 0.45 / TICK_S {
+    if beam_hz.is_finite() && beam_hz < 0.45 / CONTROL_PERIOD_S {
         filters.extend(NOTCH_DAMPINGS.iter().map(|&damping| ErrorFilter::Notch {
             hz: beam_hz,
             damping,
@@ -973,7 +974,7 @@ pub fn design(
     // momentum worth TOUCH_OVERSHOOT_G. A pulse's shape has a mean of one half, so its peak
     // is twice the push.
     let w_light = 2.0 * std::f64::consts::PI * models.first().map_or(50.0, |m| m.model.modes[0].hz);
-    let pulse_s = f64::from(tactile_core::tracking::APPROACH_TICKS) * TICK_S;
+    let pulse_s = f64::from(tactile_core::tracking::APPROACH_TICKS) * CONTROL_PERIOD_S;
     let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32;
     // And enough to press the finger to the contact test's force against a stiction 15 % above
     // the identified (the identification reads it 4–9 % low on the three rigs).
@@ -988,7 +989,7 @@ pub fn design(
         });
     }
     let config = TrackingConfig {
-        dt_s: TICK_S as f32,
+        dt_s: CONTROL_PERIOD_S as f32,
         reference_hz: REFERENCE_HZ,
         schedule,
         points: models.len().min(TRACKING_POINTS) as u8,
@@ -1371,7 +1372,7 @@ mod tests {
         let at = |f: ErrorFilter, hz: f64| {
             biquad_at(
                 f.biquad(),
-                Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * TICK_S),
+                Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * CONTROL_PERIOD_S),
             )
         };
         for f in [
@@ -1391,7 +1392,7 @@ mod tests {
         assert!(at(notch, 190.0).norm() < 1e-9);
         // The analog notch (1 − x²)/(1 − x² + 2jζx) at the frequency the bilinear transform
         // prewarped to 190 Hz maps 40 Hz to: x = tan(π·40·T)/tan(π·190·T).
-        let w = |hz: f64| (std::f64::consts::PI * hz * TICK_S).tan();
+        let w = |hz: f64| (std::f64::consts::PI * hz * CONTROL_PERIOD_S).tan();
         let x = w(40.0) / w(190.0);
         let analog = (1.0 - x * x) / Complex64::new(1.0 - x * x, 2.0 * 0.5 * x);
         assert!(

@@ -4,7 +4,7 @@
 //! held-out folds with the core's own estimators, and exported only where it helps.
 
 use serde::Serialize;
-use tactile_core::calibration::{secant_schedule, EstimatorKind, TaxelModel};
+use tactile_core::estimator::{secant_schedule, EstimatorKind, TaxelModel};
 use tactile_core::estimator::{StrainConditioner, TaxelEstimators, HINGE_TERMS, PLAY_TERMS};
 use tactile_core::hysteresis::{Plays, PLAYS};
 use tactile_core::spring::SpringCurve;
@@ -18,7 +18,6 @@ use tactile_ident::force_fit;
 use tactile_ident::solve::Sign;
 use tactile_ident::{Refusal, Series};
 
-use crate::fit::at_top_rail;
 use crate::record::Record;
 
 /// Load levels the exported schedule samples a stiffening law at, grams: the scheduled
@@ -43,6 +42,34 @@ pub fn into_series(r: Record) -> Result<Series, Refusal> {
     }
     let dt = r.sample_period_s().unwrap_or(0.0);
     Series::new(dt, r.force_g, r.strain_pct, rail)
+}
+
+/// Samples at the strain's converter rail: the record's largest value, repeated for at least
+/// 1 % of the record and three times as often as the next value down (a held load spreads over
+/// a few codes with its largest a tail; a clipped one piles up on the rail). Beyond the rail the
+/// strain says nothing about the load, so fits and scores leave those samples out.
+pub fn at_top_rail(strain: &[f64]) -> Vec<bool> {
+    let none = vec![false; strain.len()];
+    let Some(top) = strain
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .reduce(f64::max)
+    else {
+        return none;
+    };
+    let at_top = strain.iter().filter(|v| **v == top).count();
+    let below = strain
+        .iter()
+        .copied()
+        .filter(|v| *v < top)
+        .reduce(f64::max)
+        .map_or(0, |next| strain.iter().filter(|v| **v == next).count());
+    if at_top >= 50 && at_top * 100 >= strain.len() && at_top >= 3 * below {
+        strain.iter().map(|v| *v == top).collect()
+    } else {
+        none
+    }
 }
 
 /// Force estimated from strain on the chip, before and after the accepted effects.
@@ -648,5 +675,27 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         },
         diagnosis: d,
         table_model,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_clipped_strain_is_found_at_its_rail_and_a_held_one_is_not() {
+        // A held load: a few codes about a level, its largest a tail.
+        let held: Vec<f64> = (0..10_000)
+            .map(|i| 10.0 + 0.011 * [0.0, 1.0, -1.0, 0.0, 2.0, 0.0, -1.0, 1.0][i % 8])
+            .collect();
+        assert!(at_top_rail(&held).iter().all(|x| !x));
+        // A load beyond the converter for 40 % of the record: every sample there on the rail.
+        let mut clipped = held.clone();
+        for v in clipped.iter_mut().take(4000) {
+            *v = 10.05;
+        }
+        let rail = at_top_rail(&clipped);
+        assert_eq!(rail.iter().filter(|x| **x).count(), 4000);
+        assert!(at_top_rail(&[]).is_empty());
     }
 }

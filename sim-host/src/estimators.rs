@@ -8,8 +8,9 @@
 use std::fmt::Write as _;
 
 use serde::Serialize;
-use tactile_core::calibration::{CalibrationTable, TaxelModel};
+use tactile_core::calibration::CalibrationTable;
 use tactile_core::estimator::StructuralInverse;
+use tactile_core::estimator::TaxelModel;
 use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::ScanConfig;

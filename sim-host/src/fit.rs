@@ -465,34 +465,6 @@ pub struct Series {
     pub held_out_description: String,
 }
 
-/// Samples at the strain's converter rail: the record's largest value, repeated for at least
-/// 1 % of the record and three times as often as the next value down (a held load spreads over
-/// a few codes with its largest a tail; a clipped one piles up on the rail). Beyond the rail the
-/// strain says nothing about the load, so fits and scores leave those samples out.
-pub fn at_top_rail(strain: &[f64]) -> Vec<bool> {
-    let none = vec![false; strain.len()];
-    let Some(top) = strain
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .reduce(f64::max)
-    else {
-        return none;
-    };
-    let at_top = strain.iter().filter(|v| **v == top).count();
-    let below = strain
-        .iter()
-        .copied()
-        .filter(|v| *v < top)
-        .reduce(f64::max)
-        .map_or(0, |next| strain.iter().filter(|v| **v == next).count());
-    if at_top >= 50 && at_top * 100 >= strain.len() && at_top >= 3 * below {
-        strain.iter().map(|v| *v == top).collect()
-    } else {
-        none
-    }
-}
-
 /// Length of the blocks of the split, seconds.
 pub const BLOCK_S: f64 = 10.0;
 
@@ -519,7 +491,7 @@ impl Series {
             force: r.force_g.clone(),
             strain: r.strain_pct.clone(),
             in_fit,
-            excluded: at_top_rail(&r.strain_pct),
+            excluded: crate::diagnose::at_top_rail(&r.strain_pct),
             held_out_description,
         }
     }
@@ -926,22 +898,5 @@ mod tests {
         let m = fit(&ModelSpec::new(Base::MaxwellKelvin), &data, &[]).unwrap();
         let (e_g, m_g) = (e.held_out_rms_g.unwrap(), m.held_out_rms_g.unwrap());
         assert!(m_g < 0.1 * e_g, "elastic {} mk {}", e_g, m_g);
-    }
-
-    #[test]
-    fn a_clipped_strain_is_found_at_its_rail_and_a_held_one_is_not() {
-        // A held load: a few codes about a level, its largest a tail.
-        let held: Vec<f64> = (0..10_000)
-            .map(|i| 10.0 + 0.011 * [0.0, 1.0, -1.0, 0.0, 2.0, 0.0, -1.0, 1.0][i % 8])
-            .collect();
-        assert!(at_top_rail(&held).iter().all(|x| !x));
-        // A load beyond the converter for 40 % of the record: every sample there on the rail.
-        let mut clipped = held.clone();
-        for v in clipped.iter_mut().take(4000) {
-            *v = 10.05;
-        }
-        let rail = at_top_rail(&clipped);
-        assert_eq!(rail.iter().filter(|x| **x).count(), 4000);
-        assert!(at_top_rail(&[]).is_empty());
     }
 }

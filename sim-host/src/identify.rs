@@ -19,7 +19,8 @@ use tactile_core::profile::{
     Protocol, EXCITATION_END_HZ, EXCITATION_PERIOD_S, EXCITATION_SETTLE_S, EXCITATION_START_HZ,
 };
 
-use crate::rig::{TickRecord, TICK_S};
+use crate::rig::TickRecord;
+use tactile_core::CONTROL_PERIOD_S;
 
 /// Why a record cannot be identified.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -87,7 +88,7 @@ pub fn period_means(
     let Protocol::Excitation { .. } = protocol else {
         return Err(IdentifyError::NotTheExcitation);
     };
-    let start = analysed_from(TICK_S);
+    let start = analysed_from(CONTROL_PERIOD_S);
     let faulted: Vec<bool> = ticks.iter().map(|t| !t.faults.is_empty()).collect();
     if let Some(i) = first_of_run_into(&faulted, start) {
         return Err(IdentifyError::Faulted {
@@ -104,7 +105,7 @@ pub fn period_means(
         .map(|t| f64::from(actuator.force_g(AdcCode(t.dac_code))))
         .collect();
     let gauge: Vec<f64> = ticks.iter().map(|t| f64::from(t.sensed_g)).collect();
-    PeriodMeans::of(&drive, &gauge, TICK_S)
+    PeriodMeans::of(&drive, &gauge, CONTROL_PERIOD_S)
 }
 
 /// The still hold at the preload before the chirp (its last 0.5 s), in g.
@@ -158,7 +159,7 @@ pub fn hold_means(ticks: &[TickRecord], actuator: &ActuatorConfig) -> Option<Hol
         .map(|t| f64::from(actuator.force_g(AdcCode(t.dac_code))))
         .collect();
     let gauge: Vec<f64> = ticks.iter().map(|t| f64::from(t.sensed_g)).collect();
-    hold_means_of(&drive, &gauge, TICK_S)
+    hold_means_of(&drive, &gauge, CONTROL_PERIOD_S)
 }
 
 /// [`hold_means`] of a record of the excitation (its `drive_g` column and gauge force).

@@ -1,7 +1,7 @@
 //! sim-host: the force applicator, the Maxwell–Kelvin finger and the 8×8 array simulated and
 //! closed around the core library's control and estimation code, with the memo's experiments.
 //!
-//! The plant and the rig live in `tactile-plant` (`sim-host/plant`, no `std`), re-exported here,
+//! The plant and the rig live in `tactile-plant` (`plant/`, no `std`), re-exported here,
 //! so the firmware-in-the-loop build runs the same physics.
 
 pub mod analysis;

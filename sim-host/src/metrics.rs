@@ -42,7 +42,7 @@ pub fn settling_time_s(ticks: &[TickRecord], seg: &Segment, band_g: f32) -> Opti
         .rposition(|r| (r.true_force_g - seg.command_g).abs() > band_g);
     match last_out {
         None => Some(0.0),
-        Some(i) if i + 1 < slice.len() => Some((i + 1) as f64 * crate::rig::TICK_S),
+        Some(i) if i + 1 < slice.len() => Some((i + 1) as f64 * tactile_core::CONTROL_PERIOD_S),
         Some(_) => None,
     }
 }
@@ -107,7 +107,7 @@ pub fn step_overshoots_g(ticks: &[TickRecord]) -> Vec<(f32, f32)> {
 /// Per commanded level: fraction of the hold out of contact, and the worst |force − command|
 /// after `settle_s`.
 pub fn hold_quality(ticks: &[TickRecord], settle_s: f64) -> Vec<(f32, f64, f32)> {
-    let skip = (settle_s / crate::rig::TICK_S) as usize;
+    let skip = (settle_s / tactile_core::CONTROL_PERIOD_S) as usize;
     segments(ticks)
         .iter()
         .filter(|s| s.command_g > 0.0 && s.end - s.start > skip)
@@ -151,7 +151,8 @@ fn strain_at_end(ticks: &[TickRecord], s: &Segment, n: usize) -> Option<f64> {
 /// stepped, ours ramps at a rate its probe can follow.
 pub fn static_linearity(ticks: &[TickRecord], slew_g_per_s: f32) -> Vec<(f32, f64)> {
     per_load(ticks, |before, s, _| {
-        let ramp = (s.command_g / slew_g_per_s / crate::rig::TICK_S as f32).ceil() as usize;
+        let ramp =
+            (s.command_g / slew_g_per_s / tactile_core::CONTROL_PERIOD_S as f32).ceil() as usize;
         let at = s.start + ramp + 100;
         Some(mean_strain(ticks.get(at..at + 10)?) - strain_at_end(ticks, before, 10)?)
     })
@@ -206,7 +207,7 @@ pub fn steady_errors_g(
     hold_s: f64,
 ) -> Result<Vec<(f32, f32)>, crate::rig::RigError> {
     let mut rig = crate::rig::Rig::new(config)?;
-    let n = (hold_s / crate::rig::TICK_S).round() as usize;
+    let n = (hold_s / tactile_core::CONTROL_PERIOD_S).round() as usize;
     Ok(levels_g
         .iter()
         .map(|&level_g| {
@@ -276,7 +277,7 @@ pub fn closed_loop_gain(
     }
     let periods = (2.0 * hz).ceil().max(4.0);
     let n_settle = 1000;
-    let n = (periods / hz / crate::rig::TICK_S).round() as usize;
+    let n = (periods / hz / tactile_core::CONTROL_PERIOD_S).round() as usize;
     let (mut acc_f, mut acc_c) = (
         num_complex::Complex64::new(0.0, 0.0),
         num_complex::Complex64::new(0.0, 0.0),
@@ -317,7 +318,10 @@ pub fn touch_down(
 ) -> Result<TouchDown, crate::rig::RigError> {
     let mut rig = crate::rig::Rig::new(config)?;
     rig.hardware.lift_probe(gap_m);
-    let (rest, run) = (100usize, (run_s / crate::rig::TICK_S).round() as usize);
+    let (rest, run) = (
+        100usize,
+        (run_s / tactile_core::CONTROL_PERIOD_S).round() as usize,
+    );
     let tail = 200usize.min(run);
     let (mut contact_s, mut peak_g, mut sum_g) = (None, 0.0f32, 0.0f32);
     for k in 0..rest + run {
@@ -325,7 +329,7 @@ pub fn touch_down(
         let t = rig.tick(command_g, |_, _| {});
         if k >= rest {
             if t.in_contact && contact_s.is_none() {
-                contact_s = Some((k - rest) as f64 * crate::rig::TICK_S);
+                contact_s = Some((k - rest) as f64 * tactile_core::CONTROL_PERIOD_S);
             }
             peak_g = peak_g.max(t.true_force_g);
         }

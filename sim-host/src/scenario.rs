@@ -179,7 +179,7 @@ pub fn run_protocol(
     config.command_slew_g_per_s = protocol.slew_limit_g_per_s();
     let mut rig = Rig::new(config).map_err(ScenarioError::Rig)?;
     let mut source = CommandSource::new(protocol);
-    let n = (f64::from(protocol.duration_s()) / crate::rig::TICK_S).round() as usize;
+    let n = (f64::from(protocol.duration_s()) / tactile_core::CONTROL_PERIOD_S).round() as usize;
     let mut run = Run {
         name: name.to_string(),
         ticks: Vec::with_capacity(n),

@@ -16,13 +16,13 @@
 //! Everything on the update path is `f32`, allocation-free and panic-free; construction (once,
 //! at start-up) may use `f64`.
 
-use crate::calibration::TaxelModel;
 use crate::filter::{Biquad, BiquadState};
 use crate::hysteresis::LoopCompensator;
 use crate::viscoelastic::{ModelError, ModelParameter};
 
 mod bank;
 mod inverse;
+mod model;
 mod observer;
 mod scheduled;
 
@@ -34,8 +34,10 @@ pub use inverse::{InverseEstimator, StructuralInverse};
 pub use observer::{MkObserver, ObserverTuning};
 pub use scheduled::{ChainStep, Schedule, ScheduledInverse};
 
-// The table format owns what the estimators read from it: the kinds and the schedule's size.
-pub use crate::calibration::{EstimatorKind, SCHEDULE_POINTS};
+pub use model::{
+    secant_schedule, CalibrationFlags, EstimatorKind, TaxelModel, LARGE_OFFSET_PCT, POOR_FIT_G,
+    SCHEDULE_POINTS,
+};
 
 /// One taxel's estimator, of one kind, built from its calibration for an update period.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -196,7 +198,7 @@ impl TaxelEstimators {
         let e = self.conditioner.update(strain_pct);
         kinds.map(|k| {
             let (est, comp) = self.pair_mut(k);
-            comp.force_g(est, e)
+            comp.force_g(|s| est.force_g(s), e)
         })
     }
 

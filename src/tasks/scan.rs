@@ -5,7 +5,8 @@
 //! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
-use crate::calibration::{CalibrationFlags, TableError, TableView, TaxelModel, MAX_LOOP_TAXELS};
+use crate::calibration::{TableError, TableView, MAX_LOOP_TAXELS};
+use crate::estimator::{CalibrationFlags, TaxelModel};
 use crate::estimator::{EstimatorKind, StrainConditioner, TaxelEstimator, TaxelEstimators};
 use crate::gauge::AdcScale;
 use crate::hysteresis::LoopCompensator;
@@ -282,7 +283,7 @@ impl Scanner {
         let i = taxel.index();
         let comp = self.loops.iter_mut().find(|(t, _)| usize::from(*t) == i);
         let force = match (self.estimators.get_mut(i), comp) {
-            (Some(e), Some((_, comp))) => comp.force_g(e, conditioned),
+            (Some(e), Some((_, comp))) => comp.force_g(|s| e.force_g(s), conditioned),
             (Some(e), None) => e.force_g(conditioned),
             (None, _) => 0.0,
         };

@@ -38,6 +38,7 @@ fn bench_record(effects: &[&str], seed: u64) -> sim_host::record::Record {
         &[("sample_rate_hz".into(), "200".into())],
         &run.ticks,
         5,
+        &sim_host::rig::RigConfig::SIM_FIRMWARE.actuator,
     )
     .unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
@@ -188,6 +189,7 @@ fn a_clipped_record_is_judged_on_what_it_saw() {
         &[("sample_rate_hz".into(), "200".into())],
         &run_.ticks,
         5,
+        &sim_host::rig::RigConfig::SIM_FIRMWARE.actuator,
     )
     .unwrap();
     let record = read_record(&path).unwrap();

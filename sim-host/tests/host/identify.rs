@@ -223,7 +223,14 @@ fn a_record_of_the_excitation_identifies_as_its_ticks_do() {
     std::fs::create_dir_all(&dir).unwrap();
     let read = |every: usize| {
         let path = dir.join(format!("excitation-{every}.csv"));
-        tactile_record::write_record(&path, &[], &run.ticks, every).unwrap();
+        tactile_record::write_record(
+            &path,
+            &[],
+            &run.ticks,
+            every,
+            &RigConfig::SIM_FIRMWARE.actuator,
+        )
+        .unwrap();
         tactile_record::read_record(&path).unwrap()
     };
     let response = frequency_response_of_record(&read(1)).unwrap();
@@ -262,7 +269,8 @@ fn the_design_reads_excitation_records_and_refuses_others() {
     let dir = crate::common::scratch("design-records");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("excitation-50g.csv");
-    tactile_record::write_record(&path, &[], &run.ticks, 1).unwrap();
+    tactile_record::write_record(&path, &[], &run.ticks, 1, &RigConfig::SIM_FIRMWARE.actuator)
+        .unwrap();
     let rec = tactile_record::read_record(&path).unwrap();
     let from_record = excited_of_record(&rec).unwrap();
     let from_ticks = excited_of_run(&run.ticks, protocol, &config.firmware.actuator).unwrap();
@@ -289,7 +297,14 @@ fn the_design_reads_excitation_records_and_refuses_others() {
     )
     .unwrap();
     let path = dir.join("force-steps.csv");
-    tactile_record::write_record(&path, &[], &steps.ticks, 1).unwrap();
+    tactile_record::write_record(
+        &path,
+        &[],
+        &steps.ticks,
+        1,
+        &RigConfig::SIM_FIRMWARE.actuator,
+    )
+    .unwrap();
     let e = excited_of_record(&tactile_record::read_record(&path).unwrap()).unwrap_err();
     assert!(matches!(e, DesignError::NotExcitation { .. }), "{e}");
 }
@@ -477,7 +492,8 @@ fn the_design_from_records_leaves_out_a_preload_it_cannot_use() {
         }
         let run = run_protocol("excitation", protocol, config.clone(), false, |_| {}).unwrap();
         let path = dir.join(format!("excitation-{load_g}g.csv"));
-        tactile_record::write_record(&path, &[], &run.ticks, 1).unwrap();
+        tactile_record::write_record(&path, &[], &run.ticks, 1, &RigConfig::SIM_FIRMWARE.actuator)
+            .unwrap();
         path
     };
     let lifted = record(10.0, Some(12.0));

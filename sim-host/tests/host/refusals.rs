@@ -4,7 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use tactile_core::calibration::{CalibrationTable, TaxelModel};
+use tactile_core::calibration::CalibrationTable;
+use tactile_core::estimator::TaxelModel;
 use tactile_core::tactile::TaxelId;
 
 /// A fresh path for the refusals' files (tests run in parallel).
@@ -181,7 +182,7 @@ fn estimate_refuses_an_absurd_record_and_a_table_that_would_run_away() {
     let mut bad = nominal_table();
     bad[120..124].copy_from_slice(&(-5.0f32).to_le_bytes());
     let n = bad.len();
-    let crc = tactile_core::calibration::crc32(&bad[..n - 4]);
+    let crc = tactile_core::seal::crc32(&bad[..n - 4]);
     bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
     let bad_table = temp("bad-schedule.bin");
     std::fs::write(&bad_table, bad).unwrap();

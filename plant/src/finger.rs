@@ -10,7 +10,7 @@
 use tactile_core::gauge::{AdcCode, AdcScale};
 use tactile_core::tactile::{
     ElementGeometry, ReadoutAmplifier, ScanConfig, SenseNode, StrainForm, TaxelCalibration,
-    TaxelId, COLS, ROWS, TAXELS,
+    TaxelId, COLS, TAXELS,
 };
 use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState, SpringLaw};
 
@@ -504,8 +504,7 @@ pub fn code_to_strain_pct(adc: &AdcScale, cal: &TaxelCalibration, code: AdcCode)
     cal.strain_pct(adc.volts(code), StrainForm::Exact)
 }
 
-/// Row-major 8×8 frame helper for writers.
-pub type StrainGrid = [[f32; COLS]; ROWS];
+pub use tactile_core::tactile::StrainGrid;
 
 #[cfg(test)]
 mod tests {

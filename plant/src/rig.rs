@@ -17,30 +17,7 @@ pub use crate::config::{RigConfig, SIM_ERROR_GAIN};
 pub use crate::fault::{FaultInjection, InjectedFault};
 use crate::finger::StrainGrid;
 use crate::hardware::SimHardware;
-
-/// Plant steps per control tick.
-pub const SUBSTEPS: usize = 10;
-/// Control period (memo: Δt = 1 ms).
-pub const TICK_S: f64 = CONTROL_PERIOD_S;
-
-/// What one control tick produced.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TickRecord {
-    pub t_s: f64,
-    pub command_g: f32,
-    /// Force from the gauge path (the value the law uses next tick); on a gauge fault, the raw
-    /// reading, with the fault flagged.
-    pub sensed_g: f32,
-    pub adjusted_g: f32,
-    pub strain_pct: f32,
-    pub estimate_g: f32,
-    /// Simulator truth: the contact force at the end of the tick.
-    pub true_force_g: f32,
-    pub in_contact: bool,
-    pub faults: FaultFlags,
-    /// The code written to the actuator's DAC.
-    pub dac_code: u16,
-}
+pub use tactile_core::telemetry::TickRecord;
 
 /// Why a rig could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
@@ -127,7 +104,7 @@ impl Rig {
     }
 
     pub fn time_s(&self) -> f64 {
-        self.tick as f64 * TICK_S
+        self.tick as f64 * CONTROL_PERIOD_S
     }
 
     /// The excitation protocol's chirp, added to the drive after the loop's filter from the
@@ -158,7 +135,7 @@ impl Rig {
             .act(&mut self.hardware, command_in, self.tick as u32);
         self.hardware.advance_period();
         let reading = self.control.sense(&mut self.hardware);
-        let t_end = t_s + TICK_S;
+        let t_end = t_s + CONTROL_PERIOD_S;
         let true_force = self.hardware.true_force_g();
         let mut faults = out.faults;
         if let Some(scanner) = &mut self.scanner {

@@ -283,14 +283,14 @@ impl ApplicatorParams {
         for (k, v) in self.fields().iter().enumerate() {
             out[8 + 8 * k..16 + 8 * k].copy_from_slice(&v.to_le_bytes());
         }
-        tactile_core::calibration::seal(&mut out, APPLICATOR_MAGIC, APPLICATOR_VERSION);
+        tactile_core::seal::seal(&mut out, APPLICATOR_MAGIC, APPLICATOR_VERSION);
         out
     }
 
     /// Reads [`Self::encode`]'s bytes, checked as a table is: length, magic, version, CRC,
     /// then [`Self::validate`].
     pub fn decode(bytes: &[u8]) -> Result<ApplicatorParams, ApplicatorError> {
-        use tactile_core::calibration::{bytes_at, check_crc, check_head};
+        use tactile_core::seal::{bytes_at, check_crc, check_head};
         let all = bytes
             .get(..APPLICATOR_BYTES)
             .ok_or(ApplicatorError::TooShort {
@@ -339,9 +339,9 @@ pub const APPLICATOR_VERSION: u16 = 2;
 /// Bytes of [`ApplicatorParams::encode`]'s form.
 pub const APPLICATOR_BYTES: usize = 8 + 8 * APPLICATOR_FIELDS + 4;
 
-impl From<tactile_core::calibration::SealError> for ApplicatorError {
-    fn from(e: tactile_core::calibration::SealError) -> Self {
-        use tactile_core::calibration::SealError;
+impl From<tactile_core::seal::SealError> for ApplicatorError {
+    fn from(e: tactile_core::seal::SealError) -> Self {
+        use tactile_core::seal::SealError;
         match e {
             SealError::TooShort { bytes, needed } => ApplicatorError::TooShort { bytes, needed },
             SealError::BadMagic => ApplicatorError::BadMagic,

@@ -382,7 +382,8 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
             "{}",
             run.name
         );
-        let expected_ticks = (f64::from(run.duration_s) / tactile_decode::TICK_S).round() as usize;
+        let expected_ticks =
+            (f64::from(run.duration_s) / tactile_core::CONTROL_PERIOD_S).round() as usize;
         assert_eq!(run.ticks.len(), expected_ticks, "{}", run.name);
         assert_eq!(run.duration_s, spec.protocol.duration_s(), "{}", run.name);
         // Every tick of the run, in order (the sequence numbers are checked session-wide).

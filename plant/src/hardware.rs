@@ -20,7 +20,10 @@ use crate::config::RigConfig;
 use crate::fault::{inject_gauge_fault, FaultInjection, InjectedFault};
 use crate::finger::Finger;
 use crate::noise::Noise;
-use crate::rig::{SUBSTEPS, TICK_S};
+use tactile_core::CONTROL_PERIOD_S;
+
+/// Plant steps per control tick.
+pub const SUBSTEPS: usize = 10;
 
 /// Converter samples the rig takes of the element under the probe when calibrating at rest.
 const CALIBRATION_FRAMES: usize = 16;
@@ -71,7 +74,7 @@ impl SimHardware {
         let rest_code = gauge_code(config, plant.gauge_force_g(&config.applicator));
         Self {
             plant,
-            lumped: Lumped::new(&config.applicator, TICK_S / SUBSTEPS as f64),
+            lumped: Lumped::new(&config.applicator, CONTROL_PERIOD_S / SUBSTEPS as f64),
             finger,
             calibration,
             gauge_noise: Noise::new(config.seed ^ 0x6761_7567),
@@ -117,7 +120,7 @@ impl SimHardware {
     /// The rig's tick `k` is this board's period `k`, so "the coming period" is the rig's tick
     /// that first sees the fault.
     pub fn fault_starting(&self) -> Option<InjectedFault> {
-        let t_s = self.periods as f64 * TICK_S;
+        let t_s = self.periods as f64 * CONTROL_PERIOD_S;
         self.config
             .fault
             .filter(|f| f.starts_in(t_s))
@@ -127,7 +130,7 @@ impl SimHardware {
     /// One control period of physics with the DAC held: the plant's ten steps, the gauge
     /// sampled eight times, the finger advanced, the probed element's channel sampled at the end.
     pub fn advance_period(&mut self) {
-        let t_s = self.periods as f64 * TICK_S;
+        let t_s = self.periods as f64 * CONTROL_PERIOD_S;
         let fault = self.config.fault.filter(|f| f.active_in(t_s));
         let actuator = &self.config.firmware.actuator;
         let drive_v = f64::from(actuator.dac.volts(self.dac));
@@ -170,9 +173,10 @@ impl SimHardware {
             );
         }
         self.gauge_codes = samples;
-        self.finger.tick(stress_sum / SUBSTEPS as f64, TICK_S);
+        self.finger
+            .tick(stress_sum / SUBSTEPS as f64, CONTROL_PERIOD_S);
         // Same expression as the rig's, so the time effects see the same instants.
-        let t_end = t_s + TICK_S;
+        let t_end = t_s + CONTROL_PERIOD_S;
         self.true_force_g = contact.force_g(self.plant.tip_m, self.plant.tip_m_per_s);
         self.probe_code = self.finger.sample_probe_channel(self.true_force_g, t_end);
         self.t_end_s = t_end;
@@ -205,7 +209,7 @@ impl SimHardware {
         );
         // The scan after period k belongs to the rig's tick k (its start time is the fault's
         // clock there).
-        let tick_s = self.periods.saturating_sub(1) as f64 * TICK_S;
+        let tick_s = self.periods.saturating_sub(1) as f64 * CONTROL_PERIOD_S;
         if self.periods > 0
             && self.config.fault.is_some_and(|f| {
                 f.active_in(tick_s)

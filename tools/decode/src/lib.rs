@@ -12,17 +12,15 @@ use std::path::{Path, PathBuf};
 use defmt_decoder::{DecodeError, Table};
 use tactile_core::estimator::EstimatorKind;
 use tactile_core::tactile::{COLS, ROWS};
+use tactile_core::telemetry::TickRecord;
 use tactile_core::telemetry::{ControlFrame, FaultFlags, SequenceCheck, TaxelFrame};
+use tactile_core::CONTROL_PERIOD_S;
 use tactile_firmware::ArrayEstimate;
-use tactile_plant::rig::TickRecord;
 
 pub mod text;
 pub mod transport;
 
 use text::Fields;
-
-/// Control period of the firmware, s.
-pub const TICK_S: f64 = tactile_firmware::CONTROL_PERIOD_S;
 
 /// What went wrong, and where: the file, and the defmt frame (0-based, counted from the start
 /// of the log) when there is one.
@@ -326,10 +324,10 @@ impl<'t> Live<'t> {
     pub fn progress(&self) -> Option<(&str, f64)> {
         let run = self.current()?;
         let last = run.ticks.last().map_or(run.start_tick, |t| t.frame.tick);
-        let done_s = f64::from(last.wrapping_sub(run.start_tick)) * TICK_S;
+        let done_s = f64::from(last.wrapping_sub(run.start_tick)) * CONTROL_PERIOD_S;
         Some((
             &run.name,
-            (done_s / f64::from(run.duration_s).max(TICK_S)).clamp(0.0, 1.0),
+            (done_s / f64::from(run.duration_s).max(CONTROL_PERIOD_S)).clamp(0.0, 1.0),
         ))
     }
 
@@ -597,7 +595,7 @@ impl Run {
     /// Seconds since the run started for a control tick: the frame's readings were sampled
     /// at the start of its tick, i.e. at the end of the period before it.
     pub fn tick_time_s(&self, tick: u32) -> f64 {
-        f64::from(tick.wrapping_sub(self.start_tick)) * TICK_S
+        f64::from(tick.wrapping_sub(self.start_tick)) * CONTROL_PERIOD_S
     }
 
     /// True when every tick carries the simulator's truth (a QEMU log).
@@ -649,7 +647,7 @@ impl Run {
                 let grid = f
                     .strain_centi_pct
                     .map(|row| row.map(TaxelFrame::strain_pct));
-                (self.tick_time_s(f.tick) + TICK_S, grid)
+                (self.tick_time_s(f.tick) + CONTROL_PERIOD_S, grid)
             })
             .collect()
     }
@@ -666,11 +664,21 @@ pub fn write_run(
     std::fs::create_dir_all(dir)?;
     let mut meta = meta.to_vec();
     meta.push(("scenario".into(), run.name.clone()));
-    meta.push(("sample_rate_hz".into(), format!("{}", 1.0 / TICK_S)));
+    meta.push((
+        "sample_rate_hz".into(),
+        format!("{}", 1.0 / CONTROL_PERIOD_S),
+    ));
     let record = dir.join(format!("{}.csv", run.name));
     let ticks = run.tick_records();
     // A board knows no true force: the same columns without the simulator's truth.
-    tactile_record::write_ticks(&record, &meta, &ticks, 1, run.has_truth())?;
+    tactile_record::write_ticks(
+        &record,
+        &meta,
+        &ticks,
+        1,
+        run.has_truth(),
+        &tactile_firmware::BOARD.actuator,
+    )?;
     let frames = dir.join(format!("{}_frames.csv", run.name));
     tactile_record::write_frames(&frames, &meta, &run.strain_frames())?;
     let array = dir.join(format!("{}_array.csv", run.name));
@@ -687,7 +695,7 @@ pub fn write_run(
             writeln!(
                 w,
                 "{:.4},{:.3},{:.3},{:.3},{:.3},{},{:#018x}",
-                run.tick_time_s(f.tick) + TICK_S,
+                run.tick_time_s(f.tick) + CONTROL_PERIOD_S,
                 e.total_force_g,
                 e.centroid_row,
                 e.centroid_col,
