@@ -317,12 +317,32 @@ impl ForceLoop {
         reading: Result<f32, GaugeFault>,
         overrun: bool,
     ) -> LoopOutput {
-        let s = self.config.supervisor;
         let mut faults = FaultFlags::NONE;
+        let command_g = self.checked_command(command_g, &mut faults);
+        if overrun {
+            self.latched.insert(FaultFlags::DEADLINE_OVERRUN);
+        }
+        let sensed_g = self.read_gauge(reading, &mut faults);
+        let shaped_probe = self.shape(command_g);
+        let out_of_range = matches!(reading, Err(GaugeFault::OutOfRange { .. }));
+        let violent = self.watch_gauge(sensed_g, shaped_probe, out_of_range);
+        self.guard_excitation(violent);
+        let Some(sensed_g) = sensed_g else {
+            return self.safe(shaped_probe, faults);
+        };
+        if !self.latched.is_empty() {
+            return self.safe(shaped_probe, faults);
+        }
+        match self.follow_contact(command_g, shaped_probe, sensed_g, &mut faults) {
+            Ok(shaped_g) => self.drive(shaped_g, sensed_g, faults),
+            Err(shaped_g) => self.safe(shaped_g, faults),
+        }
+    }
 
-        // The command, checked at entry.
+    /// The command, checked at entry: clamped to what the loop may command, 0 if not a number.
+    fn checked_command(&self, command_g: f32, faults: &mut FaultFlags) -> f32 {
         let command_max_g = self.config.command_max_g();
-        let command_g = if command_g.is_finite() {
+        if command_g.is_finite() {
             if !(0.0..=command_max_g).contains(&command_g) {
                 faults.insert(FaultFlags::COMMAND_CLAMPED);
             }
@@ -330,14 +350,16 @@ impl ForceLoop {
         } else {
             faults.insert(FaultFlags::INVALID_INPUT);
             0.0
-        };
-
-        if overrun {
-            self.latched.insert(FaultFlags::DEADLINE_OVERRUN);
         }
+    }
 
-        // The gauge.
-        let sensed_g = match reading {
+    /// The gauge's reading, or its fault flagged (latched once it lasts).
+    fn read_gauge(
+        &mut self,
+        reading: Result<f32, GaugeFault>,
+        faults: &mut FaultFlags,
+    ) -> Option<f32> {
+        match reading {
             Ok(f) => {
                 self.bad_gauge_ticks = 0;
                 Some(f)
@@ -349,12 +371,17 @@ impl ForceLoop {
                 };
                 faults.insert(flag);
                 self.bad_gauge_ticks = self.bad_gauge_ticks.saturating_add(1);
-                if self.bad_gauge_ticks >= s.gauge_fault_ticks {
+                if self.bad_gauge_ticks >= self.config.supervisor.gauge_fault_ticks {
                     self.latched.insert(flag);
                 }
                 None
             }
-        };
+        }
+    }
+
+    /// The command through the slew limiter, or taken as it is where the designed controller
+    /// ramps on its own.
+    fn shape(&mut self, command_g: f32) -> f32 {
         // NOTE: the designed controller takes a rest and a touch-down unslewed: it unloads the
         // finger along its own ramp (`tracking`'s rest), which slows as the finger softens, and
         // loads it along another from where it landed. Slewed, a command that started under
@@ -365,12 +392,23 @@ impl ForceLoop {
             .tracking
             .as_ref()
             .is_some_and(|t| command_g <= 0.0 || t.touching_down());
-        let shaped_probe = if own_ramp {
+        if own_ramp {
             self.slew.update_from(command_g)
         } else {
             self.slew.update(command_g)
-        };
-        let mut violent = matches!(reading, Err(GaugeFault::OutOfRange { .. }));
+        }
+    }
+
+    /// The gauge watched against the shaped command: an implausible slew and a stuck reading
+    /// latch; whether the reading moved violently for the excitation's guard.
+    fn watch_gauge(
+        &mut self,
+        sensed_g: Option<f32>,
+        shaped_probe: f32,
+        out_of_range: bool,
+    ) -> bool {
+        let s = self.config.supervisor;
+        let mut violent = out_of_range;
         if let (Some(now), Some(before)) = (sensed_g, self.last_reading_g) {
             let step_g = (now - before).abs();
             if step_g > s.max_slew_g_per_tick {
@@ -397,15 +435,20 @@ impl ForceLoop {
         if sensed_g.is_some() {
             self.last_reading_g = sensed_g;
         }
-        self.guard_excitation(violent);
-        let Some(sensed_g) = sensed_g else {
-            return self.safe(shaped_probe, faults);
-        };
-        if !self.latched.is_empty() {
-            return self.safe(shaped_probe, faults);
-        }
+        violent
+    }
 
-        // Contact: off the finger while commanding force starts a bounded re-approach.
+    /// Contact followed: off the finger while commanding force starts a bounded re-approach
+    /// (the command held to the approach force), and a contact not found within its limit
+    /// latches. `Ok`: the command to drive; `Err`: latched, with the command as it stood.
+    fn follow_contact(
+        &mut self,
+        command_g: f32,
+        shaped_probe: f32,
+        sensed_g: f32,
+        faults: &mut FaultFlags,
+    ) -> Result<f32, f32> {
+        let s = self.config.supervisor;
         if let Some(slot) = self.recent_g.get_mut(self.recent_head) {
             *slot = sensed_g;
         }
@@ -482,10 +525,16 @@ impl ForceLoop {
             self.approach_ticks = self.approach_ticks.saturating_add(1);
             if self.approach_ticks >= s.contact_latch_ticks {
                 self.latched.insert(FaultFlags::CONTACT_LOST);
-                return self.safe(shaped_g, faults);
+                return Err(shaped_g);
             }
         }
 
+        Ok(shaped_g)
+    }
+
+    /// The law's drive for the shaped command and the reading, through the filter (A1's) and
+    /// to the DAC with the excitation's chirp.
+    fn drive(&mut self, shaped_g: f32, sensed_g: f32, mut faults: FaultFlags) -> LoopOutput {
         let a = match &mut self.tracking {
             // The integral holds while the probe looks for the finger.
             Some(t) => t.update(shaped_g, sensed_g, !self.approaching),

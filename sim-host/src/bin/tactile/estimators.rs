@@ -1,0 +1,43 @@
+//! `tactile estimators`: compare the force estimators on the simulator's protocols, nominal and calibrated.
+
+use crate::common::{claim_report, print_and_write, read_firmware_figures};
+use clap::Args;
+use sim_host::fingers::FingerKind;
+use sim_host::Error;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct EstimatorsArgs {
+    #[arg(long, default_value = "out/estimators")]
+    pub out: PathBuf,
+    /// Seed of the simulated finger whose four taxels are calibrated and scored.
+    #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
+    pub seed: u64,
+    /// The kind of finger: the memo's, or one whose springs stiffen by other laws.
+    #[arg(long, value_enum, default_value_t = FingerKind::Memo)]
+    pub finger: FingerKind,
+    /// Also the firmware's row: a folder `tactile-decode` wrote from a QEMU session
+    /// (`boards/qemu-netduinoplus2/run.sh DIR`), with its `estimators.json`.
+    #[arg(long)]
+    pub qemu: Option<PathBuf>,
+}
+
+pub fn run(args: EstimatorsArgs) -> Result<(), Error> {
+    let EstimatorsArgs {
+        out,
+        seed,
+        finger,
+        qemu,
+    } = args;
+    let firmware = qemu.map(|dir| read_firmware_figures(&dir)).transpose()?;
+    let files = claim_report(&out, "estimators")?;
+    let t = sim_host::estimators::compare(seed, finger)?;
+    let mut text = sim_host::estimators::render(&t);
+    if let Some(f) = &firmware {
+        text.push('\n');
+        text.push_str(&f.render());
+    }
+    let data = serde_json::json!({ "simulator": t, "firmware": firmware });
+    print_and_write(files, &text, &data)?;
+    Ok(())
+}
