@@ -53,6 +53,15 @@
 
 use crate::control::Adjusted;
 
+mod config;
+mod friction;
+
+pub use config::{
+    InverseSeries, TrackingConfig, TrackingError, FEEDBACK_PASS, SLOPE_SPAN, TABLE_BYTES,
+    TABLE_MAGIC, TABLE_VERSION,
+};
+use friction::FrictionAdapt;
+
 /// Loads in the feed-forward's schedule.
 pub const TRACKING_POINTS: usize = 9;
 /// The reference's rate at which the friction compensation is whole, g/s (below it, in
@@ -118,363 +127,6 @@ pub const CONTACT_MEAN_SHARE: f32 = 0.5;
 /// moves about a load (a sine about 10 g) is not ramped.
 pub const TOUCH_RATE_G_PER_S: f32 = 50.0;
 pub const TOUCH_TAU_S: f32 = 0.1;
-
-/// The controller at one load: the plant's inverse as a series in s, drive grams per gram of
-/// force and of its first three derivatives (c₀ in g/g, c₁ in s, c₂ in s², c₃ in s³), and the
-/// share of the feedback gains the margins allow there (the lighter the load, the sharper the
-/// inertia–finger mode: the memo's reason for A1's schedule).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct InverseSeries {
-    pub load_g: f32,
-    pub c: [f32; 4],
-    pub feedback: f32,
-    /// The gauge's reading over the contact force, its s² term, s²: it sits on the beam and
-    /// reads the tip's inertia besides the force, reading = force + `gauge_s2`·force''
-    /// (1/ω_z² of the identified anti-resonance; about 50 g at 40 Hz, −1.2 dB on the light
-    /// motor's fast-amplifier rig, −1.9 dB on the slow amplifier's).
-    pub gauge_s2: f32,
-}
-
-/// Everything the designed controller is configured by (what its table carries).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrackingConfig {
-    pub dt_s: f32,
-    /// The reference model's triple pole, Hz.
-    pub reference_hz: f32,
-    /// The inverse at increasing loads (`points` of them used); linear in between, the end
-    /// values beyond.
-    pub schedule: [InverseSeries; TRACKING_POINTS],
-    pub points: u8,
-    /// The motor's Coulomb friction at the probe, g: added in the direction the force is
-    /// moving (the motor moves with it), reached at [`FRICTION_RATE_G_PER_S`].
-    pub friction_g: f32,
-    /// The current amplifier's time constant, s (1/2πf_p of the identified pole): the friction
-    /// compensation is added after the series, so where its sign turns (a reversal on the move)
-    /// it passes (1 + τs) itself, a backward difference: τ/dt times the turn on that tick.
-    /// Turned only a time ahead instead, its step reached the motor over a few τ while the
-    /// motor stuck: the slow amplifier's 2 g sine about 10 g lost 11.6 dB at 40 Hz. Starts and
-    /// stops get none (there the motor sticks anyway, and the held share carries the friction:
-    /// with it an unseen rig's 100 → 90 g step went 1.37 g over).
-    pub amplifier_tau_s: f32,
-    /// Friction held once the reference stops, g, in the direction it last moved: a motor
-    /// that stuck short of a step's end sits anywhere within its stiction band, and the
-    /// integral alone, which still carries the last hold's friction (of the other sign after
-    /// a reversal), took 30–60 ms to free it. Faded in as the reference's rate falls below
-    /// half of [`FRICTION_RATE_G_PER_S`], so a sine, which never rests, gets none.
-    pub held_friction_g: f32,
-    /// Proportional gain, drive g per g of error.
-    pub kp: f32,
-    /// Integral gain, drive g per g·s of error.
-    pub ki_per_s: f32,
-    /// The biquad the error passes before the feedback's gains: (b₀, b₁, b₂, a₁, a₂) of
-    /// (b₀ + b₁z⁻¹ + b₂z⁻²)/(1 + a₁z⁻¹ + a₂z⁻²), designed on the host.
-    pub feedback_filter: [f32; 5],
-    /// The integral's bound, drive g (what stiction and the model's gain error can need).
-    pub integral_limit_g: f32,
-    /// Touch-down: the drive held through a push (the identified stiction), g; what the push
-    /// adds at its peak (what bounds the probe's momentum), g; the brake's peak, g (≤ 0).
-    pub approach_hold_g: f32,
-    pub approach_push_g: f32,
-    pub approach_brake_g: f32,
-    /// The reading that means the probe is on the finger ([`CONTACT_COUNT`] of the last
-    /// [`CONTACT_TICKS`] at it), g; zero: no touch-down (a plant always in contact).
-    pub contact_g: f32,
-    /// Actuator range for the drive, g at the probe.
-    pub drive_min_g: f32,
-    pub drive_max_g: f32,
-}
-
-impl From<crate::seal::SealError> for TrackingError {
-    fn from(e: crate::seal::SealError) -> Self {
-        use crate::seal::SealError;
-        match e {
-            SealError::TooShort { bytes, needed } => TrackingError::TooShort { bytes, needed },
-            SealError::BadMagic => TrackingError::BadMagic,
-            SealError::UnsupportedVersion { found } => TrackingError::UnsupportedVersion { found },
-            SealError::Checksum { stored, computed } => {
-                TrackingError::Checksum { stored, computed }
-            }
-        }
-    }
-}
-
-/// Why a configuration is refused, naming the parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum TrackingError {
-    #[error("tracking parameter {0} is not finite, or out of its range")]
-    Invalid(&'static str),
-    #[error("the schedule's loads must increase")]
-    ScheduleOrder,
-    /// Not a controller table (an erased flash sector reads `0xFF…`).
-    #[error("not a controller table (no TCTL header)")]
-    BadMagic,
-    #[error("controller table version {found}; this build reads version {TABLE_VERSION}")]
-    UnsupportedVersion { found: u16 },
-    #[error("controller table too short: {bytes} bytes, need {needed}")]
-    TooShort { bytes: usize, needed: usize },
-    #[error(
-        "controller table checksum {stored:#010x} does not match its contents ({computed:#010x})"
-    )]
-    Checksum { stored: u32, computed: u32 },
-}
-
-impl TrackingConfig {
-    /// A plant with unit gain and no dynamics (for tests and the doc example).
-    pub const UNIT_PLANT: TrackingConfig = TrackingConfig {
-        dt_s: crate::CONTROL_PERIOD_S as f32,
-        reference_hz: 200.0,
-        schedule: [InverseSeries {
-            load_g: 0.0,
-            c: [1.0, 0.0, 0.0, 0.0],
-            feedback: 1.0,
-            gauge_s2: 0.0,
-        }; TRACKING_POINTS],
-        points: 1,
-        friction_g: 0.0,
-        amplifier_tau_s: 0.0,
-        held_friction_g: 0.0,
-        kp: 0.0,
-        ki_per_s: 20.0,
-        feedback_filter: FEEDBACK_PASS,
-        integral_limit_g: 10.0,
-        approach_hold_g: 0.0,
-        approach_push_g: 0.5,
-        approach_brake_g: -0.5,
-        contact_g: 0.0,
-        drive_min_g: -192.0,
-        drive_max_g: 192.0,
-    };
-
-    fn check(&self) -> Result<(), TrackingError> {
-        let positive = |v: f32, name| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(TrackingError::Invalid(name))
-            }
-        };
-        let non_negative = |v: f32, name| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(TrackingError::Invalid(name))
-            }
-        };
-        positive(self.dt_s, "dt_s")?;
-        positive(self.reference_hz, "reference_hz")?;
-        non_negative(self.kp, "kp")?;
-        non_negative(self.ki_per_s, "ki_per_s")?;
-        non_negative(self.integral_limit_g, "integral_limit_g")?;
-        non_negative(self.friction_g, "friction_g")?;
-        non_negative(self.held_friction_g, "held_friction_g")?;
-        non_negative(self.amplifier_tau_s, "amplifier_tau_s")?;
-        non_negative(self.approach_hold_g, "approach_hold_g")?;
-        positive(self.approach_push_g, "approach_push_g")?;
-        non_negative(-self.approach_brake_g, "approach_brake_g")?;
-        non_negative(self.contact_g, "contact_g")?;
-        // Stable: both poles inside the unit circle (the triangle a₂ < 1, |a₁| < 1 + a₂).
-        let [b0, b1, b2, a1, a2] = self.feedback_filter;
-        if ![b0, b1, b2, a1, a2].iter().all(|v| v.is_finite()) || a2 >= 1.0 || a1.abs() >= 1.0 + a2
-        {
-            return Err(TrackingError::Invalid("feedback_filter"));
-        }
-        if !(self.drive_min_g.is_finite()
-            && self.drive_max_g.is_finite()
-            && self.drive_min_g < self.drive_max_g)
-        {
-            return Err(TrackingError::Invalid("drive range"));
-        }
-        let n = usize::from(self.points);
-        let used = self
-            .schedule
-            .get(..n)
-            .filter(|s| !s.is_empty())
-            .ok_or(TrackingError::Invalid("points"))?;
-        for p in used {
-            if !(p.load_g.is_finite()
-                && p.c.iter().all(|c| c.is_finite())
-                && p.c[0] > 0.0
-                && (0.0..=1.0).contains(&p.feedback)
-                && p.gauge_s2.is_finite())
-            {
-                return Err(TrackingError::Invalid("schedule"));
-            }
-        }
-        if used
-            .windows(2)
-            .any(|w| matches!(w, [a, b] if a.load_g >= b.load_g))
-        {
-            return Err(TrackingError::ScheduleOrder);
-        }
-        Ok(())
-    }
-
-    /// The schedule at `load_g`: linear between its loads, the heaviest's beyond it; below the
-    /// lightest the lightest's, with the feedback's share falling in proportion to the load
-    /// (zero at no load, where the contact has no stiffness to speak of).
-    #[inline]
-    pub fn point_at(&self, load_g: f32) -> InverseSeries {
-        let n = usize::from(self.points).clamp(1, TRACKING_POINTS);
-        let used = self.schedule.get(..n).unwrap_or(&[]);
-        let Some((a, b, t)) = crate::bracket(used, |p| p.load_g, load_g) else {
-            return InverseSeries {
-                load_g,
-                c: [1.0, 0.0, 0.0, 0.0],
-                feedback: 0.0,
-                gauge_s2: 0.0,
-            };
-        };
-        if load_g <= a.load_g {
-            // At or below the lightest point (`a` is it): the feedback fades out.
-            let share = if a.load_g > 0.0 {
-                crate::limit(load_g / a.load_g, 0.0, 1.0)
-            } else {
-                1.0
-            };
-            return InverseSeries {
-                load_g,
-                feedback: a.feedback * share,
-                ..*a
-            };
-        }
-        let mut c = a.c;
-        for (ci, bi) in c.iter_mut().zip(b.c) {
-            *ci += t * (bi - *ci);
-        }
-        InverseSeries {
-            load_g,
-            c,
-            feedback: a.feedback + t * (b.feedback - a.feedback),
-            gauge_s2: a.gauge_s2 + t * (b.gauge_s2 - a.gauge_s2),
-        }
-    }
-
-    /// The inverse's series and the feedback's share at `load_g` ([`Self::point_at`]).
-    #[inline]
-    pub fn series_at(&self, load_g: f32) -> ([f32; 4], f32) {
-        let p = self.point_at(load_g);
-        (p.c, p.feedback)
-    }
-
-    /// How c₂ changes with the load at `load_g`, s²/g: the difference of [`Self::series_at`]
-    /// a quarter of the load either side (the schedule's lines kink at its loads, and a sine
-    /// about one of them would see a slope that jumps as it crosses: a pull at its own
-    /// frequency); 0 where the series is held (below the lightest point, beyond the heaviest).
-    #[inline]
-    pub fn c2_slope_at(&self, load_g: f32) -> f32 {
-        let h = SLOPE_SPAN * load_g;
-        if h <= 0.0 {
-            return 0.0;
-        }
-        let (above, _) = self.series_at(load_g + h);
-        let (below, _) = self.series_at(load_g - h);
-        (above[2] - below[2]) / (2.0 * h)
-    }
-}
-
-/// The controller table's header (what the firmware checks at start-up, as it checks the
-/// calibration table): `TCTL`, version, a byte reserved (zero) and the schedule's length.
-pub const TABLE_MAGIC: [u8; 4] = *b"TCTL";
-pub const TABLE_VERSION: u16 = 6;
-const TABLE_HEADER_BYTES: usize = 8;
-/// dt, reference, kp, ki, friction, integral bound, drive range, the feedback's biquad, the
-/// touch-down's hold, push, brake and contact, the held friction, the amplifier's τ; then
-/// per point load, c₀…c₃, feedback share, the gauge's s² term.
-const TABLE_SCALARS: usize = 19;
-/// The biquad that passes the error unchanged.
-pub const FEEDBACK_PASS: [f32; 5] = [1.0, 0.0, 0.0, 0.0, 0.0];
-const POINT_FLOATS: usize = 7;
-/// The encoded table's length, bytes (the whole schedule, used points or not, and a CRC-32).
-pub const TABLE_BYTES: usize =
-    TABLE_HEADER_BYTES + 4 * (TABLE_SCALARS + TRACKING_POINTS * POINT_FLOATS) + 4;
-
-impl TrackingConfig {
-    /// The table's bytes, little-endian, checksummed; `check`ed first.
-    pub fn encode(&self) -> Result<[u8; TABLE_BYTES], TrackingError> {
-        self.check()?;
-        let mut out = [0u8; TABLE_BYTES];
-        let scalars = [
-            self.dt_s,
-            self.reference_hz,
-            self.kp,
-            self.ki_per_s,
-            self.friction_g,
-            self.integral_limit_g,
-            self.drive_min_g,
-            self.drive_max_g,
-            self.feedback_filter[0],
-            self.feedback_filter[1],
-            self.feedback_filter[2],
-            self.feedback_filter[3],
-            self.feedback_filter[4],
-            self.approach_hold_g,
-            self.approach_push_g,
-            self.approach_brake_g,
-            self.contact_g,
-            self.held_friction_g,
-            self.amplifier_tau_s,
-        ];
-        let points = self.schedule.iter().flat_map(|p| {
-            [
-                p.load_g, p.c[0], p.c[1], p.c[2], p.c[3], p.feedback, p.gauge_s2,
-            ]
-        });
-        let floats = scalars.into_iter().chain(points);
-        let (header, rest) = out.split_at_mut(TABLE_HEADER_BYTES);
-        if let Some(slot) = header.get_mut(6..8) {
-            slot.copy_from_slice(&[0, self.points]);
-        }
-        for (slot, v) in rest.chunks_exact_mut(4).zip(floats) {
-            slot.copy_from_slice(&v.to_le_bytes());
-        }
-        crate::seal::seal(&mut out, TABLE_MAGIC, TABLE_VERSION);
-        Ok(out)
-    }
-
-    /// Reads a table, checking the header, the length, the checksum and every parameter
-    /// before trusting any of it. Bytes after the table are ignored.
-    pub fn decode(bytes: &[u8]) -> Result<TrackingConfig, TrackingError> {
-        let all = bytes.get(..TABLE_BYTES).ok_or(TrackingError::TooShort {
-            bytes: bytes.len(),
-            needed: TABLE_BYTES,
-        })?;
-        crate::seal::check_head(all, TABLE_MAGIC, TABLE_VERSION)?;
-        crate::seal::check_crc(all, TABLE_BYTES)?;
-        let f =
-            |i: usize| f32::from_le_bytes(crate::seal::bytes_at(all, TABLE_HEADER_BYTES + 4 * i));
-        let point = |k: usize| {
-            let at = TABLE_SCALARS + k * POINT_FLOATS;
-            InverseSeries {
-                load_g: f(at),
-                c: [f(at + 1), f(at + 2), f(at + 3), f(at + 4)],
-                feedback: f(at + 5),
-                gauge_s2: f(at + 6),
-            }
-        };
-        let config = TrackingConfig {
-            dt_s: f(0),
-            reference_hz: f(1),
-            kp: f(2),
-            ki_per_s: f(3),
-            friction_g: f(4),
-            integral_limit_g: f(5),
-            drive_min_g: f(6),
-            drive_max_g: f(7),
-            feedback_filter: [f(8), f(9), f(10), f(11), f(12)],
-            approach_hold_g: f(13),
-            approach_push_g: f(14),
-            approach_brake_g: f(15),
-            contact_g: f(16),
-            held_friction_g: f(17),
-            amplifier_tau_s: f(18),
-            schedule: core::array::from_fn(point),
-            points: all.get(7).copied().unwrap_or(0),
-        };
-        config.check()?;
-        Ok(config)
-    }
-}
 
 /// One tick of the reference model, precomputed: e^(−ω·dt) and ω.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -545,154 +197,20 @@ pub struct Tracking {
     adapt: FrictionAdapt,
 }
 
-/// The friction compensation's size, learned at the reference's reversals.
-///
-/// A force sine of a few grams about a light load moves the motor against a stiction of about
-/// a gram, and what the loop's force does there rests on the compensation alone (the feedback
-/// the margins allow is slow): 10 % short of the heavy rig's stiction left a 2 g sine 8 dB
-/// short at 25 Hz, 20 % over rang the memo rig's +3.7 dB. No identification reads the
-/// stiction that closely, so the loop measures it: after a reversal the compensation steps by
-/// twice its size, and if that is short of the friction's own step the motor sticks and the
-/// force falls behind the reference in the new direction; if over, it runs ahead. Over the
-/// first half period of the lightest mode, where the plant's response to a step of drive is
-/// one-signed, the error's change in the new direction, weighted by that response (a
-/// smoothstep, the shape of 1 − cos), estimates the shortfall in grams of force (the
-/// least-squares fit of the weighted step to the error); the compensation moves by
-/// [`ADAPT_GAIN`] of it, by at most [`ADAPT_STEP_SHARE`] of the identified stiction per
-/// reversal, within [`ADAPT_RANGE`]. It learns only from a sine slower than that mode (the
-/// last half cycle at least the window): above the mode the last reversal's response turns
-/// sign within the window, and learning there drove two of eight unseen rigs 6–9 dB off at
-/// 40 Hz. Steps, holds and swings of many stictions (the feed-forward's and the feedback's
-/// work, where the compensation's size hardly shows) leave it alone.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct FrictionAdapt {
-    /// The compensated friction, g.
-    friction_g: f32,
-    /// The window after the last reversal: its length and the ticks into it (none: `length`
-    /// 0), the new direction, and the sums of weight × error and weight².
-    length: u8,
-    tick: u8,
-    direction: f32,
-    /// The reference at the last reversal, g, and the ticks since.
-    last_reversal_g: f32,
-    since_reversal: u16,
-    /// The error and the reference at the reversal, g: what the window weighs is their
-    /// change from it.
-    start_error_g: f32,
-    start_reference_g: f32,
-    weighted_error: f32,
-    weighted_motion: f32,
-    weights: f32,
-}
-
-impl FrictionAdapt {
-    fn new(friction_g: f32) -> Self {
-        Self {
-            friction_g,
-            length: 0,
-            tick: 0,
-            direction: 0.0,
-            last_reversal_g: f32::NAN,
-            since_reversal: 0,
-            start_error_g: 0.0,
-            start_reference_g: 0.0,
-            weighted_error: 0.0,
-            weighted_motion: 0.0,
-            weights: 0.0,
-        }
-    }
-
-    /// A reversal into `direction` at `reference_g`; the window is half the period of the
-    /// mode of the inverse `c` (c₀ + c₂s² ≈ 0), in ticks, and opens where the last half cycle
-    /// was as long and its swing within [`ADAPT_SWING_SHARE`] stictions.
-    fn reversal(
-        &mut self,
-        direction: f32,
-        reference_g: f32,
-        c: &[f32; 4],
-        config: &TrackingConfig,
-    ) {
-        let [c0, _, c2, _] = *c;
-        let half_period_s = if c0 > 0.0 && c2 > 0.0 {
-            core::f32::consts::PI * libm::sqrtf(c2 / c0)
-        } else {
-            0.0
-        };
-        let swing_g = libm::fabsf(reference_g - self.last_reversal_g);
-        let small = swing_g <= ADAPT_SWING_SHARE * config.friction_g;
-        let mode_ticks = half_period_s / config.dt_s;
-        *self = Self {
-            length: if small && f32::from(self.since_reversal) >= mode_ticks {
-                crate::limit(mode_ticks, 0.0, 40.0) as u8
-            } else {
-                0
-            },
-            direction,
-            last_reversal_g: reference_g,
-            ..Self::new(self.friction_g)
-        };
-    }
-
-    /// The window's next error (reference less reading, g) and reference (the one the
-    /// reading is compared with); at its end the compensation moves.
-    fn observe(&mut self, error_g: f32, reference_g: f32, config: &TrackingConfig, c0: f32) {
-        self.since_reversal = self.since_reversal.saturating_add(1);
-        if self.tick >= self.length {
-            return;
-        }
-        if self.tick == 0 {
-            self.start_error_g = error_g;
-            self.start_reference_g = reference_g;
-        }
-        self.tick += 1;
-        let u = f32::from(self.tick) / f32::from(self.length);
-        let weight = u * u * (3.0 - 2.0 * u);
-        self.weighted_error += weight * (error_g - self.start_error_g) * self.direction;
-        self.weighted_motion += weight * (reference_g - self.start_reference_g) * self.direction;
-        self.weights += weight * weight;
-        if self.tick == self.length {
-            self.finish(config, c0);
-        }
-    }
-
-    /// The window's estimate taken: where the reference moved by at least
-    /// [`ADAPT_MOTION_SHARE`] of the stiction over it (the weighted mean); a slow sine's
-    /// reversal is the integral's.
-    fn finish(&mut self, config: &TrackingConfig, c0: f32) {
-        let moved = self.weighted_motion >= ADAPT_MOTION_SHARE * config.friction_g * self.weights;
-        if self.weights > 0.0 && moved {
-            let most = ADAPT_STEP_SHARE * config.friction_g;
-            let step = crate::limit(
-                ADAPT_GAIN * c0 * self.weighted_error / self.weights,
-                -most,
-                most,
-            );
-            self.friction_g = crate::limit(
-                self.friction_g + step,
-                ADAPT_RANGE.0 * config.friction_g,
-                ADAPT_RANGE.1 * config.friction_g,
-            );
-        }
-        self.cancel();
-    }
-
-    /// No window open (a restart: what follows is not a reversal's response).
-    fn cancel(&mut self) {
-        self.length = 0;
-        self.tick = 0;
-        self.weights = 0.0;
-    }
-}
-
-/// The span of [`TrackingConfig::c2_slope_at`]'s difference either side, a share of the load.
-pub const SLOPE_SPAN: f32 = 0.25;
-
 /// A rest drives nothing once the reference is under this share of `contact_g`.
 pub const REST_SHARE: f32 = 0.1;
 
 /// Ticks the reference must be still before a move counts as one from rest (20 ms: a sine's
 /// reversal is not a rest).
 pub const REST_TICKS: u8 = 20;
+
+/// What the newest readings say of the contact.
+struct Contact {
+    /// How many of the newest [`CONTACT_TICKS`] are at contact.
+    above: usize,
+    /// Whether they read the finger unloaded.
+    unloaded: bool,
+}
 
 /// What one tick of the controller decided, besides the drive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -795,7 +313,7 @@ impl Tracking {
     }
 
     /// [`Self::update`] with the reference force.
-    pub fn tick(&mut self, mut command_g: f32, sensed_g: f32, integrate: bool) -> TrackingOutput {
+    pub fn tick(&mut self, command_g: f32, sensed_g: f32, integrate: bool) -> TrackingOutput {
         if !command_g.is_finite() || !sensed_g.is_finite() {
             return TrackingOutput {
                 drive: Adjusted {
@@ -806,6 +324,27 @@ impl Tracking {
                 reference_g: self.x[0],
             };
         }
+        let contact = self.watch_contact(command_g, sensed_g);
+        if !self.landed && !self.lands(command_g, sensed_g, &contact) {
+            return self.touch_down(command_g, sensed_g);
+        }
+        let (command_g, rest) = self.ramped(command_g);
+        let third = self.advance_reference(command_g);
+        let point = self.config.point_at(self.x[0]);
+        let friction = self.friction_g(&point.c);
+        let feed_forward = self.feed_forward_g(&point.c, third, friction);
+        // NOTE: a rest (a command at or below zero) drives nothing once the reference is under
+        // a tenth of contact and the gauge reads the finger unloaded: the held friction and the
+        // integral have no finger to push against, and on a heavy rig their sum (1.6 g against
+        // 1.1 g of stiction) threw the probe 9.5 mm off, where the next touch-down took seconds
+        // to come back from.
+        let resting = rest && self.x[0] < REST_SHARE * self.config.contact_g && contact.unloaded;
+        self.feedback(&point, feed_forward, sensed_g, integrate, resting)
+    }
+
+    /// The reading kept; how many of the newest are at contact and whether they read the
+    /// finger unloaded; a landed probe commanded to rest and unloaded lifts.
+    fn watch_contact(&mut self, command_g: f32, sensed_g: f32) -> Contact {
         if let Some(slot) = self.recent_g.get_mut(self.recent_head) {
             *slot = sensed_g;
         }
@@ -826,25 +365,35 @@ impl Tracking {
         if self.landed && command_g <= 0.0 && above == 0 && unloaded {
             self.lift();
         }
-        if !self.landed {
-            // The cycle's mean, once the readings since the lift span a whole cycle.
-            let cycle_mean_g = (usize::from(self.readings) >= CYCLE_TICKS)
-                .then(|| self.recent_g.iter().sum::<f32>() / CYCLE_TICKS as f32);
-            let pressed = cycle_mean_g.is_some_and(|m| m >= CONTACT_MEAN_SHARE * contact_g);
-            if command_g > 0.0 && (above >= CONTACT_COUNT || pressed) {
-                // Force control from the cycle's mean reading (the last reading rings with the
-                // free beam: the slow-amplifier rig landed reading 1.06 g on 0.21 g, and the
-                // reference's 0.85 g head start pushed the motor to 3.1 g, where it stuck),
-                // the command ramping up from it.
-                let from_g = cycle_mean_g.unwrap_or(sensed_g);
-                self.landed = true;
-                self.restart_from(from_g);
-                self.ramp_g = from_g;
-                self.ramping = true;
-            } else {
-                return self.touch_down(command_g, sensed_g);
-            }
+        Contact { above, unloaded }
+    }
+
+    /// Whether a probe off the finger lands this tick (force control then starts).
+    fn lands(&mut self, command_g: f32, sensed_g: f32, contact: &Contact) -> bool {
+        let (above, contact_g) = (contact.above, self.config.contact_g);
+        // The cycle's mean, once the readings since the lift span a whole cycle.
+        let cycle_mean_g = (usize::from(self.readings) >= CYCLE_TICKS)
+            .then(|| self.recent_g.iter().sum::<f32>() / CYCLE_TICKS as f32);
+        let pressed = cycle_mean_g.is_some_and(|m| m >= CONTACT_MEAN_SHARE * contact_g);
+        if command_g > 0.0 && (above >= CONTACT_COUNT || pressed) {
+            // Force control from the cycle's mean reading (the last reading rings with the
+            // free beam: the slow-amplifier rig landed reading 1.06 g on 0.21 g, and the
+            // reference's 0.85 g head start pushed the motor to 3.1 g, where it stuck),
+            // the command ramping up from it.
+            let from_g = cycle_mean_g.unwrap_or(sensed_g);
+            self.landed = true;
+            self.restart_from(from_g);
+            self.ramp_g = from_g;
+            self.ramping = true;
+            return true;
         }
+        false
+    }
+
+    /// The command the reference follows, and whether it is a rest: a rest unloads down a
+    /// ramp; a load rises along one from a touch-down or from rest until it meets the command.
+    fn ramped(&mut self, mut command_g: f32) -> (f32, bool) {
+        let contact_g = self.config.contact_g;
         // NOTE: a rest unloads the finger down the touch-down's ramp reversed: the probe leaves
         // the finger at the speed the force falls over the finger's stiffness, which at the
         // lightest loads is the least; at the supervisor's 500 g/s the probe flew off (0.45 mm
@@ -874,6 +423,11 @@ impl Tracking {
         } else {
             self.ramp_g = command_g;
         }
+        (command_g, rest)
+    }
+
+    /// The reference advanced to `command_g`; its third derivative.
+    fn advance_reference(&mut self, command_g: f32) -> f32 {
         let c = &self.config;
         self.reference
             .step(&mut self.x, self.last_command_g, command_g);
@@ -886,9 +440,13 @@ impl Tracking {
         let [y2_1, y2_2] = self.past_y2;
         let third = (3.0 * self.x[2] - 4.0 * y2_1 + y2_2) / (2.0 * c.dt_s);
         self.past_y2 = [self.x[2], y2_1];
-        let point = c.point_at(self.x[0]);
-        let (k, share) = (point.c, point.feedback);
-        let (kp, ki) = (share * c.kp, share * c.ki_per_s);
+        third
+    }
+
+    /// The friction's compensation at the reference's rate, the integral's share against the
+    /// friction dropped where the motor turns or starts.
+    fn friction_g(&mut self, k: &[f32; 4]) -> f32 {
+        let c = &self.config;
         let rate = self.x[1] / FRICTION_RATE_G_PER_S;
         if rate.abs() >= 0.5 {
             let now = rate.signum();
@@ -906,7 +464,7 @@ impl Tracking {
             let against = crate::limit(-self.integral_g * now, 0.0, bound);
             self.integral_g += against * now;
             if reversal {
-                self.adapt.reversal(now, self.x[0], &k, c);
+                self.adapt.reversal(now, self.x[0], k, c);
             }
             self.moved = now;
             self.still_ticks = 0;
@@ -924,17 +482,38 @@ impl Tracking {
         };
         let friction = coulomb_g + turning + c.held_friction_g * still * self.moved;
         self.coulomb_g = coulomb_g;
+        friction
+    }
+
+    /// The drive that makes the identified plant follow the reference.
+    fn feed_forward_g(&self, k: &[f32; 4], third: f32, friction: f32) -> f32 {
+        let c = &self.config;
         // NOTE: the contact stiffens with load, so the force's rate itself takes drive: a mass
         // on a spring F(x) needs m·ẍ = m·(F''/k − k'·F'²/k²), whose second part is
         // dc₂/dF·F'² (c₂ = m/k). Without it a 6 g sine about 10 g at 40 Hz rang +2…+3 dB on
         // every rig (its force's rate 1.5 kg/s).
         let stiffening = c.c2_slope_at(self.x[0]) * self.x[1] * self.x[1];
-        let feed_forward = k[0] * self.x[0]
+        k[0] * self.x[0]
             + k[1] * self.x[1]
             + k[2] * self.x[2]
             + k[3] * third
             + stiffening
-            + friction;
+            + friction
+    }
+
+    /// The feedback on the error against the reading the reference predicts, the integral
+    /// wound where the drive is not pushing out of its range, and the drive.
+    fn feedback(
+        &mut self,
+        point: &InverseSeries,
+        feed_forward: f32,
+        sensed_g: f32,
+        integrate: bool,
+        resting: bool,
+    ) -> TrackingOutput {
+        let c = &self.config;
+        let (k, share) = (point.c, point.feedback);
+        let (kp, ki) = (share * c.kp, share * c.ki_per_s);
         // The reading the reference predicts: the period's mean, and the tip's inertia.
         let expected_g =
             self.x[0] - READING_LAG_TICKS * c.dt_s * self.x[1] + point.gauge_s2 * self.x[2];
@@ -948,12 +527,6 @@ impl Tracking {
             b1 * x - a1 * error_g + self.filter_state[1],
             b2 * x - a2 * error_g,
         ];
-        // NOTE: a rest (a command at or below zero) drives nothing once the reference is under
-        // a tenth of contact and the gauge reads the finger unloaded: the held friction and the
-        // integral have no finger to push against, and on a heavy rig their sum (1.6 g against
-        // 1.1 g of stiction) threw the probe 9.5 mm off, where the next touch-down took seconds
-        // to come back from.
-        let resting = rest && self.x[0] < REST_SHARE * contact_g && unloaded;
         let raw_without = feed_forward + kp * error_g + self.integral_g;
         let pushing_out = (raw_without >= c.drive_max_g && error_g > 0.0)
             || (raw_without <= c.drive_min_g && error_g < 0.0);
