@@ -300,6 +300,70 @@ impl CommandSource {
             return 0.0;
         }
         match self.protocol {
+            Protocol::PseudoRandom {
+                min_g,
+                max_g,
+                max_change_g,
+                dwell_min_s,
+                dwell_max_s,
+                ..
+            } => {
+                while t_s >= self.next_change_s {
+                    let change = (2.0 * unit(&mut self.rng) - 1.0) * max_change_g;
+                    self.level_g = reflect(self.level_g + change, min_g, max_g);
+                    self.next_change_s +=
+                        dwell_min_s + (dwell_max_s - dwell_min_s) * unit(&mut self.rng);
+                }
+                self.level_g
+            }
+            Protocol::Sines {
+                offset_g,
+                amplitude_g,
+                ..
+            } => self.sines(offset_g, amplitude_g, t_s),
+            Protocol::BenchRecord { .. } => self.bench_record_g(t_s),
+            Protocol::Calibration { per_offset_s, .. } => self.calibration_g(per_offset_s, t_s),
+            timed => timed.timed_command_g(t_s),
+        }
+    }
+
+    /// The bench record: sines, then pseudo-random steps, then rest.
+    fn bench_record_g(&mut self, t_s: f32) -> f32 {
+        if t_s < 80.0 {
+            // Fade the excitation in over 2 s so the record starts at rest.
+            let ramp = (t_s / 2.0).min(1.0);
+            ramp * self.sines(25.0, 4.0, t_s)
+        } else if t_s < 160.0 {
+            while t_s >= self.next_change_s {
+                let change = (2.0 * unit(&mut self.rng) - 1.0) * 20.0;
+                self.level_g = reflect(self.level_g + change, 40.0, 60.0);
+                self.next_change_s += 2.0 + 6.0 * unit(&mut self.rng);
+            }
+            self.level_g
+        } else {
+            0.0
+        }
+    }
+
+    /// The calibration protocol: sines about each offset, then a hold.
+    fn calibration_g(&mut self, per_offset_s: f32, t_s: f32) -> f32 {
+        let t = t_s - CALIBRATION_REST_S;
+        let k = libm::floorf(t / per_offset_s);
+        match CALIBRATION_OFFSETS_G.get(k as usize) {
+            Some(&offset) if t >= 0.0 => self.sines(offset, CALIBRATION_AMPLITUDE * offset, t_s),
+            None if t - CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s < CALIBRATION_HOLD_S => {
+                CALIBRATION_HOLD_G
+            }
+            _ => 0.0,
+        }
+    }
+}
+
+impl Protocol {
+    /// The command of a protocol that is a function of time alone, within its duration (0 for
+    /// the others, which [`CommandSource::command_g`] runs).
+    fn timed_command_g(self, t_s: f32) -> f32 {
+        match self {
             Protocol::ForceSteps {
                 increment_g,
                 top_g,
@@ -315,13 +379,7 @@ impl CommandSource {
                 lead_s,
                 on_s,
                 ..
-            } => {
-                if t_s >= lead_s && t_s < lead_s + on_s {
-                    load_g
-                } else {
-                    0.0
-                }
-            }
+            } if t_s >= lead_s && t_s < lead_s + on_s => load_g,
             Protocol::StepLoads => {
                 let tt = t_s - 2.0;
                 let k = libm::floorf(tt / 75.0);
@@ -383,58 +441,6 @@ impl CommandSource {
                     * (libm::expf(ln_k * tt / duration_s) - 1.0);
                 offset_g + amplitude_g * crate::trig::sinf(phase)
             }
-            Protocol::PseudoRandom {
-                min_g,
-                max_g,
-                max_change_g,
-                dwell_min_s,
-                dwell_max_s,
-                ..
-            } => {
-                while t_s >= self.next_change_s {
-                    let change = (2.0 * unit(&mut self.rng) - 1.0) * max_change_g;
-                    self.level_g = reflect(self.level_g + change, min_g, max_g);
-                    self.next_change_s +=
-                        dwell_min_s + (dwell_max_s - dwell_min_s) * unit(&mut self.rng);
-                }
-                self.level_g
-            }
-            Protocol::Sines {
-                offset_g,
-                amplitude_g,
-                ..
-            } => self.sines(offset_g, amplitude_g, t_s),
-            Protocol::BenchRecord { .. } => {
-                if t_s < 80.0 {
-                    // Fade the excitation in over 2 s so the record starts at rest.
-                    let ramp = (t_s / 2.0).min(1.0);
-                    ramp * self.sines(25.0, 4.0, t_s)
-                } else if t_s < 160.0 {
-                    while t_s >= self.next_change_s {
-                        let change = (2.0 * unit(&mut self.rng) - 1.0) * 20.0;
-                        self.level_g = reflect(self.level_g + change, 40.0, 60.0);
-                        self.next_change_s += 2.0 + 6.0 * unit(&mut self.rng);
-                    }
-                    self.level_g
-                } else {
-                    0.0
-                }
-            }
-            Protocol::Calibration { per_offset_s, .. } => {
-                let t = t_s - CALIBRATION_REST_S;
-                let k = libm::floorf(t / per_offset_s);
-                match CALIBRATION_OFFSETS_G.get(k as usize) {
-                    Some(&offset) if t >= 0.0 => {
-                        self.sines(offset, CALIBRATION_AMPLITUDE * offset, t_s)
-                    }
-                    None if t - CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s
-                        < CALIBRATION_HOLD_S =>
-                    {
-                        CALIBRATION_HOLD_G
-                    }
-                    _ => 0.0,
-                }
-            }
             // Onto the finger in half of the settling time, then still.
             Protocol::Excitation { preload_g, .. } => {
                 preload_g * (t_s / (0.5 * EXCITATION_SETTLE_S)).min(1.0)
@@ -448,6 +454,7 @@ impl CommandSource {
                     LOW_FORCE_G.get(k as usize).copied().unwrap_or(0.0)
                 }
             }
+            _ => 0.0,
         }
     }
 }

@@ -57,6 +57,9 @@ pub struct ApplicatorParams {
     pub gauge_noise_g: f64,
 }
 
+/// A field's name, value, sign, plausible range and what the range is of.
+type FieldRange = (&'static str, f64, Sign, f64, f64, &'static str);
+
 impl ApplicatorParams {
     /// FACTS.md values; beam and indentation scale chosen for the 50 Hz and 190 Hz modes.
     pub const MEMO: ApplicatorParams = ApplicatorParams {
@@ -77,15 +80,11 @@ impl ApplicatorParams {
         gauge_noise_g: 0.14,
     };
 
-    /// Checks that the rig can exist: every value finite, masses, stiffnesses, gains and the
-    /// arm positive, losses and friction not negative, each within a range any bench
-    /// applicator is in (out of it, a unit slipped: a file with a gauge of 1e300 g/V ran, and its
-    /// record read −inf), and the beam's mode under [`MAX_BEAM_HZ`].
-    pub fn validate(&self) -> Result<(), ApplicatorError> {
+    /// Each field: its sign (a rig cannot exist otherwise), then a range wide enough for any
+    /// bench applicator (out of it, a unit is wrong), and what the range is of.
+    fn field_ranges(&self) -> [FieldRange; 14] {
         use Sign::{NotNegative, Positive};
-        // Each field: its sign (a rig cannot exist otherwise), then a range wide enough for any
-        // bench applicator (out of it, a unit is wrong).
-        let fields = [
+        [
             (
                 "amplifier_a_per_v",
                 self.amplifier_a_per_v,
@@ -199,7 +198,16 @@ impl ApplicatorParams {
                 "a gauge's noise, g RMS (a converter's code at least; a reading that never \
                  moves is what the supervisor takes for a stuck gauge)",
             ),
-        ];
+        ]
+    }
+
+    /// Checks that the rig can exist: every value finite, masses, stiffnesses, gains and the
+    /// arm positive, losses and friction not negative, each within a range any bench
+    /// applicator is in (out of it, a unit slipped: a file with a gauge of 1e300 g/V ran, and its
+    /// record read −inf), and the beam's mode under [`MAX_BEAM_HZ`].
+    pub fn validate(&self) -> Result<(), ApplicatorError> {
+        use Sign::{NotNegative, Positive};
+        let fields = self.field_ranges();
         // The positive fields first, then the others (the order a file's errors are named in).
         for (name, value, ..) in fields.iter().filter(|f| f.2 == Positive) {
             if !(value.is_finite() && *value > 0.0) {

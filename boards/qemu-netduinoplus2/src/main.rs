@@ -208,33 +208,8 @@ mod app {
         let controller = &mut *local.controller;
         let commands = session::commanded();
         if commands {
-            // This tick's bytes from the down-channel, and what their commands ask.
-            let (mut start, mut stop, mut clear) = (None, false, false);
-            // Every entry due now, then the tick's (empty) poll that counts quiet ticks.
-            loop {
-                let due = local.script.due(tick);
-                let bytes = due.unwrap_or(&[]);
-                let out = &mut *local.control_out;
-                cx.shared.port.lock(|port| {
-                    port.poll(
-                        bytes,
-                        &tactile_firmware::CONTROLLER_TABLE,
-                        |reply, action| {
-                            out.send(Message::Reply(reply));
-                            match action {
-                                Action::Start(run) => start = Some(FilRun::commanded(run)),
-                                Action::Hold { force_g } => start = Some(FilRun::hold(force_g)),
-                                Action::Stop => (start, stop) = (None, true),
-                                Action::ClearFaults => clear = true,
-                                Action::None => {}
-                            }
-                        },
-                    )
-                });
-                if due.is_none() {
-                    break;
-                }
-            }
+            let (start, stop, clear) =
+                poll_commands(tick, local.script, local.control_out, &mut cx.shared.port);
             if clear {
                 controller.clear_faults();
             }
@@ -301,26 +276,7 @@ mod app {
             }
         }
         let (frame, truth, control_counts, physics_counts, miss_deadline) =
-            cx.shared.hw.lock(|hw| {
-                let hw: &mut SimHardware = hw;
-                // Simulator truth at the instant the converters sampled (end of the last period).
-                let true_force_g = hw.true_force_g() as f32;
-                let in_contact = hw.in_contact();
-                let t0 = SYST::get_current();
-                let frame = controller.tick(hw, tick);
-                let t1 = SYST::get_current();
-                hw.advance_period();
-                let t2 = SYST::get_current();
-                let truth = SimTruth {
-                    tick,
-                    true_force_g,
-                    in_contact,
-                };
-                // An injected deadline overrun hits the coming period: this tick must run
-                // late for it (the rig's tick k sees the overrun of the task before it).
-                let miss = hw.fault_starting() == Some(InjectedFault::DeadlineOverrun);
-                (frame, truth, elapsed(t0, t1), elapsed(t1, t2), miss)
-            });
+            cx.shared.hw.lock(|hw| tick_on_board(hw, controller, tick));
         cx.shared.cost.lock(|c| {
             c.control.observe(control_counts);
             c.physics.observe(physics_counts);
@@ -364,6 +320,75 @@ mod app {
         if SCB::is_pendst_pending() {
             controller.record_overrun();
         }
+    }
+
+    /// This tick's bytes from the down-channel, and what their commands ask: a run to start,
+    /// a stop, a clear of the faults.
+    fn poll_commands(
+        tick: u32,
+        script: &mut session::Script,
+        out: &mut Outbox<'static, ControlMsg>,
+        port: &mut impl rtic::Mutex<T = session::Port>,
+    ) -> (Option<FilRun>, bool, bool) {
+        let (mut start, mut stop, mut clear) = (None, false, false);
+        // Every entry due now, then the tick's (empty) poll that counts quiet ticks.
+        loop {
+            let due = script.due(tick);
+            let bytes = due.unwrap_or(&[]);
+            port.lock(|port| {
+                port.poll(
+                    bytes,
+                    &tactile_firmware::CONTROLLER_TABLE,
+                    |reply, action| {
+                        out.send(Message::Reply(reply));
+                        match action {
+                            Action::Start(run) => start = Some(FilRun::commanded(run)),
+                            Action::Hold { force_g } => start = Some(FilRun::hold(force_g)),
+                            Action::Stop => (start, stop) = (None, true),
+                            Action::ClearFaults => clear = true,
+                            Action::None => {}
+                        }
+                    },
+                )
+            });
+            if due.is_none() {
+                break;
+            }
+        }
+        (start, stop, clear)
+    }
+
+    /// The controller's tick on the simulated board, then the plant's next period: the frame,
+    /// the simulator's truth at the instant the converters sampled, the cycles each took, and
+    /// whether an injected deadline overrun hits the coming period.
+    fn tick_on_board(
+        hw: &mut SimHardware,
+        controller: &mut Controller,
+        tick: u32,
+    ) -> (
+        tactile_core::telemetry::ControlFrame,
+        SimTruth,
+        u32,
+        u32,
+        bool,
+    ) {
+        // Simulator truth at the instant the converters sampled (end of the last period).
+        let true_force_g = hw.true_force_g() as f32;
+        let in_contact = hw.in_contact();
+        let t0 = SYST::get_current();
+        let frame = controller.tick(hw, tick);
+        let t1 = SYST::get_current();
+        hw.advance_period();
+        let t2 = SYST::get_current();
+        let truth = SimTruth {
+            tick,
+            true_force_g,
+            in_contact,
+        };
+        // An injected deadline overrun hits the coming period: this tick must run
+        // late for it (the rig's tick k sees the overrun of the task before it).
+        let miss = hw.fault_starting() == Some(InjectedFault::DeadlineOverrun);
+        (frame, truth, elapsed(t0, t1), elapsed(t1, t2), miss)
     }
 
     /// The counts a run's end reports (its end tick filled in by the caller where it differs).
