@@ -23,6 +23,45 @@ use sim_host::rig::RigConfig;
 use sim_host::scenario::{run_named, ScenarioOptions};
 
 fn main() {
+    let config = rig_config();
+    let run_off = run_off_from_env();
+    let t0 = std::time::Instant::now();
+    let mut d = if std::env::var("ANALYTIC").is_ok() {
+        analytic_design(&config)
+    } else {
+        identified_design(&config)
+    };
+    override_from_env(&mut d, &config);
+    print_design(&d);
+    // On stderr: a wall-clock time is no figure for docs/results.md.
+    eprintln!(
+        "identified and designed in {:.1} s",
+        t0.elapsed().as_secs_f64()
+    );
+    let mut designed = config.clone();
+    let mut tc = d.config;
+    if std::env::var("FF_ONLY").is_ok() {
+        tc.kp = 0.0;
+        tc.ki_per_s = 0.0;
+    }
+    designed.firmware.tracking = Some(tc);
+    if let Some((name, field, factor)) = run_off {
+        let mut off = designed.applicator;
+        *field(&mut off) *= factor;
+        println!("run on the rig with its {name} {factor} times the file's");
+        designed.set_applicator(off);
+    }
+    let mut runs = vec![("designed", &designed)];
+    if std::env::var("ONLY").is_err() {
+        runs.insert(0, ("A1", &config));
+    }
+    for (name, cfg) in runs {
+        measure(name, cfg);
+    }
+}
+
+/// The rig of the file named on the command line (the memo's without), at `SEED`.
+fn rig_config() -> RigConfig {
     let mut config = RigConfig {
         scan_array: false,
         seed: std::env::var("SEED")
@@ -37,8 +76,19 @@ fn main() {
                 .unwrap_or_else(|e| refuse(&e)),
         );
     }
-    // `RUN_OFF=NAME:F`: the design runs on the rig with one mechanical parameter F times the
-    // file's (what a model that far off costs; names as `analysis::MECHANICAL_PARAMETERS`).
+    config
+}
+
+/// A mechanical parameter's name, its field and the factor the rig runs it at.
+type RunOff = (
+    String,
+    fn(&mut sim_host::applicator::ApplicatorParams) -> &mut f64,
+    f64,
+);
+
+/// `RUN_OFF=NAME:F`: the design runs on the rig with one mechanical parameter F times the
+/// file's (what a model that far off costs; names as `analysis::MECHANICAL_PARAMETERS`).
+fn run_off_from_env() -> Option<RunOff> {
     let run_off = std::env::var("RUN_OFF").ok().map(|v| {
         let (name, factor) = v
             .split_once(':')
@@ -50,60 +100,69 @@ fn main() {
             .unwrap_or_else(|| refuse(&format!("RUN_OFF: no mechanical parameter named {name:?}")));
         (name, *field, factor)
     });
-    let t0 = std::time::Instant::now();
-    let d = if std::env::var("ANALYTIC").is_ok() {
-        let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
-        let scale = drive_scale(&config);
-        let models: Vec<design::LoadModel> = design::DESIGN_LOADS_G
-            .iter()
-            .map(|&load_g| {
-                let response: Vec<sim_host::identify::ResponsePoint> = (2..300)
-                    .map(|hz| {
-                        let w = 2.0 * std::f64::consts::PI * f64::from(hz);
-                        let g = scale
-                            * sim_host::analysis::applicator_response(
-                                &config.applicator,
-                                &law,
-                                f64::from(load_g),
-                                w,
-                            );
-                        sim_host::identify::ResponsePoint {
-                            hz: f64::from(hz),
-                            re: g.re,
-                            im: g.im,
-                        }
-                    })
-                    .collect();
-                let model = sim_host::identify::fit_model(&response).expect("fit");
-                design::LoadModel {
-                    load_g,
-                    model,
-                    static_gain: model.gain,
-                }
-            })
-            .collect();
-        let stiction_g = file_stiction_g(&config);
-        let law = config.firmware.law;
-        design::design(
-            &models,
-            stiction_g as f32,
-            (law.adjusted_min_g, law.adjusted_max_g),
-            config.applicator.gauge_noise_g as f32,
-        )
-        .unwrap_or_else(|e| refuse(&e))
-    } else {
-        let r = design::design_for_rig(&config).unwrap_or_else(|e| refuse(&e));
-        println!(
-            "static gain {:.3}, stiction {:.2} g, gauge noise {:.2} g (identified from the holds)",
-            r.identified.static_gain, r.identified.stiction_g, r.identified.gauge_noise_g
-        );
-        for left in &r.identified.left_out {
-            println!("left out {left}");
-        }
-        r.design
-    };
+    run_off
+}
+
+/// `ANALYTIC=1`: the design on the simulator's own plant linearized at each load.
+fn analytic_design(config: &RigConfig) -> design::Design {
+    let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
+    let scale = drive_scale(config);
+    let models: Vec<design::LoadModel> = design::DESIGN_LOADS_G
+        .iter()
+        .map(|&load_g| {
+            let response: Vec<sim_host::identify::ResponsePoint> = (2..300)
+                .map(|hz| {
+                    let w = 2.0 * std::f64::consts::PI * f64::from(hz);
+                    let g = scale
+                        * sim_host::analysis::applicator_response(
+                            &config.applicator,
+                            &law,
+                            f64::from(load_g),
+                            w,
+                        );
+                    sim_host::identify::ResponsePoint {
+                        hz: f64::from(hz),
+                        re: g.re,
+                        im: g.im,
+                    }
+                })
+                .collect();
+            let model = sim_host::identify::fit_model(&response).expect("fit");
+            design::LoadModel {
+                load_g,
+                model,
+                static_gain: model.gain,
+            }
+        })
+        .collect();
+    let stiction_g = file_stiction_g(config);
+    let law = config.firmware.law;
+    design::design(
+        &models,
+        stiction_g as f32,
+        (law.adjusted_min_g, law.adjusted_max_g),
+        config.applicator.gauge_noise_g as f32,
+    )
+    .unwrap_or_else(|e| refuse(&e))
+}
+
+/// The design from the rig's identification, with what it identified printed.
+fn identified_design(config: &RigConfig) -> design::Design {
+    let r = design::design_for_rig(config).unwrap_or_else(|e| refuse(&e));
+    println!(
+        "static gain {:.3}, stiction {:.2} g, gauge noise {:.2} g (identified from the holds)",
+        r.identified.static_gain, r.identified.stiction_g, r.identified.gauge_noise_g
+    );
+    for left in &r.identified.left_out {
+        println!("left out {left}");
+    }
+    r.design
+}
+
+/// The environment's overrides of the design (`FRICTION`, `TRUE_FRICTION`, `TAU_MS`,
+/// `NO_GAUGE_S2`, `HELD`).
+fn override_from_env(d: &mut design::Design, config: &RigConfig) {
     // `FRICTION=G`: the same models, G grams of stiction compensated.
-    let mut d = d;
     if let Some(friction_g) = std::env::var("FRICTION")
         .ok()
         .and_then(|v| v.parse::<f32>().ok())
@@ -111,7 +170,7 @@ fn main() {
         d.config.friction_g = friction_g;
     }
     if std::env::var("TRUE_FRICTION").is_ok() {
-        let true_g = file_stiction_g(&config);
+        let true_g = file_stiction_g(config);
         println!(
             "stiction identified {:.3} g, the file's {true_g:.3} g",
             d.config.friction_g
@@ -136,6 +195,9 @@ fn main() {
     {
         d.config.held_friction_g = share * d.config.friction_g;
     }
+}
+
+fn print_design(d: &design::Design) {
     for (m, p) in d.models.iter().zip(&d.config.schedule) {
         println!(
             "{:5} g: {} | static gain {:.3}, series {:?}, feedback share {:.2}",
@@ -150,74 +212,54 @@ fn main() {
         d.config.friction_g,
         1e3 * d.config.amplifier_tau_s,
     );
-    // On stderr: a wall-clock time is no figure for docs/results.md.
-    eprintln!(
-        "identified and designed in {:.1} s",
-        t0.elapsed().as_secs_f64()
+}
+
+/// The closed-loop magnitude, the force steps and the touch-downs of one loop.
+fn measure(name: &str, cfg: &RigConfig) {
+    println!("== {name}");
+    for (load, amp) in sines() {
+        let g: Vec<String> = [0.5, 5.0, 10.0, 20.0, 25.0, 30.0, 40.0]
+            .iter()
+            .map(
+                |hz| match metrics::closed_loop_gain(cfg.clone(), load, amp, *hz) {
+                    Ok(g) => format!("{hz} Hz {:+.2} dB", 20.0 * g.log10()),
+                    Err(e) => format!("{hz} Hz: {e}"),
+                },
+            )
+            .collect();
+        println!("  {amp} g about {load} g: {}", g.join(", "));
+    }
+    let o = ScenarioOptions::default();
+    let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
+        .unwrap()
+        .ticks;
+    let settle: Vec<String> = metrics::step_settling_s(&steps)
+        .iter()
+        .map(|(level, t)| format!("{level}:{:.0}", 1e3 * t.unwrap_or(f64::NAN)))
+        .collect();
+    println!(
+        "  force-steps, settling into ±1 g (ms): {}",
+        settle.join(" ")
     );
-    let mut designed = config.clone();
-    let mut tc = d.config;
-    if std::env::var("FF_ONLY").is_ok() {
-        tc.kp = 0.0;
-        tc.ki_per_s = 0.0;
-    }
-    designed.firmware.tracking = Some(tc);
-    if let Some((name, field, factor)) = run_off {
-        let mut off = designed.applicator;
-        *field(&mut off) *= factor;
-        println!("run on the rig with its {name} {factor} times the file's");
-        designed.set_applicator(off);
-    }
-    let mut runs = vec![("designed", &designed)];
-    if std::env::var("ONLY").is_err() {
-        runs.insert(0, ("A1", &config));
-    }
-    for (name, cfg) in runs {
-        println!("== {name}");
-        for (load, amp) in sines() {
-            let g: Vec<String> = [0.5, 5.0, 10.0, 20.0, 25.0, 30.0, 40.0]
-                .iter()
-                .map(
-                    |hz| match metrics::closed_loop_gain(cfg.clone(), load, amp, *hz) {
-                        Ok(g) => format!("{hz} Hz {:+.2} dB", 20.0 * g.log10()),
-                        Err(e) => format!("{hz} Hz: {e}"),
-                    },
-                )
-                .collect();
-            println!("  {amp} g about {load} g: {}", g.join(", "));
-        }
-        let o = ScenarioOptions::default();
-        let steps = run_named("force-steps", &o, cfg.clone(), |_| {})
-            .unwrap()
-            .ticks;
-        let settle: Vec<String> = metrics::step_settling_s(&steps)
-            .iter()
-            .map(|(level, t)| format!("{level}:{:.0}", 1e3 * t.unwrap_or(f64::NAN)))
-            .collect();
+    let over: Vec<String> = metrics::step_overshoots_g(&steps)
+        .iter()
+        .map(|(l, o)| format!("{l}:{o:.2}"))
+        .collect();
+    println!("  force-steps, overshoot (g): {}", over.join(" "));
+    let low = run_named("low-force", &o, cfg.clone(), |_| {})
+        .unwrap()
+        .ticks;
+    let over: Vec<String> = metrics::step_overshoots_g(&low)
+        .iter()
+        .filter(|(l, _)| *l > 0.0)
+        .map(|(l, o)| format!("{l}:{o:.2}"))
+        .collect();
+    println!("  low-force touch-downs, overshoot (g): {}", over.join(" "));
+    for (level, lost, worst) in metrics::hold_quality(&low, 0.3) {
         println!(
-            "  force-steps, settling into ±1 g (ms): {}",
-            settle.join(" ")
+            "    {level:>4} g: out of contact {:5.1} %, worst error {worst:6.2} g",
+            lost * 100.0
         );
-        let over: Vec<String> = metrics::step_overshoots_g(&steps)
-            .iter()
-            .map(|(l, o)| format!("{l}:{o:.2}"))
-            .collect();
-        println!("  force-steps, overshoot (g): {}", over.join(" "));
-        let low = run_named("low-force", &o, cfg.clone(), |_| {})
-            .unwrap()
-            .ticks;
-        let over: Vec<String> = metrics::step_overshoots_g(&low)
-            .iter()
-            .filter(|(l, _)| *l > 0.0)
-            .map(|(l, o)| format!("{l}:{o:.2}"))
-            .collect();
-        println!("  low-force touch-downs, overshoot (g): {}", over.join(" "));
-        for (level, lost, worst) in metrics::hold_quality(&low, 0.3) {
-            println!(
-                "    {level:>4} g: out of contact {:5.1} %, worst error {worst:6.2} g",
-                lost * 100.0
-            );
-        }
     }
 }
 
