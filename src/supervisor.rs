@@ -19,7 +19,7 @@
 //!
 //! Latched faults clear only through [`ForceLoop::clear_faults`].
 
-use crate::control::{ActuatorConfig, ForceLaw, ForceLawConfig, SlewLimiter};
+use crate::control::{ActuatorConfig, Adjusted, ForceLaw, ForceLawConfig, SlewLimiter};
 use crate::filter::{FilterError, LowpassNotch, LowpassNotchConfig, LowpassNotchState};
 use crate::gauge::{AdcCode, GaugeFault};
 use crate::profile::ChirpSample;
@@ -122,10 +122,7 @@ pub struct LoopOutput {
 pub struct ForceLoop {
     config: ForceLoopConfig,
     slew: SlewLimiter,
-    law: ForceLaw,
-    tracking: Option<Tracking>,
-    filter: LowpassNotch,
-    filter_state: LowpassNotchState,
+    law: Law,
     latched: FaultFlags,
     bad_gauge_ticks: u16,
     last_reading_g: Option<f32>,
@@ -172,16 +169,98 @@ pub const GAUGE_COMMAND_SHARE: f32 = 0.9;
 /// Ticks of contact after a re-approach before the loss counts as over.
 const SETTLED_CONTACT_TICKS: u16 = 200;
 
+/// The law the loop runs, chosen once: A1 through its filter, or the designed controller,
+/// which shapes its own drive, touches down and ramps on its own.
+#[derive(Clone, Debug)]
+// One loop per board, in a static: the chip has no heap to box the larger variant on.
+#[allow(clippy::large_enum_variant)]
+enum Law {
+    A1 {
+        law: ForceLaw,
+        filter: LowpassNotch,
+        state: LowpassNotchState,
+    },
+    Designed(Tracking),
+}
+
+impl Law {
+    fn reset(&mut self) {
+        match self {
+            Law::A1 { law, state, .. } => {
+                law.reset();
+                *state = LowpassNotchState::default();
+            }
+            Law::Designed(t) => t.reset(),
+        }
+    }
+
+    /// Whether the command is taken unslewed: the designed controller's rest and touch-down.
+    fn ramps_itself(&self, command_g: f32) -> bool {
+        match self {
+            Law::A1 { .. } => false,
+            Law::Designed(t) => command_g <= 0.0 || t.touching_down(),
+        }
+    }
+
+    /// Whether the probe is touching down, and whether it is searching for the finger.
+    fn touch_down(&self, shaped_probe: f32) -> (bool, bool) {
+        match self {
+            Law::A1 { .. } => (false, false),
+            Law::Designed(t) => (t.touching_down(), !t.landed() && shaped_probe > 0.0),
+        }
+    }
+
+    /// Force control from `force_g` once a re-approach finds the finger.
+    fn restart_from(&mut self, force_g: f32) {
+        if let Law::Designed(t) = self {
+            t.restart_from(force_g);
+        }
+    }
+
+    /// Off the finger: the designed controller touches down again.
+    fn lift(&mut self) {
+        if let Law::Designed(t) = self {
+            t.lift();
+        }
+    }
+
+    /// The law's drive and the drive after A1's filter (the designed controller's as it is);
+    /// `integrate` false holds the designed controller's integral, `feedback` false runs A1
+    /// without its feedback (under a chirp).
+    fn drive(
+        &mut self,
+        shaped_g: f32,
+        sensed_g: f32,
+        integrate: bool,
+        feedback: bool,
+    ) -> (Adjusted, f32) {
+        match self {
+            Law::A1 { law, filter, state } => {
+                let a = law.update(shaped_g, sensed_g, feedback);
+                (a, filter.update(state, a.force_g))
+            }
+            Law::Designed(t) => {
+                let a = t.update(shaped_g, sensed_g, integrate);
+                (a, a.force_g)
+            }
+        }
+    }
+}
+
 impl ForceLoop {
     pub fn new(config: ForceLoopConfig) -> Result<Self, LoopError> {
         let filter = config.filter.discretize()?;
-        let tracking = config.tracking.map(Tracking::new).transpose()?;
+        let law = match config.tracking {
+            Some(t) => Law::Designed(Tracking::new(t)?),
+            None => Law::A1 {
+                law: ForceLaw::new(config.law),
+                filter,
+                state: LowpassNotchState::default(),
+            },
+        };
         Ok(Self {
             slew: SlewLimiter::new(config.slew_g_per_s, config.law.dt_s),
-            law: ForceLaw::new(config.law),
-            tracking,
-            filter,
-            filter_state: LowpassNotchState::default(),
+            law,
             chirp: None,
             rise_share: 1.0,
             guard_ticks: 0,
@@ -235,10 +314,6 @@ impl ForceLoop {
     fn restart(&mut self) {
         self.slew = SlewLimiter::new(self.config.slew_g_per_s, self.config.law.dt_s);
         self.law.reset();
-        if let Some(t) = &mut self.tracking {
-            t.reset();
-        }
-        self.filter_state = LowpassNotchState::default();
     }
 
     fn safe(&mut self, shaped_g: f32, mut faults: FaultFlags) -> LoopOutput {
@@ -388,11 +463,7 @@ impl ForceLoop {
         // the force a probe landed at (pressed 0.5 g through a rest on a 28 g/V rig, the first
         // slewed step 0.5 g) ended that ramp at once, and the reference took the slew's 500 g/s
         // from rest: a 25 g drive spike, 2 g landed at 3.4 g.
-        let own_ramp = self
-            .tracking
-            .as_ref()
-            .is_some_and(|t| command_g <= 0.0 || t.touching_down());
-        if own_ramp {
+        if self.law.ramps_itself(command_g) {
             self.slew.update_from(command_g)
         } else {
             self.slew.update(command_g)
@@ -462,9 +533,7 @@ impl ForceLoop {
         let mut shaped_g = shaped_probe;
         // The designed controller's own touch-down: the reading is expected to lag the command
         // (not a contact loss), and a finger not found within the contact limit latches.
-        let (touching_down, searching) = self.tracking.as_ref().map_or((false, false), |t| {
-            (t.touching_down(), !t.landed() && shaped_probe > 0.0)
-        });
+        let (touching_down, searching) = self.law.touch_down(shaped_probe);
         if self.approaching {
             // In the air the gauge reads the tip's inertia, about a third of the approach force,
             // under the beam's ringing; on the finger it reads the approach force itself. The
@@ -481,9 +550,7 @@ impl ForceLoop {
                 self.approaching = false;
                 self.off_finger_ticks = 0;
                 self.slew.update_from(sensed_g);
-                if let Some(t) = &mut self.tracking {
-                    t.restart_from(sensed_g);
-                }
+                self.law.restart_from(sensed_g);
                 shaped_g = self.slew.update(command_g);
             }
         } else if !touching_down
@@ -501,9 +568,7 @@ impl ForceLoop {
                 self.recent_g = [0.0; 32];
                 // The designed controller touches down again (a force command in the air
                 // accelerates the probe into the finger).
-                if let Some(t) = &mut self.tracking {
-                    t.lift();
-                }
+                self.law.lift();
             }
         } else {
             self.off_finger_ticks = 0;
@@ -535,23 +600,16 @@ impl ForceLoop {
     /// The law's drive for the shaped command and the reading, through the filter (A1's) and
     /// to the DAC with the excitation's chirp.
     fn drive(&mut self, shaped_g: f32, sensed_g: f32, mut faults: FaultFlags) -> LoopOutput {
-        let a = match &mut self.tracking {
-            // The integral holds while the probe looks for the finger.
-            Some(t) => t.update(shaped_g, sensed_g, !self.approaching),
-            None => self.law.update(shaped_g, sensed_g, self.chirp.is_none()),
-        };
+        // The integral holds while the probe looks for the finger.
+        let (a, filtered_g) =
+            self.law
+                .drive(shaped_g, sensed_g, !self.approaching, self.chirp.is_none());
         if a.saturated {
             faults.insert(FaultFlags::ACTUATOR_SATURATED);
         }
         if a.invalid_input {
             faults.insert(FaultFlags::INVALID_INPUT);
         }
-        // The designed controller shapes its own drive; A1's goes through the filter.
-        let filtered_g = if self.tracking.is_some() {
-            a.force_g
-        } else {
-            self.filter.update(&mut self.filter_state, a.force_g)
-        };
         LoopOutput {
             dac_code: self
                 .config
