@@ -440,10 +440,12 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
     report.push_str("\n# The memo's tables on the simulator (`tactile tables`)\n\n");
     report.push_str(&crate::tables::render(&crate::tables::reproduce(seed)?));
     report.push_str("\n# Force estimators (`tactile estimators`)\n\n");
-    report.push_str(&crate::estimators::render(&crate::estimators::compare(
-        crate::calibrate::FINGER_SEED,
-        crate::fingers::FingerKind::Memo,
-    )?));
+    report.push_str(&crate::estimator_comparison::render(
+        &crate::estimator_comparison::compare(
+            crate::calibrate::FINGER_SEED,
+            crate::fingers::FingerKind::Memo,
+        )?,
+    ));
     report.push('\n');
     report.push_str(&details);
     let path = out.join("report.md");

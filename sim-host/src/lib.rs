@@ -5,14 +5,13 @@
 //! so the firmware-in-the-loop build runs the same physics.
 
 pub mod analysis;
-pub mod board;
+pub mod board_link;
 pub mod calibrate;
 pub mod cli;
 pub mod design;
 pub mod diagnose;
 pub mod error;
-pub mod estimate;
-pub mod estimators;
+pub mod estimator_comparison;
 pub mod fingers;
 pub mod fit;
 pub mod fuzz;
@@ -21,6 +20,7 @@ pub mod metrics;
 pub mod output;
 pub mod plot;
 pub mod probe;
+pub mod record_estimates;
 pub mod report;
 pub mod scenario;
 pub mod stick_slip;

@@ -3,7 +3,7 @@
 use std::sync::LazyLock;
 
 use sim_host::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS, FINGER_SEED};
-use sim_host::estimators::{compare, compare_with, EstimatorTable, PROTOCOLS};
+use sim_host::estimator_comparison::{compare, compare_with, EstimatorTable, PROTOCOLS};
 use sim_host::fingers::FingerKind;
 use tactile_core::calibration::CalibrationTable;
 
@@ -16,7 +16,7 @@ static MEMO: LazyLock<(CalibrationTable, Vec<TaxelFitReport>)> = LazyLock::new(|
 fn calibrated_estimators_beat_the_memos_and_the_best_reaches_half_a_gram() {
     let (table, fits) = &*MEMO;
     let t = compare_with(table, fits.clone(), FINGER_SEED, FingerKind::Memo.effects()).unwrap();
-    eprintln!("{}", sim_host::estimators::render(&t));
+    eprintln!("{}", sim_host::estimator_comparison::render(&t));
     assert_eq!(t.taxels.len(), 4);
     assert_eq!(PROTOCOLS[0], "pseudo-random");
     let (nominal, calibrated) = (&t.nominal_g[0], &t.calibrated_g[0]);

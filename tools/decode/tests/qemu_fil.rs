@@ -740,9 +740,10 @@ fn calibration_on_the_firmware_end_to_end() {
         );
     }
     // And it does what calibration is for: the observer, calibrated, on the memo's protocols.
-    let scores = sim_host::estimators::compare_with(&table, Vec::new(), FINGER_SEED, memo)
-        .expect("estimators");
-    eprintln!("{}", sim_host::estimators::render(&scores));
+    let scores =
+        sim_host::estimator_comparison::compare_with(&table, Vec::new(), FINGER_SEED, memo)
+            .expect("estimators");
+    eprintln!("{}", sim_host::estimator_comparison::render(&scores));
     for row in &scores.pseudo_random_per_taxel_g {
         assert!(row[3] <= 0.2, "{row:?}");
     }
@@ -754,10 +755,14 @@ fn calibration_on_the_firmware_end_to_end() {
     );
     // On the finger unlike the memo's: the observer calibrated on the firmware's record
     // within issue 15's 0.3 g on pseudo-random (the nominal models: about 3.5 g).
-    let scores =
-        sim_host::estimators::compare_with(&other, Vec::new(), FINGER_SEED, unlike.effects())
-            .expect("estimators");
-    eprintln!("{}", sim_host::estimators::render(&scores));
+    let scores = sim_host::estimator_comparison::compare_with(
+        &other,
+        Vec::new(),
+        FINGER_SEED,
+        unlike.effects(),
+    )
+    .expect("estimators");
+    eprintln!("{}", sim_host::estimator_comparison::render(&scores));
     assert!(
         scores.calibrated_g[0][3] < 0.3 && scores.calibrated_g[0][3] < 0.2 * scores.nominal_g[0][3],
         "{:?} vs {:?}",
@@ -985,7 +990,7 @@ fn crc_16(bytes: &[u8]) -> u16 {
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn the_board_session_decodes_live_as_in_batch() {
-    use sim_host::board::{script, Action, BoardProtocol};
+    use sim_host::board_link::{script, Action, BoardProtocol};
     use tactile_decode::transport::{Qemu, Replay, Transport};
     use tactile_decode::{follow, Live};
     let Some((elf, dir)) = firmware_for("board session test") else {
@@ -1235,7 +1240,7 @@ fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn the_board_calibrates_a_taxel_by_command() {
-    use sim_host::board::{run, Action, Target};
+    use sim_host::board_link::{run, Action, Target};
     use tactile_core::tactile::TaxelId;
     let Some((elf, dir)) = firmware_for("board calibration test") else {
         return;

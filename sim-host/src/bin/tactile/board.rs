@@ -40,7 +40,7 @@ pub enum BoardCommand {
     /// Run a protocol and record it.
     Run {
         #[arg(value_enum)]
-        protocol: sim_host::board::BoardProtocol,
+        protocol: sim_host::board_link::BoardProtocol,
         /// Length of pseudo-random, s.
         #[arg(long, default_value_t = 10.0)]
         duration: f32,
@@ -91,7 +91,7 @@ pub fn run(args: BoardArgs) -> Result<(), Error> {
             load,
             taxel,
             designed,
-        } => sim_host::board::Action::Run {
+        } => sim_host::board_link::Action::Run {
             protocol,
             duration_s: duration,
             load_g: load,
@@ -99,15 +99,15 @@ pub fn run(args: BoardArgs) -> Result<(), Error> {
             designed,
         },
         BoardCommand::Hold { force_g, seconds } => {
-            sim_host::board::Action::Hold { force_g, seconds }
+            sim_host::board_link::Action::Hold { force_g, seconds }
         }
-        BoardCommand::Stream { seconds } => sim_host::board::Action::Stream { seconds },
-        BoardCommand::Calibrate { taxels } => sim_host::board::Action::Calibrate { taxels },
+        BoardCommand::Stream { seconds } => sim_host::board_link::Action::Stream { seconds },
+        BoardCommand::Calibrate { taxels } => sim_host::board_link::Action::Calibrate { taxels },
     };
     let target = match (&replay, probe) {
-        (Some(log), _) => sim_host::board::Target::Replay(log),
-        (None, true) => sim_host::board::Target::Probe { chip: &chip, flash },
-        (None, false) => sim_host::board::Target::Qemu,
+        (Some(log), _) => sim_host::board_link::Target::Replay(log),
+        (None, true) => sim_host::board_link::Target::Probe { chip: &chip, flash },
+        (None, false) => sim_host::board_link::Target::Qemu,
     };
     let elf = elf.unwrap_or_else(|| {
         PathBuf::from(if probe {
@@ -116,7 +116,7 @@ pub fn run(args: BoardArgs) -> Result<(), Error> {
             "target/thumbv7em-none-eabihf/release/tactile-qemu"
         })
     });
-    let text = sim_host::board::run(&elf, target, &action, &out)?;
+    let text = sim_host::board_link::run(&elf, target, &action, &out)?;
     out!("{text}");
     Ok(())
 }

@@ -19,7 +19,7 @@ pub struct EstimateArgs {
     pub taxel: TaxelId,
     /// Only this estimator (default: all five).
     #[arg(long, value_enum)]
-    pub estimator: Option<sim_host::estimate::Estimator>,
+    pub estimator: Option<sim_host::record_estimates::Estimator>,
     /// Where to write the estimates (default: FILE with `_estimate.csv`).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -33,7 +33,7 @@ pub fn run(args: EstimateArgs) -> Result<(), Error> {
         estimator,
         out,
     } = args;
-    let text = sim_host::estimate::run(&file, &table, taxel, estimator, out.as_deref())?;
+    let text = sim_host::record_estimates::run(&file, &table, taxel, estimator, out.as_deref())?;
     out!("{text}");
     Ok(())
 }

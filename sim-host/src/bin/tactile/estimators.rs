@@ -31,8 +31,8 @@ pub fn run(args: EstimatorsArgs) -> Result<(), Error> {
     } = args;
     let firmware = qemu.map(|dir| read_firmware_figures(&dir)).transpose()?;
     let files = claim_report(&out, "estimators")?;
-    let t = sim_host::estimators::compare(seed, finger)?;
-    let mut text = sim_host::estimators::render(&t);
+    let t = sim_host::estimator_comparison::compare(seed, finger)?;
+    let mut text = sim_host::estimator_comparison::render(&t);
     if let Some(f) = &firmware {
         text.push('\n');
         text.push_str(&f.render());
