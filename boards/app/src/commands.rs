@@ -10,7 +10,7 @@
 
 use core::sync::atomic::{AtomicU8, Ordering};
 
-use tactile_core::calibration::TableView as CalibrationTable;
+use tactile_core::calibration::TableView;
 use tactile_core::command::{
     Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind, CHUNK_BYTES,
 };
@@ -246,7 +246,7 @@ impl<const CAL: usize> CommandPort<CAL> {
                 let Some(bytes) = self.cal.get(..len) else {
                     return (Err(room(TableKind::Calibration)), Action::None);
                 };
-                if CalibrationTable::check(bytes).is_err() {
+                if TableView::check(bytes).is_err() {
                     return (Err(Refusal::TableRefused), Action::None);
                 }
                 self.cal_len = len;
