@@ -154,6 +154,74 @@ pub fn fit_taxel(
     force_g: &[f64],
     strain_pct: &[f64],
 ) -> Result<(TaxelModel, TaxelFitReport), CalibrationError> {
+    let per_offset_s = per_offset_of(protocol, dt_s, force_g, strain_pct)?;
+    let raw = Frames::new(dt_s, force_g, strain_pct);
+    let offset = rest_offset(&raw)?;
+    let frames = Frames {
+        dt_s: raw.dt_s,
+        force: raw.force.clone(),
+        strain: raw.strain.iter().map(|e| e - offset).collect(),
+    };
+    let (placed, levels) = place_levels(&frames, per_offset_s)?;
+    let range_g = tactile_ident::stats::quantile(&frames.force, 0.995);
+    if range_g.is_nan() || range_g <= 1.0 {
+        return Err(CalibrationError::NoLoad);
+    }
+    let knots = knots_for(range_g);
+    let failed = |what: &'static str| CalibrationError::FitFailed { taxel, what };
+
+    // The whole record, then each fold from the whole record's parameters.
+    let everything = vec![true; frames.force.len()];
+    let whole = fit_element(&frames, &everything, &knots, None).ok_or_else(|| failed("element"))?;
+    let model_from = |fit: &ElementFit, in_fit: &[bool]| -> Result<TaxelModel, CalibrationError> {
+        memo_models(
+            taxel, &frames, in_fit, &placed, fit, &levels, range_g, offset,
+        )
+        .ok_or_else(|| failed("second-order"))
+    };
+    // The nominal models do not depend on the fold: their estimates are run once.
+    let nominal = TaxelModel {
+        strain_offset_pct: offset,
+        ..TaxelModel::nominal(taxel)
+    };
+    let nominal_est = run_estimators(&nominal, &raw)?;
+    let folds = fold_runs(taxel, &frames, &raw, &placed, &knots, &whole, &model_from);
+    let [held_out, nominal_held_out] = held_out_rms(folds, &nominal_est, &frames.force)?;
+    let model = chosen_model(
+        model_from(&whole, &everything)?,
+        nominal,
+        [held_out, nominal_held_out],
+        range_g,
+        &whole,
+    );
+    let report = TaxelFitReport {
+        taxel: (taxel.row(), taxel.col()),
+        rest_offset_pct: offset,
+        element_rms_pct: whole.rms_pct,
+        mean_miss_pct: whole.mean_miss_pct,
+        levels,
+        range_g,
+        alpha_prior_share: alpha_prior_share(&frames, &everything, &knots, &whole),
+        held_out_g: held_out,
+        nominal_held_out_g: nominal_held_out,
+        estimator: model.estimator.name().to_string(),
+        flags: model
+            .flags
+            .iter_names()
+            .map(|(n, _)| n.to_lowercase())
+            .collect(),
+    };
+    Ok((model, report))
+}
+
+/// The time the calibration `protocol` spends at each offset, s, once the record is one it
+/// can be fitted from: force and strain evenly sampled, finite, and as long as the protocol.
+fn per_offset_of(
+    protocol: Protocol,
+    dt_s: f64,
+    force_g: &[f64],
+    strain_pct: &[f64],
+) -> Result<f64, CalibrationError> {
     let Protocol::Calibration { per_offset_s, .. } = protocol else {
         return Err(CalibrationError::NotTheCalibrationProtocol);
     };
@@ -170,7 +238,12 @@ pub fn fit_taxel(
     if have_s + 0.5 < needed_s {
         return Err(CalibrationError::TooShort { have_s, needed_s });
     }
-    let raw = Frames::new(dt_s, force_g, strain_pct);
+    Ok(per_offset_s)
+}
+
+/// The strain's offset, %, from the record's leading rest.
+fn rest_offset(raw: &Frames) -> Result<f64, CalibrationError> {
+    let rest_s = f64::from(CALIBRATION_REST_S);
     // The offset: the strain at the leading rest, its first half second left out.
     let rest: Vec<f64> = (0..raw.force.len())
         .filter(|&i| (0.5..rest_s - 0.1).contains(&raw.time(i)) && raw.force[i].abs() < 1.0)
@@ -179,12 +252,16 @@ pub fn fit_taxel(
     if rest.len() < 20 {
         return Err(CalibrationError::NoRest { rest_s });
     }
-    let offset = tactile_ident::stats::mean(&rest);
-    let frames = Frames {
-        dt_s: raw.dt_s,
-        force: raw.force.clone(),
-        strain: raw.strain.iter().map(|e| e - offset).collect(),
-    };
+    Ok(tactile_ident::stats::mean(&rest))
+}
+
+/// Each frame's level and fold (`None` before the levels, past them, and while a level
+/// settles), and each level's mean force, checked to be the protocol's.
+fn place_levels(
+    frames: &Frames,
+    per_offset_s: f64,
+) -> Result<(Vec<Option<(usize, usize)>>, Vec<f64>), CalibrationError> {
+    let rest_s = f64::from(CALIBRATION_REST_S);
     let level_of = |i: usize| -> Option<(usize, usize)> {
         let t = frames.time(i) - rest_s;
         let k = (t / per_offset_s).floor();
@@ -214,40 +291,30 @@ pub fn fit_taxel(
             return Err(CalibrationError::NotTheProtocolsLoads { offset_g, mean_g });
         }
     }
-    let range_g = tactile_ident::stats::quantile(&frames.force, 0.995);
-    if range_g.is_nan() || range_g <= 1.0 {
-        return Err(CalibrationError::NoLoad);
-    }
-    let knots = knots_for(range_g);
-    let failed = |what: &'static str| CalibrationError::FitFailed { taxel, what };
+    Ok((placed, levels))
+}
 
-    // The whole record, then each fold from the whole record's parameters.
-    let everything = vec![true; frames.force.len()];
-    let whole = fit_element(&frames, &everything, &knots, None).ok_or_else(|| failed("element"))?;
-    let model_from = |fit: &ElementFit, in_fit: &[bool]| -> Result<TaxelModel, CalibrationError> {
-        memo_models(
-            taxel, &frames, in_fit, &placed, fit, &levels, range_g, offset,
-        )
-        .ok_or_else(|| failed("second-order"))
-    };
-    // The nominal models do not depend on the fold: their estimates are run once.
-    let nominal = TaxelModel {
-        strain_offset_pct: offset,
-        ..TaxelModel::nominal(taxel)
-    };
-    let nominal_est = run_estimators(&nominal, &raw)?;
-    // Each fold's fit and its estimates over the record, on threads.
-    let folds: Vec<Result<FoldRun, CalibrationError>> = std::thread::scope(|scope| {
+/// Each fold's fit (from the `whole` record's parameters, its frames held out), its models
+/// (`model_from`) and their estimates over the record, on threads.
+fn fold_runs(
+    taxel: TaxelId,
+    frames: &Frames,
+    raw: &Frames,
+    placed: &[Option<(usize, usize)>],
+    knots: &[f32; CURVE_KNOTS],
+    whole: &ElementFit,
+    model_from: &(impl Fn(&ElementFit, &[bool]) -> Result<TaxelModel, CalibrationError> + Sync),
+) -> Vec<Result<FoldRun, CalibrationError>> {
+    let failed = |what: &'static str| CalibrationError::FitFailed { taxel, what };
+    std::thread::scope(|scope| {
         let runs: Vec<_> = (0..FOLDS)
             .map(|fold| {
-                let (placed, frames, raw, whole) = (&placed, &frames, &raw, &whole);
-                let model_from = &model_from;
                 scope.spawn(move || {
                     let in_fit: Vec<bool> = placed
                         .iter()
                         .map(|p| p.is_none_or(|(_, b)| b != fold))
                         .collect();
-                    let fold_fit = fit_element(frames, &in_fit, &knots, Some(&whole.theta))
+                    let fold_fit = fit_element(frames, &in_fit, knots, Some(&whole.theta))
                         .ok_or_else(|| failed("element"))?;
                     let est = run_estimators(&model_from(&fold_fit, &in_fit)?, raw)?;
                     Ok((in_fit, est))
@@ -257,24 +324,44 @@ pub fn fit_taxel(
         runs.into_iter()
             .map(|r| r.join().unwrap_or_else(|_| Err(failed("element"))))
             .collect()
-    });
+    })
+}
+
+/// The RMS error of each estimator over the frames each fold held out, g: of the folds' own
+/// models, and of the nominal models (`nominal_est`), against the measured `force`.
+fn held_out_rms(
+    folds: Vec<Result<FoldRun, CalibrationError>>,
+    nominal_est: &[[f32; EstimatorKind::COUNT]],
+    force: &[f64],
+) -> Result<[[f64; EstimatorKind::COUNT]; 2], CalibrationError> {
     let mut sums = [[0.0f64; EstimatorKind::COUNT]; 2];
     let mut scored = 0usize;
     for fold in folds {
         let (in_fit, calibrated_est) = fold?;
-        for (sum, est) in sums.iter_mut().zip([&calibrated_est, &nominal_est]) {
+        for (sum, est) in sums.iter_mut().zip([&calibrated_est[..], nominal_est]) {
             for (i, e) in est.iter().enumerate() {
                 if !in_fit[i] {
                     for (s, v) in sum.iter_mut().zip(e) {
-                        *s += (f64::from(*v) - frames.force[i]).powi(2);
+                        *s += (f64::from(*v) - force[i]).powi(2);
                     }
                 }
             }
         }
         scored += in_fit.iter().filter(|b| !**b).count();
     }
-    let [held_out, nominal_held_out] = sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt()));
-    let mut model = model_from(&whole, &everything)?;
+    Ok(sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt())))
+}
+
+/// The model the taxel runs, `calibrated` or `nominal` by their held-out errors (in that
+/// order), with its best estimator, its flags, its range and its held-out errors.
+fn chosen_model(
+    calibrated: TaxelModel,
+    nominal: TaxelModel,
+    [held_out, nominal_held_out]: [[f64; EstimatorKind::COUNT]; 2],
+    range_g: f64,
+    whole: &ElementFit,
+) -> TaxelModel {
+    let mut model = calibrated;
     let mut flags = CalibrationFlags::empty();
     let (calibrated_best, nominal_best) = (
         EstimatorKind::best(&held_out),
@@ -303,20 +390,7 @@ pub fn fit_taxel(
     } else {
         held_out
     });
-    let report = TaxelFitReport {
-        taxel: (taxel.row(), taxel.col()),
-        rest_offset_pct: offset,
-        element_rms_pct: whole.rms_pct,
-        mean_miss_pct: whole.mean_miss_pct,
-        levels,
-        range_g,
-        alpha_prior_share: alpha_prior_share(&frames, &everything, &knots, &whole),
-        held_out_g: held_out,
-        nominal_held_out_g: nominal_held_out,
-        estimator: model.estimator.name().to_string(),
-        flags: flags.iter_names().map(|(n, _)| n.to_lowercase()).collect(),
-    };
-    Ok((model, report))
+    model
 }
 
 /// Every on-chip estimator of `model` over the record (its frames, from its raw strain: the
