@@ -85,6 +85,9 @@ pub struct TaxelFitReport {
 /// A fold: which frames its fit saw, and every estimator's output over the record.
 type FoldRun = (Vec<bool>, Vec<[f32; EstimatorKind::COUNT]>);
 
+/// Each frame's level and fold (`None` outside the levels' settled parts).
+type Placed = Vec<Option<(usize, usize)>>;
+
 /// Frame period the estimators run at on the chip, s.
 fn frame_s() -> f64 {
     f64::from(ScanConfig::DESIGN.frame_period_s())
@@ -261,7 +264,7 @@ fn rest_offset(raw: &Frames) -> Result<f64, CalibrationError> {
 fn place_levels(
     frames: &Frames,
     per_offset_s: f64,
-) -> Result<(Vec<Option<(usize, usize)>>, Vec<f64>), CalibrationError> {
+) -> Result<(Placed, Vec<f64>), CalibrationError> {
     let rest_s = f64::from(CALIBRATION_REST_S);
     let level_of = |i: usize| -> Option<(usize, usize)> {
         let t = frames.time(i) - rest_s;
@@ -272,7 +275,7 @@ fn place_levels(
             (k as usize, block.min(FOLDS - 1))
         })
     };
-    let placed: Vec<Option<(usize, usize)>> = (0..frames.force.len()).map(level_of).collect();
+    let placed: Placed = (0..frames.force.len()).map(level_of).collect();
     let levels: Vec<f64> = (0..CALIBRATION_OFFSETS_G.len())
         .map(|k| {
             let at: Vec<f64> = placed
@@ -553,6 +556,7 @@ pub fn calibrate_simulated(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use element::simulate;
 
     #[test]
     fn a_record_whose_force_is_not_the_protocols_levels_is_refused() {

@@ -117,10 +117,12 @@ pub enum DesignError {
 
 #[cfg(test)]
 mod tests {
+    use num_complex::Complex64;
+    use tactile_core::CONTROL_PERIOD_S;
+
     use super::*;
-    use crate::identify::Resonance;
+    use crate::identify::{ApplicatorModel, Resonance};
     use feedback::biquad_at;
-    use models::median;
 
     #[test]
     fn the_series_of_a_single_mode_is_its_quadratic_and_a_lead_is_taken_in() {
