@@ -22,8 +22,8 @@
 //!   the nominal models' if they hold out better than any calibrated one (flagged
 //!   [`CalibrationFlags::NOMINAL`]).
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+mod element;
+
 use tactile_core::calibration::CalibrationTable;
 use tactile_core::estimator::StructuralInverse;
 use tactile_core::estimator::{
@@ -31,14 +31,15 @@ use tactile_core::estimator::{
 };
 use tactile_core::estimator::{BankModel, EstimatorKind, TaxelEstimators};
 use tactile_core::profile::{Protocol, CALIBRATION_OFFSETS_G, CALIBRATION_REST_S};
-use tactile_core::spring::{SpringCurve, SpringLaw, CURVE_KNOTS};
+use tactile_core::spring::{SpringLaw, CURVE_KNOTS};
 use tactile_core::tactile::{ScanConfig, TaxelId};
-use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState};
+use tactile_core::viscoelastic::NonlinearMk;
 
 use crate::finger::Effects;
 use crate::fit::{fit, Base, ModelSpec, Series};
 use crate::rig::TickRecord;
 use crate::scenario::ScenarioError;
+use element::{alpha_prior_share, fit_element, ElementFit};
 
 /// Time left out at the start of each load level (the slew and the transient), s.
 const SETTLE_S: f64 = 2.0;
@@ -83,6 +84,9 @@ pub struct TaxelFitReport {
 
 /// A fold: which frames its fit saw, and every estimator's output over the record.
 type FoldRun = (Vec<bool>, Vec<[f32; EstimatorKind::COUNT]>);
+
+/// Each frame's level and fold (`None` outside the levels' settled parts).
+type Placed = Vec<Option<(usize, usize)>>;
 
 /// Frame period the estimators run at on the chip, s.
 fn frame_s() -> f64 {
@@ -154,66 +158,15 @@ pub fn fit_taxel(
     force_g: &[f64],
     strain_pct: &[f64],
 ) -> Result<(TaxelModel, TaxelFitReport), CalibrationError> {
-    let Protocol::Calibration { per_offset_s, .. } = protocol else {
-        return Err(CalibrationError::NotTheCalibrationProtocol);
-    };
-    let per_offset_s = f64::from(per_offset_s);
-    if force_g.len() != strain_pct.len() || !dt_s.is_finite() || dt_s <= 0.0 {
-        return Err(CalibrationError::Unsampled);
-    }
-    if force_g.iter().chain(strain_pct).any(|v| !v.is_finite()) {
-        return Err(CalibrationError::NonFinite);
-    }
-    let rest_s = f64::from(CALIBRATION_REST_S);
-    let needed_s = rest_s + per_offset_s * CALIBRATION_OFFSETS_G.len() as f64;
-    let have_s = dt_s * force_g.len() as f64;
-    if have_s + 0.5 < needed_s {
-        return Err(CalibrationError::TooShort { have_s, needed_s });
-    }
+    let per_offset_s = per_offset_of(protocol, dt_s, force_g, strain_pct)?;
     let raw = Frames::new(dt_s, force_g, strain_pct);
-    // The offset: the strain at the leading rest, its first half second left out.
-    let rest: Vec<f64> = (0..raw.force.len())
-        .filter(|&i| (0.5..rest_s - 0.1).contains(&raw.time(i)) && raw.force[i].abs() < 1.0)
-        .map(|i| raw.strain[i])
-        .collect();
-    if rest.len() < 20 {
-        return Err(CalibrationError::NoRest { rest_s });
-    }
-    let offset = tactile_ident::stats::mean(&rest);
+    let offset = rest_offset(&raw)?;
     let frames = Frames {
         dt_s: raw.dt_s,
         force: raw.force.clone(),
         strain: raw.strain.iter().map(|e| e - offset).collect(),
     };
-    let level_of = |i: usize| -> Option<(usize, usize)> {
-        let t = frames.time(i) - rest_s;
-        let k = (t / per_offset_s).floor();
-        let into = t - k * per_offset_s;
-        (t >= 0.0 && (k as usize) < CALIBRATION_OFFSETS_G.len() && into >= SETTLE_S).then(|| {
-            let block = ((into - SETTLE_S) / (per_offset_s - SETTLE_S) * FOLDS as f64) as usize;
-            (k as usize, block.min(FOLDS - 1))
-        })
-    };
-    let placed: Vec<Option<(usize, usize)>> = (0..frames.force.len()).map(level_of).collect();
-    let levels: Vec<f64> = (0..CALIBRATION_OFFSETS_G.len())
-        .map(|k| {
-            let at: Vec<f64> = placed
-                .iter()
-                .zip(&frames.force)
-                .filter(|(p, _)| p.is_some_and(|(l, _)| l == k))
-                .map(|(_, f)| *f)
-                .collect();
-            tactile_ident::stats::mean(&at)
-        })
-        .collect();
-    // Each level's mean force is its offset (the sines about it average out) within what a
-    // loop without integral action leaves and a fifth: else the record is not this protocol's.
-    for (&offset_g, &mean_g) in CALIBRATION_OFFSETS_G.iter().zip(&levels) {
-        let off = (mean_g - f64::from(offset_g)).abs();
-        if off.is_nan() || off > LEVEL_TOLERANCE.0 + LEVEL_TOLERANCE.1 * f64::from(offset_g) {
-            return Err(CalibrationError::NotTheProtocolsLoads { offset_g, mean_g });
-        }
-    }
+    let (placed, levels) = place_levels(&frames, per_offset_s)?;
     let range_g = tactile_ident::stats::quantile(&frames.force, 0.995);
     if range_g.is_nan() || range_g <= 1.0 {
         return Err(CalibrationError::NoLoad);
@@ -236,18 +189,136 @@ pub fn fit_taxel(
         ..TaxelModel::nominal(taxel)
     };
     let nominal_est = run_estimators(&nominal, &raw)?;
-    // Each fold's fit and its estimates over the record, on threads.
-    let folds: Vec<Result<FoldRun, CalibrationError>> = std::thread::scope(|scope| {
+    let folds = fold_runs(taxel, &frames, &raw, &placed, &knots, &whole, &model_from);
+    let [held_out, nominal_held_out] = held_out_rms(folds, &nominal_est, &frames.force)?;
+    let model = chosen_model(
+        model_from(&whole, &everything)?,
+        nominal,
+        [held_out, nominal_held_out],
+        range_g,
+        &whole,
+    );
+    let report = TaxelFitReport {
+        taxel: (taxel.row(), taxel.col()),
+        rest_offset_pct: offset,
+        element_rms_pct: whole.rms_pct,
+        mean_miss_pct: whole.mean_miss_pct,
+        levels,
+        range_g,
+        alpha_prior_share: alpha_prior_share(&frames, &everything, &knots, &whole),
+        held_out_g: held_out,
+        nominal_held_out_g: nominal_held_out,
+        estimator: model.estimator.name().to_string(),
+        flags: model
+            .flags
+            .iter_names()
+            .map(|(n, _)| n.to_lowercase())
+            .collect(),
+    };
+    Ok((model, report))
+}
+
+/// The time the calibration `protocol` spends at each offset, s, once the record is one it
+/// can be fitted from: force and strain evenly sampled, finite, and as long as the protocol.
+fn per_offset_of(
+    protocol: Protocol,
+    dt_s: f64,
+    force_g: &[f64],
+    strain_pct: &[f64],
+) -> Result<f64, CalibrationError> {
+    let Protocol::Calibration { per_offset_s, .. } = protocol else {
+        return Err(CalibrationError::NotTheCalibrationProtocol);
+    };
+    let per_offset_s = f64::from(per_offset_s);
+    if force_g.len() != strain_pct.len() || !dt_s.is_finite() || dt_s <= 0.0 {
+        return Err(CalibrationError::Unsampled);
+    }
+    if force_g.iter().chain(strain_pct).any(|v| !v.is_finite()) {
+        return Err(CalibrationError::NonFinite);
+    }
+    let rest_s = f64::from(CALIBRATION_REST_S);
+    let needed_s = rest_s + per_offset_s * CALIBRATION_OFFSETS_G.len() as f64;
+    let have_s = dt_s * force_g.len() as f64;
+    if have_s + 0.5 < needed_s {
+        return Err(CalibrationError::TooShort { have_s, needed_s });
+    }
+    Ok(per_offset_s)
+}
+
+/// The strain's offset, %, from the record's leading rest.
+fn rest_offset(raw: &Frames) -> Result<f64, CalibrationError> {
+    let rest_s = f64::from(CALIBRATION_REST_S);
+    // The offset: the strain at the leading rest, its first half second left out.
+    let rest: Vec<f64> = (0..raw.force.len())
+        .filter(|&i| (0.5..rest_s - 0.1).contains(&raw.time(i)) && raw.force[i].abs() < 1.0)
+        .map(|i| raw.strain[i])
+        .collect();
+    if rest.len() < 20 {
+        return Err(CalibrationError::NoRest { rest_s });
+    }
+    Ok(tactile_ident::stats::mean(&rest))
+}
+
+/// Each frame's level and fold (`None` before the levels, past them, and while a level
+/// settles), and each level's mean force, checked to be the protocol's.
+fn place_levels(
+    frames: &Frames,
+    per_offset_s: f64,
+) -> Result<(Placed, Vec<f64>), CalibrationError> {
+    let rest_s = f64::from(CALIBRATION_REST_S);
+    let level_of = |i: usize| -> Option<(usize, usize)> {
+        let t = frames.time(i) - rest_s;
+        let k = (t / per_offset_s).floor();
+        let into = t - k * per_offset_s;
+        (t >= 0.0 && (k as usize) < CALIBRATION_OFFSETS_G.len() && into >= SETTLE_S).then(|| {
+            let block = ((into - SETTLE_S) / (per_offset_s - SETTLE_S) * FOLDS as f64) as usize;
+            (k as usize, block.min(FOLDS - 1))
+        })
+    };
+    let placed: Placed = (0..frames.force.len()).map(level_of).collect();
+    let levels: Vec<f64> = (0..CALIBRATION_OFFSETS_G.len())
+        .map(|k| {
+            let at: Vec<f64> = placed
+                .iter()
+                .zip(&frames.force)
+                .filter(|(p, _)| p.is_some_and(|(l, _)| l == k))
+                .map(|(_, f)| *f)
+                .collect();
+            tactile_ident::stats::mean(&at)
+        })
+        .collect();
+    // Each level's mean force is its offset (the sines about it average out) within what a
+    // loop without integral action leaves and a fifth: else the record is not this protocol's.
+    for (&offset_g, &mean_g) in CALIBRATION_OFFSETS_G.iter().zip(&levels) {
+        let off = (mean_g - f64::from(offset_g)).abs();
+        if off.is_nan() || off > LEVEL_TOLERANCE.0 + LEVEL_TOLERANCE.1 * f64::from(offset_g) {
+            return Err(CalibrationError::NotTheProtocolsLoads { offset_g, mean_g });
+        }
+    }
+    Ok((placed, levels))
+}
+
+/// Each fold's fit (from the `whole` record's parameters, its frames held out), its models
+/// (`model_from`) and their estimates over the record, on threads.
+fn fold_runs(
+    taxel: TaxelId,
+    frames: &Frames,
+    raw: &Frames,
+    placed: &[Option<(usize, usize)>],
+    knots: &[f32; CURVE_KNOTS],
+    whole: &ElementFit,
+    model_from: &(impl Fn(&ElementFit, &[bool]) -> Result<TaxelModel, CalibrationError> + Sync),
+) -> Vec<Result<FoldRun, CalibrationError>> {
+    let failed = |what: &'static str| CalibrationError::FitFailed { taxel, what };
+    std::thread::scope(|scope| {
         let runs: Vec<_> = (0..FOLDS)
             .map(|fold| {
-                let (placed, frames, raw, whole) = (&placed, &frames, &raw, &whole);
-                let model_from = &model_from;
                 scope.spawn(move || {
                     let in_fit: Vec<bool> = placed
                         .iter()
                         .map(|p| p.is_none_or(|(_, b)| b != fold))
                         .collect();
-                    let fold_fit = fit_element(frames, &in_fit, &knots, Some(&whole.theta))
+                    let fold_fit = fit_element(frames, &in_fit, knots, Some(&whole.theta))
                         .ok_or_else(|| failed("element"))?;
                     let est = run_estimators(&model_from(&fold_fit, &in_fit)?, raw)?;
                     Ok((in_fit, est))
@@ -257,24 +328,44 @@ pub fn fit_taxel(
         runs.into_iter()
             .map(|r| r.join().unwrap_or_else(|_| Err(failed("element"))))
             .collect()
-    });
+    })
+}
+
+/// The RMS error of each estimator over the frames each fold held out, g: of the folds' own
+/// models, and of the nominal models (`nominal_est`), against the measured `force`.
+fn held_out_rms(
+    folds: Vec<Result<FoldRun, CalibrationError>>,
+    nominal_est: &[[f32; EstimatorKind::COUNT]],
+    force: &[f64],
+) -> Result<[[f64; EstimatorKind::COUNT]; 2], CalibrationError> {
     let mut sums = [[0.0f64; EstimatorKind::COUNT]; 2];
     let mut scored = 0usize;
     for fold in folds {
         let (in_fit, calibrated_est) = fold?;
-        for (sum, est) in sums.iter_mut().zip([&calibrated_est, &nominal_est]) {
+        for (sum, est) in sums.iter_mut().zip([&calibrated_est[..], nominal_est]) {
             for (i, e) in est.iter().enumerate() {
                 if !in_fit[i] {
                     for (s, v) in sum.iter_mut().zip(e) {
-                        *s += (f64::from(*v) - frames.force[i]).powi(2);
+                        *s += (f64::from(*v) - force[i]).powi(2);
                     }
                 }
             }
         }
         scored += in_fit.iter().filter(|b| !**b).count();
     }
-    let [held_out, nominal_held_out] = sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt()));
-    let mut model = model_from(&whole, &everything)?;
+    Ok(sums.map(|s| s.map(|v| (v / scored.max(1) as f64).sqrt())))
+}
+
+/// The model the taxel runs, `calibrated` or `nominal` by their held-out errors (in that
+/// order), with its best estimator, its flags, its range and its held-out errors.
+fn chosen_model(
+    calibrated: TaxelModel,
+    nominal: TaxelModel,
+    [held_out, nominal_held_out]: [[f64; EstimatorKind::COUNT]; 2],
+    range_g: f64,
+    whole: &ElementFit,
+) -> TaxelModel {
+    let mut model = calibrated;
     let mut flags = CalibrationFlags::empty();
     let (calibrated_best, nominal_best) = (
         EstimatorKind::best(&held_out),
@@ -303,20 +394,7 @@ pub fn fit_taxel(
     } else {
         held_out
     });
-    let report = TaxelFitReport {
-        taxel: (taxel.row(), taxel.col()),
-        rest_offset_pct: offset,
-        element_rms_pct: whole.rms_pct,
-        mean_miss_pct: whole.mean_miss_pct,
-        levels,
-        range_g,
-        alpha_prior_share: alpha_prior_share(&frames, &everything, &knots, &whole),
-        held_out_g: held_out,
-        nominal_held_out_g: nominal_held_out,
-        estimator: model.estimator.name().to_string(),
-        flags: flags.iter_names().map(|(n, _)| n.to_lowercase()).collect(),
-    };
-    Ok((model, report))
+    model
 }
 
 /// Every on-chip estimator of `model` over the record (its frames, from its raw strain: the
@@ -412,322 +490,6 @@ fn memo_models(
 /// The level the memo's own calibration used (its sum of sinusoids about 25 g).
 const MEMO_LEVEL: usize = 1;
 
-/// An element fitted to a record.
-#[derive(Clone, Debug)]
-struct ElementFit {
-    element: NonlinearMk,
-    /// The internal parameters (see [`element_of`]).
-    theta: Vec<f64>,
-    /// RMS and mean of (measured − predicted) strain over the fitted samples, percent.
-    rms_pct: f64,
-    mean_miss_pct: f64,
-}
-
-/// Internal parameters of a spring: the log mean compliance (%/g) of each segment between its
-/// knots (the first from no load), so its strain rises whatever their values.
-const SPRING_THETA: usize = CURVE_KNOTS;
-/// Where ln α sits in θ (after both springs and ln N₁).
-const ALPHA_THETA: usize = 2 * SPRING_THETA + 1;
-/// Weight of ln α's pull toward element 4,2's, in units of the smoothness rows' weight.
-const ALPHA_PRIOR_WEIGHT: f64 = 5.0;
-
-/// The element of internal parameters `theta` (G₁'s and G₂'s [`SPRING_THETA`] log
-/// compliances, then ln N₁, ln α, ln N₂) with springs tabulated at `knots`; `None` if a curve
-/// cannot be built.
-fn element_of(theta: &[f64], knots: &[f32; CURVE_KNOTS]) -> Option<NonlinearMk> {
-    let curve = |logs: &[f64]| {
-        let mut strain = [0.0f32; CURVE_KNOTS];
-        let (mut e, mut s0) = (0.0f64, 0.0f64);
-        let mut below = 0.0f32;
-        for ((slot, s), log) in strain.iter_mut().zip(knots).zip(logs) {
-            e += (f64::from(*s) - s0) * log.clamp(-12.0, 6.0).exp();
-            s0 = f64::from(*s);
-            // A segment too stiff to show in f32 still rises by one unit in the last place:
-            // every θ is a curve, so a trial step of the fit is scored, not a dead end.
-            *slot = (e as f32).max(below.next_up());
-            below = *slot;
-        }
-        SpringCurve::new(*knots, strain).ok()
-    };
-    let p = |i: usize, lo: f64, hi: f64| theta.get(i).map(|v| v.clamp(lo, hi).exp());
-    let n = 2 * SPRING_THETA;
-    Some(NonlinearMk {
-        g1: SpringLaw::Curve(curve(theta.get(..SPRING_THETA)?)?),
-        g2: SpringLaw::Curve(curve(theta.get(SPRING_THETA..n)?)?),
-        n1: p(n, 2.0, 18.0)?,
-        alpha: p(ALPHA_THETA, -9.0, 9.0)?,
-        n2: p(n + 2, 0.0, 14.0)?,
-    })
-}
-
-/// The force the element reads from `strain_pct` sample by sample (the core's structural
-/// inverse: the strain beyond the dashpots' is the instantaneous spring's).
-fn inverse_force(element: &NonlinearMk, strain_pct: &[f64], dt_s: f64) -> Vec<f64> {
-    let mut inverse = StructuralInverse::new(*element, dt_s);
-    strain_pct.iter().map(|&e| inverse.force_g_f64(e)).collect()
-}
-
-/// The element's strain under the record's force (the stress held over each sample).
-fn simulate(element: &NonlinearMk, force: &[f64], dt_s: f64) -> Vec<f64> {
-    let mut state = NonlinearMkState::default();
-    force
-        .iter()
-        .map(|&f| {
-            let s = f.max(0.0);
-            let e = element.strain_pct(&state, s);
-            element.step(&mut state, s, dt_s);
-            e
-        })
-        .collect()
-}
-
-struct ElementProblem<'a> {
-    frames: &'a Frames,
-    knots: [f32; CURVE_KNOTS],
-    fit_index: Vec<usize>,
-    /// Weight of the smoothness rows.
-    smooth: f64,
-    /// The forward rows' weight: the force a strain error stands for (g/%).
-    forward_g_per_pct: f64,
-    /// The samples the forward rows score (every [`FORWARD_STEP`]-th fitted one).
-    forward_index: Vec<usize>,
-    theta: DVector<f64>,
-    prediction: Option<Vec<f64>>,
-}
-
-impl ElementProblem<'_> {
-    /// The force the element reads from the record's strain (run backwards, as the chip
-    /// does), then the strain it makes under the record's force (run forwards).
-    fn predict(&self, theta: &[f64]) -> Option<Vec<f64>> {
-        let el = element_of(theta, &self.knots)?;
-        let mut p = inverse_force(&el, &self.frames.strain, self.frames.dt_s);
-        p.extend(simulate(&el, &self.frames.force, self.frames.dt_s));
-        Some(p)
-    }
-    /// Rows in grams: the inverse's force error; the forward strain error times
-    /// `forward_g_per_pct` (the inverse alone cannot see a model that creeps too much: at rest
-    /// it reads the negative spring strain as no force, and no error); then each spring's
-    /// second difference of log compliance over its knots (a law the record does not pin
-    /// down is bridged as a power law would be).
-    fn rows(&self, theta: &[f64], pred: &[f64]) -> Vec<f64> {
-        let mut r: Vec<f64> = self
-            .fit_index
-            .iter()
-            .map(|&i| pred[i] - self.frames.force[i])
-            .collect();
-        let n = self.frames.force.len();
-        r.extend(
-            self.forward_index
-                .iter()
-                .map(|&i| self.forward_g_per_pct * (pred[n + i] - self.frames.strain[i])),
-        );
-        for spring in 0..2 {
-            let logs = &theta[spring * SPRING_THETA..(spring + 1) * SPRING_THETA];
-            r.extend(
-                logs.windows(3)
-                    .map(|w| self.smooth * (w[2] - 2.0 * w[1] + w[0])),
-            );
-        }
-        // α sets the permanent deformation's time constant N₁/α (near 800 s on element 4,2):
-        // a 20 s hold and a 40 s recovery barely bend it, and the fit ran α anywhere from 0 to
-        // its bound 8 100 (step loads 2.3 g off). Held near element 4,2's where the record
-        // says little.
-        let ln_alpha = theta[ALPHA_THETA];
-        r.push(self.alpha_prior_weight() * (ln_alpha - NonlinearMk::ELEMENT_4_2.alpha.ln()));
-        r
-    }
-    fn alpha_prior_weight(&self) -> f64 {
-        ALPHA_PRIOR_WEIGHT * self.smooth
-    }
-    /// How much of what the fit knows about ln α is the prior's, 0–1: the prior's precision
-    /// over ln α's marginal precision in the Gauss–Newton approximation at θ (the prior only
-    /// adds to the diagonal there, so the marginal is the record's plus the prior's). 1 where
-    /// the Jacobian cannot be had or the normal matrix is singular (nothing else pins α).
-    fn alpha_prior_share(&self) -> f64 {
-        let Some(j) = self.jacobian() else {
-            return 1.0;
-        };
-        let h = j.transpose() * &j;
-        let Some(cov) = h.try_inverse() else {
-            return 1.0;
-        };
-        let share = self.alpha_prior_weight().powi(2) * cov[(ALPHA_THETA, ALPHA_THETA)];
-        if share.is_finite() {
-            share.clamp(0.0, 1.0)
-        } else {
-            1.0
-        }
-    }
-}
-
-impl LeastSquaresProblem<f64, Dyn, Dyn> for ElementProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.theta.copy_from(x);
-        self.prediction = self.predict(x.as_slice());
-    }
-    fn params(&self) -> DVector<f64> {
-        self.theta.clone()
-    }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        let p = self.prediction.as_ref()?;
-        Some(DVector::from_vec(self.rows(self.theta.as_slice(), p)))
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let base = self.rows(self.theta.as_slice(), self.prediction.as_ref()?);
-        let mut j = DMatrix::zeros(base.len(), self.theta.len());
-        for c in 0..self.theta.len() {
-            // The springs are f32 curves: a step of 10⁻³ in a log compliance moves the strain
-            // far above their rounding (10⁻⁵ did not, and the fit stalled).
-            let h = 1e-3;
-            let mut t = self.theta.clone();
-            t[c] += h;
-            let p = self.predict(t.as_slice())?;
-            for (r, v) in self.rows(t.as_slice(), &p).iter().enumerate() {
-                j[(r, c)] = (v - base[r]) / h;
-            }
-        }
-        Some(j)
-    }
-}
-
-/// Fits eq. 14 with tabulated springs to the samples `in_fit` of `frames` (strain offset
-/// already removed), from `start` or from element 4,2 scaled to the record's compliance.
-fn fit_element(
-    frames: &Frames,
-    in_fit: &[bool],
-    knots: &[f32; CURVE_KNOTS],
-    start: Option<&[f64]>,
-) -> Option<ElementFit> {
-    let starts: Vec<Vec<f64>> = match start {
-        Some(t) => vec![t.to_vec()],
-        None => nominal_starts(frames, knots),
-    };
-    let problem_at = element_problem(frames, in_fit, knots);
-    let solve = |theta: Vec<f64>| {
-        let (solved, report) = LevenbergMarquardt::new()
-            .with_patience(PATIENCE)
-            .minimize(problem_at(&theta));
-        (report.objective_function, solved.theta.as_slice().to_vec())
-    };
-    // The starts on threads (each a whole Levenberg–Marquardt run).
-    let best = std::thread::scope(|scope| {
-        let runs: Vec<_> = starts
-            .into_iter()
-            .map(|theta| scope.spawn(move || solve(theta)))
-            .collect();
-        runs.into_iter()
-            .filter_map(|r| r.join().ok())
-            .filter(|(objective, _)| objective.is_finite())
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-    });
-    let (_, theta) = best?;
-    let element = element_of(&theta, knots)?;
-    let pred = simulate(&element, &frames.force, frames.dt_s);
-    let miss: Vec<f64> = (0..frames.force.len())
-        .filter(|&i| in_fit[i])
-        .map(|i| frames.strain[i] - pred[i])
-        .collect();
-    Some(ElementFit {
-        element,
-        theta,
-        rms_pct: tactile_ident::stats::rms(&miss),
-        mean_miss_pct: tactile_ident::stats::mean(&miss),
-    })
-}
-
-/// The fit's problem over the samples `in_fit` of `frames`, set at a given θ.
-fn element_problem<'a>(
-    frames: &'a Frames,
-    in_fit: &[bool],
-    knots: &[f32; CURVE_KNOTS],
-) -> impl Fn(&[f64]) -> ElementProblem<'a> {
-    let fit_index: Vec<usize> = (0..frames.force.len()).filter(|&i| in_fit[i]).collect();
-    let forward_index: Vec<usize> = fit_index.iter().copied().step_by(FORWARD_STEP).collect();
-    let forward_g_per_pct = top_secant_g_per_pct(frames);
-    let knots = *knots;
-    move |theta: &[f64]| {
-        let mut problem = ElementProblem {
-            frames,
-            knots,
-            smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
-            forward_g_per_pct,
-            forward_index: forward_index.clone(),
-            theta: DVector::from_column_slice(theta),
-            prediction: None,
-            fit_index: fit_index.clone(),
-        };
-        problem.set_params(&DVector::from_column_slice(theta));
-        problem
-    }
-}
-
-/// How much of what `fit` (to the samples `in_fit`) knows of α is its prior's; see
-/// [`ElementProblem::alpha_prior_share`]. Only the reported fit needs it: one more Jacobian.
-fn alpha_prior_share(
-    frames: &Frames,
-    in_fit: &[bool],
-    knots: &[f32; CURVE_KNOTS],
-    fit: &ElementFit,
-) -> f64 {
-    element_problem(frames, in_fit, knots)(&fit.theta).alpha_prior_share()
-}
-
-/// The record's stiffness at the top of its range (g/%): its 99.5th percentiles of force and
-/// of strain (monotone in each other), at least 1.
-fn top_secant_g_per_pct(frames: &Frames) -> f64 {
-    let q = |v: &[f64]| tactile_ident::stats::quantile(v, 0.995);
-    let k = q(&frames.force) / q(&frames.strain);
-    if k.is_finite() {
-        k.max(1.0)
-    } else {
-        1.0
-    }
-}
-
-/// Starts: element 4,2's laws tabulated at `knots`, scaled so their static strain matches the
-/// record's mean strain, with its Kelvin spring as it is and 2.5 times softer, and its
-/// permanent deformation as it is and slower and less recoverable.
-fn nominal_starts(frames: &Frames, knots: &[f32; CURVE_KNOTS]) -> Vec<Vec<f64>> {
-    let m = NonlinearMk::ELEMENT_4_2;
-    let static_pct = |f: f64| m.g1.strain_pct(f) + m.g2.strain_pct(f);
-    let predicted: f64 = frames.force.iter().map(|f| static_pct(f.max(0.0))).sum();
-    let measured: f64 = frames.strain.iter().sum();
-    let k = if predicted > 0.0 && measured > 0.0 {
-        (predicted / measured).clamp(0.05, 20.0)
-    } else {
-        1.0
-    };
-    let logs = |law: SpringLaw, k: f64| {
-        let mut s0 = 0.0f64;
-        knots
-            .iter()
-            .map(|s| {
-                let s = f64::from(*s);
-                let c = (law.strain_pct(s) - law.strain_pct(s0)) / (s - s0) / k;
-                s0 = s;
-                c.max(1e-9).ln()
-            })
-            .collect::<Vec<f64>>()
-    };
-    // The slow branches trade places within a minute's record (a stiff Kelvin branch and a
-    // leaky Maxwell one fit nearly as well as the reverse): start from both sides, and from a
-    // soft and a stiff Kelvin spring.
-    let mut starts = Vec::new();
-    for g2_scale in [1.0, 0.4] {
-        for (alpha, n1) in [(m.alpha, m.n1), (0.1 * m.alpha, 4.0 * m.n1)] {
-            let mut t = logs(m.g1, k);
-            t.extend(logs(m.g2, k * g2_scale));
-            t.extend([n1.ln(), alpha.ln(), (m.n2 * k * g2_scale).ln()]);
-            starts.push(t);
-        }
-    }
-    starts
-}
-
 /// How much a model's compliance grows to pass through (load, strain at load with the
 /// intercept) with none: (ε_static + ε₀)/ε_static, or 1 where that is not a sensible scale
 /// (beyond 0.1–10, or not finite).
@@ -794,6 +556,7 @@ pub fn calibrate_simulated(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use element::simulate;
 
     #[test]
     fn a_record_whose_force_is_not_the_protocols_levels_is_refused() {

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-use crate::diagnose::Report;
+use crate::diagnose::{Diagnosis, Report};
 use tactile_ident::Series;
 
 fn residual(prediction: &[f64], data: &Series) -> Vec<f64> {
@@ -30,112 +30,134 @@ pub fn diagnosis_report(
     let d = &report.diagnosis;
     let r0 = residual(&d.model.baseline_prediction, data);
     let r1 = residual(&d.model.prediction, data);
-    let png = dir.join("residual.png");
-    {
-        let root = BitMapBackend::new(&png, (1200, 1100)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let areas = root.split_evenly((3, 1));
-        // 1. Residual against time, before and after.
-        let every = (r0.len() / 4000).max(1);
-        let t = |i: usize| i as f64 * data.dt_s;
-        let (lo, hi) = r0
-            .iter()
-            .chain(&r1)
-            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-        let mut c = ChartBuilder::on(&areas[0])
-            .caption("residual (model − measured strain)", ("sans-serif", 20))
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0.0..t(r0.len()), lo..hi.max(lo + 1e-6))?;
-        c.configure_mesh()
-            .x_desc("time (s)")
-            .y_desc("strain (%)")
-            .draw()?;
-        for (r, color, name) in [(&r0, RED, "before"), (&r1, BLUE, "after")] {
-            c.draw_series(LineSeries::new(
-                r.iter().enumerate().step_by(every).map(|(i, v)| (t(i), *v)),
-                color,
-            ))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
-        }
-        c.configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
-        // 2. Autocorrelation with bounds.
-        let b = d.residual_before.acf_bound;
-        // The whiteness tests run at most at 200 Hz (tactile_ident::residual::on_common_scale).
-        let lag_s = data
-            .dt_s
-            .max(1.0 / tactile_ident::residual::WHITENESS_RATE_HZ);
-        let mut c = ChartBuilder::on(&areas[1])
-            .caption(
-                "residual autocorrelation (95 % bounds dashed)",
-                ("sans-serif", 20),
-            )
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0.0..50.0 * lag_s, -0.2..1.0)?;
-        c.configure_mesh().x_desc("lag (s)").y_desc("rho").draw()?;
-        for (acf, color, name) in [
-            (&d.residual_before.acf, RED, "before"),
-            (&d.residual_after.acf, BLUE, "after"),
-        ] {
-            c.draw_series(LineSeries::new(
-                acf.iter()
-                    .enumerate()
-                    .map(|(k, v)| ((k + 1) as f64 * lag_s, *v)),
-                color,
-            ))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
-        }
-        for s in [b, -b] {
-            c.draw_series(DashedLineSeries::new(
-                vec![(0.0, s), (50.0 * lag_s, s)],
-                5,
-                5,
-                BLACK.into(),
-            ))?;
-        }
-        c.configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
-        // 3. Residual against load.
-        let (flo, fhi) = data
-            .force_g
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-        let mut c = ChartBuilder::on(&areas[2])
-            .caption("residual against load", ("sans-serif", 20))
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(60)
-            .build_cartesian_2d(flo..fhi.max(flo + 1e-6), lo..hi.max(lo + 1e-6))?;
-        c.configure_mesh()
-            .x_desc("force (g)")
-            .y_desc("strain (%)")
-            .draw()?;
-        c.draw_series(
-            data.force_g
-                .iter()
-                .zip(&r0)
-                .step_by(every * 2)
-                .map(|(f, r)| Circle::new((*f, *r), 1, RED.filled())),
-        )?;
-        c.draw_series(
-            data.force_g
-                .iter()
-                .zip(&r1)
-                .step_by(every * 2)
-                .map(|(f, r)| Circle::new((*f, *r), 1, BLUE.filled())),
-        )?;
-        root.present()?;
+    residual_figure(&dir.join("residual.png"), data, d, &r0, &r1)?;
+    let md = markdown(source, d);
+    std::fs::write(
+        dir.join("diagnosis.json"),
+        serde_json::to_string_pretty(report)?,
+    )?;
+    let path = dir.join("report.md");
+    std::fs::write(&path, md)?;
+    Ok(path)
+}
+
+/// The figure: the residual against time before and after, their autocorrelations with the
+/// whiteness bounds, and the residual against load.
+fn residual_figure(
+    png: &Path,
+    data: &Series,
+    d: &Diagnosis,
+    r0: &[f64],
+    r1: &[f64],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let root = BitMapBackend::new(png, (1200, 1100)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let areas = root.split_evenly((3, 1));
+    // 1. Residual against time, before and after.
+    let every = (r0.len() / 4000).max(1);
+    let t = |i: usize| i as f64 * data.dt_s;
+    let (lo, hi) = r0
+        .iter()
+        .chain(r1)
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    let mut c = ChartBuilder::on(&areas[0])
+        .caption("residual (model − measured strain)", ("sans-serif", 20))
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t(r0.len()), lo..hi.max(lo + 1e-6))?;
+    c.configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("strain (%)")
+        .draw()?;
+    for (r, color, name) in [(r0, RED, "before"), (r1, BLUE, "after")] {
+        c.draw_series(LineSeries::new(
+            r.iter().enumerate().step_by(every).map(|(i, v)| (t(i), *v)),
+            color,
+        ))?
+        .label(name)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
     }
+    c.configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    // 2. Autocorrelation with bounds.
+    let b = d.residual_before.acf_bound;
+    // The whiteness tests run at most at 200 Hz (tactile_ident::residual::on_common_scale).
+    let lag_s = data
+        .dt_s
+        .max(1.0 / tactile_ident::residual::WHITENESS_RATE_HZ);
+    let mut c = ChartBuilder::on(&areas[1])
+        .caption(
+            "residual autocorrelation (95 % bounds dashed)",
+            ("sans-serif", 20),
+        )
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..50.0 * lag_s, -0.2..1.0)?;
+    c.configure_mesh().x_desc("lag (s)").y_desc("rho").draw()?;
+    for (acf, color, name) in [
+        (&d.residual_before.acf, RED, "before"),
+        (&d.residual_after.acf, BLUE, "after"),
+    ] {
+        c.draw_series(LineSeries::new(
+            acf.iter()
+                .enumerate()
+                .map(|(k, v)| ((k + 1) as f64 * lag_s, *v)),
+            color,
+        ))?
+        .label(name)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+    }
+    for s in [b, -b] {
+        c.draw_series(DashedLineSeries::new(
+            vec![(0.0, s), (50.0 * lag_s, s)],
+            5,
+            5,
+            BLACK.into(),
+        ))?;
+    }
+    c.configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    // 3. Residual against load.
+    let (flo, fhi) = data
+        .force_g
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    let mut c = ChartBuilder::on(&areas[2])
+        .caption("residual against load", ("sans-serif", 20))
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(flo..fhi.max(flo + 1e-6), lo..hi.max(lo + 1e-6))?;
+    c.configure_mesh()
+        .x_desc("force (g)")
+        .y_desc("strain (%)")
+        .draw()?;
+    c.draw_series(
+        data.force_g
+            .iter()
+            .zip(r0)
+            .step_by(every * 2)
+            .map(|(f, r)| Circle::new((*f, *r), 1, RED.filled())),
+    )?;
+    c.draw_series(
+        data.force_g
+            .iter()
+            .zip(r1)
+            .step_by(every * 2)
+            .map(|(f, r)| Circle::new((*f, *r), 1, BLUE.filled())),
+    )?;
+    root.present()?;
+    Ok(())
+}
+
+/// The report's text: the verdict, the summary and the candidates' table, and the figure.
+fn markdown(source: &Path, d: &Diagnosis) -> String {
     let mut md = String::new();
     let _ = writeln!(md, "# Diagnosis of `{}`\n", source.display());
     let _ = writeln!(
@@ -168,11 +190,5 @@ pub fn diagnosis_report(
         md,
         "\n![residual, autocorrelation, residual against load](residual.png)\n"
     );
-    std::fs::write(
-        dir.join("diagnosis.json"),
-        serde_json::to_string_pretty(report)?,
-    )?;
-    let path = dir.join("report.md");
-    std::fs::write(&path, md)?;
-    Ok(path)
+    md
 }

@@ -1,0 +1,256 @@
+//! The feedback and its margins: the loop's frequency grid, the filter on the error, the
+//! feedback's response, the model's variants the margins must hold on, and the search's
+//! bisection.
+
+use num_complex::Complex64;
+use serde::Serialize;
+use tactile_core::tracking::TrackingConfig;
+use tactile_core::CONTROL_PERIOD_S;
+
+use super::*;
+use crate::identify::ApplicatorModel;
+
+/// Gain and phase margins of a loop given by its response on a frequency grid (first to last
+/// point): the smallest 1/|L| where the phase crosses −180° (∞ where it never does) and the
+/// smallest distance of the phase from −180° where |L| crosses 1 (180 where it never does).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Margins {
+    pub gain: f64,
+    pub phase_deg: f64,
+    /// The sensitivity's peak up to [`BAND_HZ`], dB: how much the feedback amplifies what the
+    /// feed-forward leaves there (a phase margin of 50° alone let the loop lift 40 Hz by 3.7 dB).
+    pub band_sensitivity_db: f64,
+}
+
+/// The band the closed loop must be flat in, Hz.
+pub const BAND_HZ: f64 = 40.0;
+
+/// The margins of the loop `l` given on [`loop_grid_hz`].
+pub fn margins(l: &[Complex64]) -> Margins {
+    let band_sensitivity_db = l
+        .iter()
+        .enumerate()
+        .take_while(|(i, _)| grid_hz(*i) <= BAND_HZ)
+        .map(|(_, l)| -20.0 * (1.0 + l).norm().log10())
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mut gain = f64::INFINITY;
+    let mut phase_deg: f64 = 180.0;
+    for w in l.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        // The phase crossing −180°: the imaginary part changes sign with a negative real part.
+        if a.im.signum() != b.im.signum() && (a.re < 0.0 || b.re < 0.0) {
+            let t = a.im / (a.im - b.im);
+            let re = a.re + t * (b.re - a.re);
+            if re < 0.0 {
+                gain = gain.min(1.0 / -re);
+            }
+        }
+        if (a.norm() - 1.0).signum() != (b.norm() - 1.0).signum() {
+            let p = (180.0 + b.arg().to_degrees()).rem_euclid(360.0);
+            phase_deg = phase_deg.min(p.min(360.0 - p));
+        }
+    }
+    Margins {
+        gain,
+        phase_deg,
+        band_sensitivity_db,
+    }
+}
+
+/// The loop's frequencies: [`GRID_POINTS`] from 0.1 Hz to just under the Nyquist rate,
+/// log-spaced.
+pub fn loop_grid_hz() -> Vec<f64> {
+    (0..GRID_POINTS).map(grid_hz).collect()
+}
+
+const GRID_POINTS: usize = 2000;
+
+fn grid_hz(i: usize) -> f64 {
+    let (lo, hi) = (0.1f64, 0.49 / CONTROL_PERIOD_S);
+    lo * (hi / lo).powf(i as f64 / (GRID_POINTS - 1) as f64)
+}
+
+/// The filter the error passes before the feedback's gains.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum ErrorFilter {
+    /// None.
+    Pass,
+    /// A notch at `hz` (zeros on the unit circle there) with poles damped `damping`: the wider
+    /// it is, the more of the mode's uncertain frequency it covers and the more phase it costs
+    /// below.
+    Notch { hz: f64, damping: f64 },
+    /// A double real pole at `hz`.
+    Lowpass { hz: f64 },
+}
+
+impl ErrorFilter {
+    /// (b₀, b₁, b₂, a₁, a₂) of the discrete biquad (the notch by the bilinear transform,
+    /// prewarped to its frequency; the poles matched, e^(−ωT)).
+    pub fn biquad(&self) -> [f64; 5] {
+        match *self {
+            ErrorFilter::Pass => tactile_core::tracking::FEEDBACK_PASS.map(f64::from),
+            ErrorFilter::Notch { hz, damping } => {
+                let w = 2.0 * std::f64::consts::PI * hz;
+                let k = w / (w * CONTROL_PERIOD_S / 2.0).tan();
+                let a0 = k * k + 2.0 * damping * w * k + w * w;
+                let (n0, n1) = (k * k + w * w, 2.0 * (w * w - k * k));
+                [
+                    n0 / a0,
+                    n1 / a0,
+                    n0 / a0,
+                    n1 / a0,
+                    (k * k - 2.0 * damping * w * k + w * w) / a0,
+                ]
+            }
+            ErrorFilter::Lowpass { hz } => {
+                let a = (-2.0 * std::f64::consts::PI * hz * CONTROL_PERIOD_S).exp();
+                [(1.0 - a) * (1.0 - a), 0.0, 0.0, -2.0 * a, a * a]
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for ErrorFilter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ErrorFilter::Pass => write!(f, "no filter"),
+            ErrorFilter::Notch { hz, damping } => {
+                write!(f, "a notch at {hz:.0} Hz (poles damped {damping})")
+            }
+            ErrorFilter::Lowpass { hz } => write!(f, "a double pole at {hz:.0} Hz"),
+        }
+    }
+}
+
+/// (b₀ + b₁z⁻¹ + b₂z⁻²)/(1 + a₁z⁻¹ + a₂z⁻²) at `z_inv`.
+pub(super) fn biquad_at([b0, b1, b2, a1, a2]: [f64; 5], z_inv: Complex64) -> Complex64 {
+    (b0 + z_inv * (b1 + z_inv * b2)) / (1.0 + z_inv * (a1 + z_inv * a2))
+}
+
+/// The feedback's response at `hz`: (kp + ki·T/(1 − z⁻¹))·F(z)·z⁻¹, F the biquad on the
+/// error and z⁻¹ the tick the loop waits for the reading; as `tactile_core::tracking` runs it.
+fn feedback_at(kp: f64, ki_per_s: f64, biquad: [f64; 5], hz: f64) -> Complex64 {
+    let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * CONTROL_PERIOD_S);
+    (kp + ki_per_s * CONTROL_PERIOD_S / (1.0 - z_inv)) * biquad_at(biquad, z_inv) * z_inv
+}
+
+/// The feedback a controller table runs at `load_g` (its share there), as [`Feedback::response`]
+/// computes a design's: to check a table on a plant it was not designed on.
+pub fn table_feedback(c: &TrackingConfig, load_g: f32) -> impl Fn(f64) -> Complex64 {
+    let share = f64::from(c.series_at(load_g).1);
+    let (kp, ki) = (share * f64::from(c.kp), share * f64::from(c.ki_per_s));
+    let biquad = c.feedback_filter.map(f64::from);
+    move |hz| feedback_at(kp, ki, biquad, hz)
+}
+
+/// The controller's feedback: what the margins are computed for.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Feedback {
+    pub kp: f64,
+    pub ki_per_s: f64,
+    pub filter: ErrorFilter,
+}
+
+impl Feedback {
+    /// The gains times `share` (a load's feedback share), the filter unchanged.
+    pub fn scaled(self, share: f64) -> Feedback {
+        Feedback {
+            kp: share * self.kp,
+            ki_per_s: share * self.ki_per_s,
+            ..self
+        }
+    }
+
+    /// The response at `hz` ([`feedback_at`]).
+    pub fn response(&self, hz: f64) -> Complex64 {
+        feedback_at(self.kp, self.ki_per_s, self.filter.biquad(), hz)
+    }
+}
+
+/// The margins of `feedback` on `plant` (gauge g per drive g at each hertz).
+pub fn loop_margins(feedback: Feedback, plant: impl Fn(f64) -> Complex64) -> Margins {
+    let l: Vec<Complex64> = loop_grid_hz()
+        .into_iter()
+        .map(|hz| feedback.response(hz) * plant(hz))
+        .collect();
+    margins(&l)
+}
+
+/// `m` (first) and its variants: the modes' damping at [`DAMPING_FLOOR`] of the identified
+/// (half that at an `extrapolated` load), the contact mode's, both, the beam's, and the beam's
+/// with a tick more delay; each parameter moved by ±[`PLANT_TOLERANCE`] in turn (the gain,
+/// each mode's frequency and damping, the amplifier's pole).
+pub fn variants(m: &ApplicatorModel, extrapolated: bool) -> Vec<ApplicatorModel> {
+    let mut out = vec![*m];
+    let floor = if extrapolated {
+        0.5 * DAMPING_FLOOR
+    } else {
+        DAMPING_FLOOR
+    };
+    let mut v = *m;
+    v.modes[0].damping_ratio *= floor;
+    out.push(v);
+    v.modes[1].damping_ratio *= floor;
+    out.push(v);
+    v = *m;
+    v.modes[1].damping_ratio *= floor;
+    out.push(v);
+    // A tick more delay, with the beam's damping at the floor as well: the fitted delay runs
+    // negative (a lead of 0.6–0.8 ms where the hold alone delays half a tick) and the fitted
+    // phase at the beam's mode leads the friction-free plant's by 40–100°.
+    v.delay_s += CONTROL_PERIOD_S;
+    out.push(v);
+    for f in [1.0 - PLANT_TOLERANCE, 1.0 + PLANT_TOLERANCE] {
+        let mut v = *m;
+        v.gain *= f;
+        out.push(v);
+        v = *m;
+        v.pole_hz *= f;
+        out.push(v);
+        for k in 0..2 {
+            v = *m;
+            v.modes[k].hz *= f;
+            out.push(v);
+            v = *m;
+            v.modes[k].damping_ratio *= f;
+            out.push(v);
+        }
+    }
+    out
+}
+
+/// The least margins of a feedback (its response on [`loop_grid_hz`]) over plants given by
+/// theirs.
+pub(super) fn worst_margins(plants: &[Vec<Complex64>], feedback_on_grid: &[Complex64]) -> Margins {
+    plants.iter().fold(
+        Margins {
+            gain: f64::INFINITY,
+            phase_deg: 180.0,
+            band_sensitivity_db: f64::NEG_INFINITY,
+        },
+        |w, p| {
+            let l: Vec<Complex64> = feedback_on_grid.iter().zip(p).map(|(c, p)| c * p).collect();
+            let m = margins(&l);
+            Margins {
+                gain: w.gain.min(m.gain),
+                phase_deg: w.phase_deg.min(m.phase_deg),
+                band_sensitivity_db: w.band_sensitivity_db.max(m.band_sensitivity_db),
+            }
+        },
+    )
+}
+
+/// The largest x in [0, `hi`] that `passes` (which holds at 0 and fails past some point), by
+/// bisection to 2⁻²⁴ of `hi`.
+pub(super) fn largest_passing(hi: f64, passes: impl Fn(f64) -> bool) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, hi);
+    for _ in 0..24 {
+        let mid = 0.5 * (lo + hi);
+        if passes(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}

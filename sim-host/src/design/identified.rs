@@ -1,0 +1,292 @@
+//! The identification the design reads: the excitation run at each preload (on the simulated
+//! rig, or read from records), the still holds' static line and the models fitted there, and
+//! the preloads left out and why.
+
+use serde::Serialize;
+use tactile_core::profile::Protocol;
+
+use super::models::upper_median;
+use super::*;
+use crate::identify::{ApplicatorModel, IdentifyError};
+use crate::rig::RigConfig;
+use crate::scenario::run_protocol;
+
+/// What the excitation at several preloads identified.
+#[derive(Clone, Debug, Serialize)]
+pub struct Identified {
+    /// The plausible models, in increasing load.
+    pub models: Vec<LoadModel>,
+    /// The static line of the holds: gain and stiction (g at the probe).
+    pub static_gain: f64,
+    pub stiction_g: f64,
+    /// The gauge's noise, RMS of one reading: the median of the holds'.
+    pub gauge_noise_g: f64,
+    /// The preloads whose excitation gave no model the design could use, and why: the design
+    /// extrapolates past them or interpolates across them.
+    pub left_out: Vec<LeftOut>,
+}
+
+/// A preload the design left out, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LeftOut {
+    pub load_g: f32,
+    pub why: String,
+}
+
+impl std::fmt::Display for LeftOut {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} g: {}", self.load_g, self.why)
+    }
+}
+
+/// "; left out: A; B" for an error's message ("" for none).
+pub(super) fn left_out_list(left_out: &[LeftOut]) -> String {
+    if left_out.is_empty() {
+        return String::new();
+    }
+    let each: Vec<String> = left_out.iter().map(ToString::to_string).collect();
+    format!("; left out: {}", each.join("; "))
+}
+
+/// One preload's excitation as the design reads it: the measured response and the still
+/// hold before the chirps.
+#[derive(Clone, Debug)]
+pub struct Excited {
+    pub load_g: f32,
+    /// The drive and gauge over the chirp's periods (the response is their ratio).
+    pub means: crate::identify::PeriodMeans,
+    pub hold: crate::identify::Hold,
+}
+
+/// Runs the excitation at each of [`DESIGN_LOADS_G`] the loop takes as a command (within
+/// `supervisor::GAUGE_COMMAND_SHARE` of the gauge's top reading: a gauge twice as sensitive as
+/// the memo's reads up to 67.5 g, and the 75 g preload's hold put it at its rail before the
+/// chirp began, which refused the design; the loads above are extrapolated from the heaviest
+/// identified) on a rig built from `config` (the loop that holds the preload is the one
+/// `config` has) and identifies the applicator from them ([`identified_from`]); a preload
+/// whose excitation cannot be identified, even with its chirp halved, is left out.
+pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
+    let top_g = tactile_core::supervisor::GAUGE_COMMAND_SHARE * config.firmware.gauge.force_max_g;
+    let runs: Vec<Result<Excited, DesignError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = DESIGN_LOADS_G
+            .iter()
+            .filter(|&&load_g| load_g <= top_g)
+            .map(|&load_g| {
+                let config = RigConfig {
+                    scan_array: false,
+                    ..config.clone()
+                };
+                scope.spawn(move || excite(config, load_g))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            })
+            .collect()
+    });
+    let (mut excited, mut left_out) = (Vec::new(), Vec::new());
+    for run in runs {
+        match run {
+            Ok(e) => excited.push(e),
+            Err(e) => left_out.push(left_out_of(e)?),
+        }
+    }
+    identified_from(&excited, left_out)
+}
+
+/// What a preload's failed excitation says for the design: a [`LeftOut`] where the excitation
+/// ran and gave nothing to identify (the probe left the finger, the supervisor stopped it, the
+/// drive did not move, the hold was not at the preload), the error itself where the record is
+/// not one of the excitation (no drive column, cut short, another rate or protocol).
+pub fn left_out_of(e: DesignError) -> Result<LeftOut, DesignError> {
+    match e {
+        DesignError::Identify { load_g, source }
+            if matches!(
+                source,
+                IdentifyError::LostContact { .. }
+                    | IdentifyError::Faulted { .. }
+                    | IdentifyError::NoDrive { .. }
+                    | IdentifyError::HoldOffPreload { .. }
+                    | IdentifyError::HoldDrive { .. }
+            ) =>
+        {
+            Ok(LeftOut {
+                load_g,
+                why: source.to_string(),
+            })
+        }
+        other => Err(other),
+    }
+}
+
+/// The design's reading of one record of the excitation (a board's, or the QEMU firmware's
+/// identification session, `tactile experiment excitation`): its preload is its command during
+/// the hold.
+pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, DesignError> {
+    let not_excitation = DesignError::NotExcitation {
+        settle_s: tactile_core::profile::EXCITATION_SETTLE_S,
+    };
+    if rec.column("drive_g").is_none() {
+        return Err(DesignError::Record(IdentifyError::NoDriveColumn));
+    }
+    let load_g = crate::identify::preload_of_record(rec).ok_or(not_excitation)?;
+    let means = crate::identify::period_means_of_record(rec)
+        .map_err(|source| DesignError::Identify { load_g, source })?;
+    let hold = crate::identify::hold_means_of_record(rec)
+        .ok_or(IdentifyError::NoHold)
+        .and_then(|h| h.at_preload(load_g))
+        .map_err(|source| DesignError::Identify { load_g, source })?;
+    Ok(Excited {
+        load_g,
+        means,
+        hold,
+    })
+}
+
+/// The models fitted at each preload, with the static gain and stiction of the holds; loads
+/// whose fit does not converge, is not [`plausible`] or puts the amplifier elsewhere than the
+/// others' ([`one_amplifier`]) are left out, after those the caller left out (`left_out`); at
+/// least two must remain.
+pub fn identified_from(
+    excited: &[Excited],
+    mut left_out: Vec<LeftOut>,
+) -> Result<Identified, DesignError> {
+    let mut preloads: Vec<f32> = excited.iter().map(|e| e.load_g).collect();
+    preloads.sort_by(f32::total_cmp);
+    preloads.dedup();
+    if preloads.len() < 2 {
+        return Err(DesignError::TooFewPreloads {
+            have: preloads.len(),
+            left_out,
+        });
+    }
+    let holds: Vec<(f64, f64)> = excited
+        .iter()
+        .map(|e| (e.hold.drive_g, e.hold.gauge_g))
+        .collect();
+    let gauge_noise_g =
+        upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
+    let (static_gain, stiction_g) =
+        crate::identify::static_line(&holds).ok_or(DesignError::NoStaticLine)?;
+    // One fit per preload, side by side (each is a few hundred milliseconds).
+    let fits: Vec<Option<ApplicatorModel>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = excited
+            .iter()
+            .map(|e| {
+                scope.spawn(move || {
+                    // The linear fit starts the one with the friction simulated (seconds).
+                    let linear = e.means.fit_less_friction(stiction_g)?;
+                    Some(
+                        crate::stick_slip::fit_with_friction(&e.means, stiction_g, &linear)
+                            .unwrap_or(linear),
+                    )
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().ok().flatten())
+            .collect()
+    });
+    let mut models = Vec::with_capacity(excited.len());
+    for (e, model) in excited.iter().zip(fits) {
+        match model {
+            Some(model) => match implausible(&model) {
+                None => models.push(LoadModel {
+                    load_g: e.load_g,
+                    model,
+                    static_gain,
+                }),
+                Some(why) => left_out.push(LeftOut {
+                    load_g: e.load_g,
+                    why: format!("the fitted model is not an applicator's, {why} ({model})"),
+                }),
+            },
+            None => left_out.push(LeftOut {
+                load_g: e.load_g,
+                why: "no model converged on its response".into(),
+            }),
+        }
+    }
+    models.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
+    let kept = one_amplifier(&models);
+    for m in models
+        .iter()
+        .filter(|m| !kept.iter().any(|k| k.load_g == m.load_g))
+    {
+        left_out.push(LeftOut {
+            load_g: m.load_g,
+            why: format!(
+                "its amplifier's pole at {:.0} Hz is over {POLE_SPREAD}× off the other loads'",
+                m.model.pole_hz
+            ),
+        });
+    }
+    left_out.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
+    if kept.len() < 2 {
+        return Err(DesignError::TooFewModels {
+            have: kept.len(),
+            left_out,
+        });
+    }
+    Ok(Identified {
+        models: kept,
+        static_gain,
+        stiction_g,
+        gauge_noise_g,
+        left_out,
+    })
+}
+
+/// The design's reading of a run of [`Protocol::design_excitation`] (the simulator's, or the
+/// firmware's decoded log) at 1 kHz.
+pub fn excited_of_run(
+    ticks: &[crate::rig::TickRecord],
+    protocol: Protocol,
+    actuator: &tactile_core::control::ActuatorConfig,
+) -> Result<Excited, DesignError> {
+    let Protocol::Excitation { preload_g, .. } = protocol else {
+        return Err(DesignError::Record(IdentifyError::NotTheExcitation));
+    };
+    let means = crate::identify::period_means(ticks, protocol, actuator).map_err(|source| {
+        DesignError::Identify {
+            load_g: preload_g,
+            source,
+        }
+    })?;
+    let hold = crate::identify::hold_means(ticks, actuator)
+        .ok_or(IdentifyError::NoHold)
+        .and_then(|h| h.at_preload(preload_g))
+        .map_err(|source| DesignError::Identify {
+            load_g: preload_g,
+            source,
+        })?;
+    Ok(Excited {
+        load_g: preload_g,
+        means,
+        hold,
+    })
+}
+
+/// The excitation at one preload on the simulated rig ([`Protocol::design_excitation`]), its
+/// chirp halved while the probe leaves the finger or the gauge leaves its range.
+fn excite(config: RigConfig, load_g: f32) -> Result<Excited, DesignError> {
+    let mut protocol = Protocol::design_excitation(load_g);
+    loop {
+        let run = run_protocol("excitation", protocol, config.clone(), false, |_| {})?;
+        match excited_of_run(&run.ticks, protocol, &config.firmware.actuator) {
+            Err(DesignError::Identify {
+                source: IdentifyError::LostContact { .. } | IdentifyError::Faulted { .. },
+                ..
+            }) if matches!(protocol, Protocol::Excitation { amplitude_g, .. } if amplitude_g > 0.3) => {
+                if let Protocol::Excitation { amplitude_g, .. } = &mut protocol {
+                    *amplitude_g *= 0.5;
+                }
+            }
+            other => return other,
+        }
+    }
+}
