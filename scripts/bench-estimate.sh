@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Measures, on measured records, the chip's force estimate against a ridge FIR inverse a user
-# would write in numpy, on the same split (issue 47, part 4): per record, `tactile diagnose` on
+# would write in numpy, on the same split: per record, `tactile diagnose` on
 # the first 60 % writes a table, `tactile estimate` runs the chip's estimators on the last 40 %,
 # and the ridge is trained on the first 60 % and scored on the last 40 %. Prints a markdown table
 # (RMS force error, g) and a closing line: mean chip / ridge ratio, records with chip <= ridge.

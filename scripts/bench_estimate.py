@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The chip's force estimate against a ridge FIR inverse on measured records (issue 47, part 4).
+"""The chip's force estimate against a ridge FIR inverse on measured records.
 
 Per record, the workflow of a user with a sensor and a load cell: the first 60 % of the samples to
 `tactile diagnose --table`, the last 40 % to `tactile estimate` with that table; each estimator's

@@ -1,4 +1,4 @@
-//! Commands from the host to a running board (issue 14): small frames with sequence numbers,
+//! Commands from the host to a running board: small frames with sequence numbers,
 //! written by the host's `tactile board` (through [`Command::encode`]) and read on the chip by
 //! [`Decoder`], one byte at a time, without allocation or panic.
 //!

@@ -67,7 +67,7 @@ pub enum Protocol {
     /// A bench record like `../shared/data`'s: 80 s of the memo's sum of sinusoids about
     /// 25 g, 80 s of pseudo-random steps in 40–60 g, 20 s at rest.
     BenchRecord { seed: u64 },
-    /// Dynamic calibration of one taxel (issue 7): [`CALIBRATION_REST_S`] at rest (the strain
+    /// Dynamic calibration of one taxel: [`CALIBRATION_REST_S`] at rest (the strain
     /// there is the taxel's offset), then the memo's sum of sinusoids about each of
     /// [`CALIBRATION_OFFSETS_G`] in turn, `per_offset_s` each, the sinusoids' amplitude
     /// [`CALIBRATION_AMPLITUDE`] of the offset (so the load never leaves the finger), slewed
@@ -79,7 +79,7 @@ pub enum Protocol {
     /// Commands below 10 g (where the memo's fixed-gain loop lost contact): 8, 6, 4 and 2 g,
     /// each applied from rest (1 s at zero) and held `hold_s`.
     LowForce { hold_s: f32 },
-    /// Identification of the applicator (issue 13): the command ramps to `preload_g` and holds
+    /// Identification of the applicator: the command ramps to `preload_g` and holds
     /// it, the loop keeping the probe on the finger; after [`EXCITATION_SETTLE_S`] the drive
     /// gets `periods` periods of a chirp of `amplitude_g` added after the loop's filter
     /// ([`CommandSource::chirp`]), sweeping linearly from [`EXCITATION_START_HZ`]

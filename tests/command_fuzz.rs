@@ -1,4 +1,4 @@
-//! The command decoder under fuzzing (issue 14): arbitrary byte streams never panic it, frames
+//! The command decoder under fuzzing: arbitrary byte streams never panic it, frames
 //! survive noise around them, and no corrupted frame is read as a command that was not sent.
 
 use proptest::prelude::*;

@@ -1,4 +1,4 @@
-//! The designed controller's touch-down (issue 13): the probe starts at rest 0, 0.2 or 1 mm
+//! The designed controller's touch-down: the probe starts at rest 0, 0.2 or 1 mm
 //! off the finger and the command steps from 0 to 2, 5 or 10 g; prints, per case, when the
 //! probe met the finger, the contact force's overshoot over the command and its mean over the
 //! last 0.2 s of a 3 s run (`metrics::touch_down`).

@@ -1,4 +1,4 @@
-//! `tactile board` (issue 14): drives a board from the host through a
+//! `tactile board`: drives a board from the host through a
 //! [`Transport`](tactile_decode::transport::Transport) — commands down, the defmt stream up,
 //! decoded as it arrives into the project's records, with a progress bar and a live summary
 //! line (force, error, faults, frames lost). The board is the QEMU firmware (`cargo fw-qemu`

@@ -1,4 +1,4 @@
-//! Dynamic calibration of a taxel (issues 7 and 15): from a record of the calibration protocol
+//! Dynamic calibration of a taxel: from a record of the calibration protocol
 //! (`Protocol::CALIBRATION`: rest, then the memo's sum of sinusoids about several load levels,
 //! the applicator over that taxel), fit the models each on-chip estimator needs, score every
 //! estimator on parts of the record its fit did not see, and write the core's [`TaxelModel`]

@@ -453,7 +453,7 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
     Ok(path)
 }
 
-/// The designed force controller (issue 13) beside A1 on the same rig: the design, the
+/// The designed force controller beside A1 on the same rig: the design, the
 /// closed-loop magnitude, the force steps and the touch-downs, with the designed loop's plots.
 fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crate::Error> {
     let a1 = RigConfig {

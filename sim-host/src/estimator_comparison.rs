@@ -1,4 +1,4 @@
-//! Force estimators side by side on the simulator (issue 7): the elastic model, the memo's
+//! Force estimators side by side on the simulator: the elastic model, the memo's
 //! inverted second-order model, the scheduled inverse and the observer — the core's
 //! [`TaxelEstimators`], exactly as the firmware runs them per taxel at the scan rate — with
 //! the memo's nominal models and with each taxel's own dynamic calibration, on four taxels of

@@ -1,4 +1,4 @@
-//! Fingers to calibrate and score the estimators on (issue 15): the memo's element 4,2 and
+//! Fingers to calibrate and score the estimators on: the memo's element 4,2 and
 //! fingers of the same physics (eq. 14) whose springs stiffen by other laws, with other α and
 //! relaxation times. Each taxel of a finger varies about its element as the simulator's do.
 

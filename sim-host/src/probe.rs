@@ -1,4 +1,4 @@
-//! A board over a debug probe (issue 14): probe-rs, as a library, attaches to the chip, flashes
+//! A board over a debug probe: probe-rs, as a library, attaches to the chip, flashes
 //! the firmware if asked, finds the RTT control block the firmware set up, and carries the
 //! defmt up-channel 0 and the command down-channel 0 as a [`Transport`]. Nothing here is
 //! exercised without a board; what it feeds (`tactile board`'s session, the live decoder) is

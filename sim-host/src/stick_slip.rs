@@ -1,4 +1,4 @@
-//! The applicator's model refined with the motor's Coulomb friction in it (issue 13): the
+//! The applicator's model refined with the motor's Coulomb friction in it: the
 //! chirp's record simulated tick by tick through the model, the motor sticking where the
 //! friction can hold it, and the model's parameters fitted to the simulated gauge's spectrum.
 //!

@@ -1,4 +1,4 @@
-//! Force estimators that run per taxel at the scan rate (issue 7), and the per-taxel
+//! Force estimators that run per taxel at the scan rate, and the per-taxel
 //! calibration table the firmware reads at start-up.
 //!
 //! - [`InverseEstimator`]: the memo's inverted second-order model, clamped at zero (the

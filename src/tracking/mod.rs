@@ -1,4 +1,4 @@
-//! The designed force controller (issue 13): two degrees of freedom, each doing what it can do
+//! The designed force controller: two degrees of freedom, each doing what it can do
 //! on this plant.
 //!
 //! - **Reference model**: the (slew-limited) command through a triple real pole at

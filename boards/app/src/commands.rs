@@ -1,4 +1,4 @@
-//! The board's end of the command channel (issue 14): bytes from the host's down-channel
+//! The board's end of the command channel: bytes from the host's down-channel
 //! (RTT on a board, a script under QEMU) through the core's [`Decoder`], each command checked
 //! against the board's [`Limits`] and answered with a [`Reply`] carrying its sequence number.
 //! What a command asks of the tasks (start a run, stop, clear faults) comes back as an

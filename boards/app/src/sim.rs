@@ -233,7 +233,7 @@ pub fn runs_from_cmdline(cmdline: &[u8]) -> &'static [FilRun] {
     session_from_cmdline(cmdline).runs_of(only_run_from_cmdline(cmdline))
 }
 
-/// Length of the pseudo-random run, s (issue 5 asks for at least 10 s per protocol).
+/// Length of the pseudo-random run, s (at least 10 s per protocol).
 pub const FIL_PSEUDO_RANDOM_S: f32 = 10.0;
 
 /// The fault runs hold 30 g (reached by 0.3 s at the step slew) and inject at this time.

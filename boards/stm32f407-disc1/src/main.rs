@@ -8,7 +8,7 @@
 //! | `scan` | 2 | TIM2 update, 4 kHz (250 µs dwell) | sample the selected taxel, move the multiplexer on |
 //! | `telemetry` | 1 | spawned by `control` | drains the bounded queues to defmt over RTT |
 //!
-//! Commands (issue 14) come down RTT down-channel 0 (`commands`); `control` takes the bytes
+//! Commands come down RTT down-channel 0 (`commands`); `control` takes the bytes
 //! that have arrived at the start of each tick (a copy of at most [`DOWN_BYTES_PER_TICK`]:
 //! never a wait) through `tactile_firmware::CommandPort`, answers each over defmt with its
 //! sequence number, and starts, holds or stops the runs they ask for. At reset it runs the
@@ -97,7 +97,7 @@ type Port = tactile_firmware::CommandPort<{ tactile_firmware::LOADED_TABLE_BYTES
 
 /// CCM RAM, 64 KiB the CPU alone reaches (no DMA: nothing here is a DMA buffer) and that
 /// nothing else uses: the command port (its two table buffers, about 7 KB) and the copy of a
-/// loaded calibration table the scan task rebuilds its estimators from. Static RAM (issue 5's
+/// loaded calibration table the scan task rebuilds its estimators from. Static RAM (the
 /// 32 KiB) is spoken for.
 #[cfg(target_os = "none")]
 mod ccm {

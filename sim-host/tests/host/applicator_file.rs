@@ -1,4 +1,4 @@
-//! `--applicator FILE` (issue 13, item 4): the memo's rig as a file, and files that describe
+//! `--applicator FILE`: the memo's rig as a file, and files that describe
 //! no rig refused with the line and column or the parameter at fault.
 
 use crate::common;
@@ -132,7 +132,7 @@ fn tactile_applicator_writes_the_firmwares_form_or_refuses_with_the_reason() {
     assert!(!none.exists());
 }
 
-/// The gauge's scale and noise are the file's (issue 13, item 4: "half the gauge
+/// The gauge's scale and noise are the file's ("half the gauge
 /// sensitivity"): on the memo's gauge (14 g/V, 0.14 g) and on the light rig's, half as
 /// sensitive (28 g/V, 0.28 g), the firmware's reading of a probe pressed by a steady drive is
 /// the contact force, and with the probe still off the finger its spread is the file's noise.

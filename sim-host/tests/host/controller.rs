@@ -1,4 +1,4 @@
-//! The designed force controller (issue 13) on the memo's rig: identified from the excitation
+//! The designed force controller on the memo's rig: identified from the excitation
 //! at six preloads, designed on the host, run by the core's loop on the simulator, against A1
 //! on the same rig. Bounds are the figures measured when it was built with a margin
 //! (`cargo run --release -p sim-host --example design_controller` prints them); the issue's

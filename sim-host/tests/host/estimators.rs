@@ -1,4 +1,4 @@
-//! Force estimators and dynamic calibration on the simulator (issue 7).
+//! Force estimators and dynamic calibration on the simulator.
 
 use std::sync::LazyLock;
 
@@ -37,7 +37,7 @@ fn calibrated_estimators_beat_the_memos_and_the_best_reaches_half_a_gram() {
     // Scheduling over load beats one second-order model on the step loads (10–80 g).
     let steps = &t.calibrated_g[1];
     assert!(steps[2] < steps[1], "{steps:?}");
-    // The observer, calibrated, is the best on chip: issue 15's targets (0.3 g on
+    // The observer, calibrated, is the best on chip: the estimator targets (0.3 g on
     // pseudo-random and the sinusoids, 0.5 g on the step loads to 80 g; 0.05, 0.14 and 0.05 g
     // measured), and the 0.18 g the project's finger had before.
     assert!(

@@ -1,4 +1,4 @@
-//! The applicator identified from the excitation protocol's record (issue 13, item 1): the
+//! The applicator identified from the excitation protocol's record: the
 //! measured response against the plant's own linearization, and the picked resonances against
 //! the plant's, on the memo's applicator and on one with other modes.
 

@@ -1,4 +1,4 @@
-//! How the host reaches a board (issue 14): the defmt stream up, command bytes down. `tactile
+//! How the host reaches a board: the defmt stream up, command bytes down. `tactile
 //! board` works through [`Transport`] alone, so it is tested end to end on the QEMU firmware
 //! ([`Qemu`]) and on a saved log ([`Replay`]); a probe's RTT (probe-rs) is one more
 //! implementation.

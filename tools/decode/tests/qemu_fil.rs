@@ -278,8 +278,8 @@ fn is_this_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun, rig: RigCon
     assert!(truth == 0.0 && sensed == 0.0, "{name}: traces differ");
 }
 
-/// The plant of an applicator file, read by the QEMU firmware as by the simulator (issue 13,
-/// item 4): the light rig's force steps under A1 (`run=0 applicator=FILE`), its gauge half as
+/// The plant of an applicator file, read by the QEMU firmware as by the simulator
+///: the light rig's force steps under A1 (`run=0 applicator=FILE`), its gauge half as
 /// sensitive as the memo's and the firmware reading it at its scale, are the host rig's with
 /// the same file to the bit (sensed force included), and not the memo rig's; a damaged file is refused with the
 /// reason and the firmware exits with a failure before it runs anything.
@@ -407,7 +407,7 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         let run = session.run(spec.name).expect("run decoded");
         fault_run_is_safe_and_is_the_rigs(run, spec);
     }
-    // The designed force controller (issue 13) from the table the build carries: the host
+    // The designed force controller from the table the build carries: the host
     // rig's to the bit, and every force step after the first from rest into ±1 g within 40 ms
     // (A1: 58–69 ms), as `sim-host/tests/host/controller.rs` finds on the host.
     let spec = FIL_SESSION
@@ -509,7 +509,7 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         Ok(_) => panic!("a log with flipped bytes decoded without complaint"),
     }
 
-    // The estimators on the chip (issue 7): the probed taxel (element 4,2, calibrated in the
+    // The estimators on the chip: the probed taxel (element 4,2, calibrated in the
     // build's table) by every estimator at the scan rate, against the simulator's true force at
     // the instant the scan sampled it (the truth that rides with the next control tick).
     let (rms, n) = session
@@ -630,14 +630,14 @@ fn the_hosts_calibration(
         && relative_error(firmware.g2.stiffness(30.0), host.g2.stiffness(30.0)) < 0.05
 }
 
-/// Dynamic calibration end to end (issue 7): the firmware runs the calibration protocol with the
+/// Dynamic calibration end to end: the firmware runs the calibration protocol with the
 /// probe over a taxel of the simulated finger (parameters unlike the nominal models'), streams
 /// it over defmt; the host decodes the record, fits the taxel (`tactile calibrate`'s code) and
 /// writes the table; that table must match the host simulator's calibration of the same taxel
 /// (what the firmware build carries) and bring the observer under 0.2 g, where the nominal
 /// models err by several grams (another taxel of another finger, by command:
 /// `the_board_calibrates_a_taxel_by_command`). A second
-/// run calibrates a taxel of a finger whose springs stiffen by other laws (issue 15): its
+/// run calibrates a taxel of a finger whose springs stiffen by other laws: its
 /// calibration must be the host's and meet the issue's 0.3 g there too.
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
@@ -754,7 +754,7 @@ fn calibration_on_the_firmware_end_to_end() {
         scores.nominal_g[0]
     );
     // On the finger unlike the memo's: the observer calibrated on the firmware's record
-    // within issue 15's 0.3 g on pseudo-random (the nominal models: about 3.5 g).
+    // within the 0.3 g target on pseudo-random (the nominal models: about 3.5 g).
     let scores = sim_host::estimator_comparison::compare_with(
         &other,
         Vec::new(),
@@ -983,7 +983,7 @@ fn crc_16(bytes: &[u8]) -> u16 {
     crc
 }
 
-/// `tactile board`'s path (issue 14): the QEMU firmware through the transport, its stream
+/// `tactile board`'s path: the QEMU firmware through the transport, its stream
 /// decoded live in the pieces it arrives in, is the session a batch decode of the same bytes
 /// gives, and so is a replay of those bytes in 7-byte pieces; the commands `tactile board run`
 /// sends are taken, and the run they asked for is the host rig's to the bit.
@@ -1234,7 +1234,7 @@ fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
     );
 }
 
-/// `tactile board calibrate` (issue 14) on the QEMU firmware: the calibration protocol run by
+/// `tactile board calibrate` on the QEMU firmware: the calibration protocol run by
 /// command over a taxel, its record fitted into a table on the host (`tactile calibrate`'s
 /// code), the table loaded into a board by command and a run made on it; every command taken.
 #[test]
