@@ -3,7 +3,7 @@
 //! other forms, 20 Hz–1 kHz. Seeds and strengths vary.
 
 use tactile_ident::synth::{generate, Spec, SynthEffect};
-use tactile_ident::{diagnose, Diagnosis, Series};
+use tactile_ident::{diagnose, Diagnosis, Effect, Series};
 
 fn diag(seed: u64, rate_hz: f64, duration_s: f64, effects: &[SynthEffect]) -> Diagnosis {
     let g = generate(&Spec {
@@ -120,7 +120,7 @@ fn a_drift_that_no_basis_carries_across_a_block_is_named() {
     for (seed, rate, length, a) in [(76, 200.0, 180.0, 0.02), (85, 50.0, 300.0, 0.06)] {
         let d = diag(seed, rate, length, &[SynthEffect::Drift(a)]);
         check(&d, "baseline_drift");
-        assert_eq!(d.effects, ["baseline_drift"], "{}", d.summary);
+        assert_eq!(d.effects, [Effect::BaselineDrift], "{}", d.summary);
         // Its held-out error after is the blocks' less their own lines, and the JSON says so.
         assert!(d.after_per_block_line, "{}", d.summary);
     }
@@ -155,7 +155,7 @@ fn a_drift_that_no_basis_carries_across_a_block_is_named() {
         .collect();
     let d = diagnose(&Series::new(g.dt_s, g.force_g, strain, vec![]).unwrap());
     check(&d, "baseline_drift");
-    assert_eq!(d.effects, ["baseline_drift"], "{}", d.summary);
+    assert_eq!(d.effects, [Effect::BaselineDrift], "{}", d.summary);
 }
 
 /// A drift that turns inside a held-out block: the drift basis cannot interpolate it from the
@@ -172,7 +172,7 @@ fn a_drift_that_turns_inside_a_block_is_named_alone() {
     ] {
         let d = diag(seed, rate, length, &[SynthEffect::Drift(a)]);
         check(&d, "baseline_drift");
-        assert_eq!(d.effects, ["baseline_drift"], "{}", d.summary);
+        assert_eq!(d.effects, [Effect::BaselineDrift], "{}", d.summary);
     }
 }
 
@@ -481,7 +481,7 @@ fn two_effects_at_once_are_both_named() {
     ];
     for (seed, rate, length, effects, names) in cases {
         let d = diag(seed, rate, length, &effects);
-        let mut named = d.effects.clone();
+        let mut named: Vec<String> = d.effects.iter().map(|e| e.name().to_string()).collect();
         named.sort();
         let mut expected = names.map(String::from).to_vec();
         expected.sort();

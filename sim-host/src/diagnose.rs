@@ -13,7 +13,7 @@ use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
 // Every play the diagnosis fits reaches the chip.
 const _: () = assert!(tactile_ident::diagnose::PLAY_SHARES.len() <= PLAYS);
-use tactile_ident::diagnose::stiffening_load;
+use tactile_ident::diagnose::{stiffening_load, Effect};
 use tactile_ident::force_fit;
 use tactile_ident::solve::Sign;
 use tactile_ident::{Refusal, Series};
@@ -85,7 +85,7 @@ pub struct ForceEstimate {
     /// Whether the accepted model is what `--table` writes (it lowers the held-out error).
     pub exported: bool,
     /// What each accepted effect becomes on the chip, or why it cannot.
-    pub on_chip: Vec<(String, String)>,
+    pub on_chip: Vec<(Effect, String)>,
 }
 
 /// The diagnosis with its on-chip form.
@@ -150,16 +150,15 @@ impl ChipForm {
 const FAST_BRANCH_S: f64 = 0.02;
 
 /// What an effect becomes on the chip.
-fn on_chip(effect: &str) -> &'static str {
+fn on_chip(effect: Effect) -> &'static str {
     match effect {
-        "load_dependent_stiffness" => "the observer's spring laws and the scheduled inverse's table (secant springs at 10/25/45/70 g)",
-        "periodic_interference" => "a notch on the strain at the strongest line, before every estimator",
-        "time_delay" => "none: undoing a delay needs the future strain (a causal estimate can only be late by it)",
-        "baseline_drift" => "none: a wandering zero cannot be told from a load without moments of known zero force",
-        "hysteresis" => "its plays, driven by the estimated force, taken off the strain before the estimator (one update late)",
-        "slow_relaxation" => "merged into eq. 14's two branches (the chip's element has no third)",
-        "sensitivity_drift" => "none: a gain that changes with time needs a reference force to track",
-        _ => "none",
+        Effect::LoadDependentStiffness => "the observer's spring laws and the scheduled inverse's table (secant springs at 10/25/45/70 g)",
+        Effect::PeriodicInterference => "a notch on the strain at the strongest line, before every estimator",
+        Effect::TimeDelay => "none: undoing a delay needs the future strain (a causal estimate can only be late by it)",
+        Effect::BaselineDrift => "none: a wandering zero cannot be told from a load without moments of known zero force",
+        Effect::Hysteresis => "its plays, driven by the estimated force, taken off the strain before the estimator (one update late)",
+        Effect::SlowRelaxation => "merged into eq. 14's two branches (the chip's element has no third)",
+        Effect::SensitivityDrift => "none: a gain that changes with time needs a reference force to track",
     }
 }
 
@@ -600,10 +599,10 @@ pub fn chip_choice(m: &TaxelModel) -> String {
 pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     let mut d = tactile_ident::diagnose(series);
     let mut summary = d.summary.clone();
-    let mut on_chip_list: Vec<(String, String)> = d
+    let mut on_chip_list: Vec<(Effect, String)> = d
         .effects
         .iter()
-        .map(|e| (e.clone(), on_chip(e).to_string()))
+        .map(|e| (*e, on_chip(*e).to_string()))
         .collect();
     let inverted = d.model.orientation < 0.0;
     // No stiffening in the baseline: its springs are the same in either form.

@@ -1,4 +1,5 @@
-//! Identification of the applicator from a record of the excitation protocol: its frequency response from the amplifier's drive to the gauge, and its resonances — the
+//! Identification of the applicator from a record of the excitation protocol: its frequency
+//! response from the amplifier's drive to the gauge, and its resonances — the
 //! first step of a controller designed from the rig rather than from the memo.
 //!
 //! The record is the closed loop's (the force law holds the probe at the preload while a chirp

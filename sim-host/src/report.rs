@@ -167,7 +167,11 @@ fn markdown(source: &Path, d: &Diagnosis) -> String {
         if d.effects.is_empty() {
             "none".to_string()
         } else {
-            d.effects.join(", ")
+            d.effects
+                .iter()
+                .map(|e| e.name())
+                .collect::<Vec<_>>()
+                .join(", ")
         }
     );
     let _ = writeln!(md, "```text\n{}```\n", d.summary);

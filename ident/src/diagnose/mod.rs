@@ -88,6 +88,12 @@ pub enum Effect {
     SensitivityDrift,
 }
 
+impl core::fmt::Display for Effect {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.pad(self.name())
+    }
+}
+
 impl Effect {
     pub fn name(self) -> &'static str {
         match self {
@@ -155,7 +161,7 @@ impl Term {
 /// One candidate's outcome.
 #[derive(Clone, Debug, Serialize)]
 pub struct Candidate {
-    pub effect: String,
+    pub effect: Effect,
     pub variant: String,
     pub round: usize,
     pub held_out_rms_g: f64,
@@ -194,7 +200,7 @@ pub struct Fold {
 /// An accepted effect's size in physical units.
 #[derive(Clone, Debug, Serialize)]
 pub struct Size {
-    pub effect: String,
+    pub effect: Effect,
     pub description: String,
     pub values: Vec<(String, f64)>,
 }
@@ -214,7 +220,7 @@ pub struct Baseline {
 #[derive(Clone, Debug, Serialize)]
 pub struct Diagnosis {
     pub effect: String,
-    pub effects: Vec<String>,
+    pub effects: Vec<Effect>,
     pub before: Errors,
     pub after: Errors,
     /// `after` is judged on each held-out block less its own offset and slope (a drift that

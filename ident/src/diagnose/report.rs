@@ -74,11 +74,7 @@ pub(super) fn finish(
     let s = work.s;
     let model_terms = terms_of(work, &state.scored);
     let baseline_terms = terms_of(work, &before.scored);
-    let effects: Vec<String> = state
-        .groups
-        .iter()
-        .map(|g| g.0.name().to_string())
-        .collect();
+    let effects: Vec<Effect> = state.groups.iter().map(|g| g.0).collect();
     let floor_pct = floor.sqrt();
     let (effect, unexplained) = verdict(&state, &before.tests, &effects, floor);
     let sizes = sizes(work, &state, &model_terms, secant);
@@ -160,7 +156,7 @@ pub(super) fn finish(
 fn verdict(
     state: &State,
     before_tests: &ResidualTests,
-    effects: &[String],
+    effects: &[Effect],
     floor: f64,
 ) -> (String, Option<String>) {
     if let Some(first) = effects.first() {
@@ -169,11 +165,11 @@ fn verdict(
         let after_far = far_from_white(&state.tests, state.scored.cv_mse, floor)
             && state.scored.cv_mse > LEFT_OVER_FLOORS * LEFT_OVER_FLOORS * floor;
         (
-            first.clone(),
+            first.name().to_string(),
             after_far.then(|| {
                 format!(
                     "after {}, the residual is still far from white: {}",
-                    effects.join(" and "),
+                    names(effects).join(" and "),
                     state.tests.describe()
                 )
             }),
@@ -299,10 +295,10 @@ fn verdict_text(d: &Diagnosis) -> String {
             // What the named effects leave is said, not hidden behind the names.
             Some(left) => format!(
                 "found {}; {left} ({:.1}× the noise floor)",
-                d.effects.join(", then "),
+                names(&d.effects).join(", then "),
                 d.after.held_out_rms_pct / d.noise_floor_pct
             ),
-            None => format!("found {}", d.effects.join(", then ")),
+            None => format!("found {}", names(&d.effects).join(", then ")),
         },
     }
 }
@@ -356,7 +352,7 @@ fn sizes(work: &Work, state: &State, terms: &[(Term, f64)], secant: f64) -> Vec<
             Effect::SensitivityDrift => sensitivity_size(terms, n),
         };
         out.push(Size {
-            effect: effect.name().into(),
+            effect: *effect,
             description,
             values,
         });
@@ -520,6 +516,11 @@ fn sensitivity_size(terms: &[(Term, f64)], n: usize) -> Described {
         ),
         vec![("gain_change_pct".into(), 100.0 * range)],
     )
+}
+
+/// The effects' names, in order.
+fn names(effects: &[Effect]) -> Vec<&'static str> {
+    effects.iter().map(|e| e.name()).collect()
 }
 
 #[cfg(test)]

@@ -35,7 +35,7 @@ impl Candidate {
         secant: f64,
     ) -> Self {
         Candidate {
-            effect: effect.name().into(),
+            effect,
             variant,
             round,
             held_out_rms_g: sc.cv_mse.sqrt() * secant,
@@ -400,10 +400,10 @@ impl Selection<'_> {
             if needed {
                 i += 1;
             } else {
-                let name = state.groups[i].0.name();
+                let effect = state.groups[i].0;
                 if let Some(c) = candidates
                     .iter_mut()
-                    .find(|c| c.accepted && c.effect == name)
+                    .find(|c| c.accepted && c.effect == effect)
                 {
                     c.accepted = false;
                     c.variant
