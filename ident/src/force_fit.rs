@@ -432,6 +432,27 @@ mod tests {
         (force, strain)
     }
 
+    /// [`creep_record`] with a rest of 4 s before each press, its strain's zero at `zero(i)`
+    /// (%) at sample `i`.
+    fn resting_record(seed: u64, n: usize, zero: impl Fn(usize) -> f64) -> (Vec<f64>, Vec<f64>) {
+        let (mut force, _) = creep_record(seed, n);
+        for (i, f) in force.iter_mut().enumerate() {
+            if (i / 400) % 2 == 0 {
+                *f = 0.0;
+            }
+        }
+        let (mut kelvin, phi) = (0.0, (-0.01 / 2.0f64).exp());
+        let strain = force
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                kelvin = phi * kelvin + (1.0 - phi) * 0.5 * f / 20.0;
+                f / 20.0 + kelvin + zero(i)
+            })
+            .collect();
+        (force, strain)
+    }
+
     /// The bank's RMS error over a record run from a start at 100 Hz, with its re-zero and
     /// without.
     fn with_and_without_rezero(model: &BankModel, force: &[f64], strain: &[f64]) -> (f64, f64) {
@@ -481,21 +502,9 @@ mod tests {
         // The same sensor whose strain at rest wanders by ±0.6 % (±8 g through the static
         // gain) over 120 s, with rests of 4 s between presses: the re-zero is kept, and the
         // zero moves by at most 1 g during a press.
-        let (mut force, _) = creep_record(5, 15_000);
-        for (i, f) in force.iter_mut().enumerate() {
-            if (i / 400) % 2 == 0 {
-                *f = 0.0;
-            }
-        }
-        let (mut kelvin, phi) = (0.0, (-0.01 / 2.0f64).exp());
-        let strain: Vec<f64> = force
-            .iter()
-            .enumerate()
-            .map(|(i, f)| {
-                kelvin = phi * kelvin + (1.0 - phi) * 0.5 * f / 20.0;
-                f / 20.0 + kelvin + 0.6 * (i as f64 * 0.01 * core::f64::consts::TAU / 120.0).sin()
-            })
-            .collect();
+        let (force, strain) = resting_record(5, 15_000, |i| {
+            0.6 * (i as f64 * 0.01 * core::f64::consts::TAU / 120.0).sin()
+        });
         let fit = fit_bank(0.01, &force, &strain, &vec![true; force.len()]).unwrap();
         assert!(fit.model.rezero.is_on(), "{fit:?}");
         let (with, without) = with_and_without_rezero(&fit.model, &force, &strain);
@@ -509,22 +518,10 @@ mod tests {
         // to 1.2 % (8 g more): the start-up zero and the re-zero keep the estimate within a
         // third of the error of the same bank without them, and within half the climb.
         let n = 15_000;
-        let (mut force, _) = creep_record(11, 2 * n);
-        for (i, f) in force.iter_mut().enumerate() {
-            if (i / 400) % 2 == 0 {
-                *f = 0.0;
-            }
-        }
-        let (mut kelvin, phi) = (0.0, (-0.01 / 2.0f64).exp());
-        let strain: Vec<f64> = force
-            .iter()
-            .enumerate()
-            .map(|(i, f)| {
-                kelvin = phi * kelvin + (1.0 - phi) * 0.5 * f / 20.0;
-                let zero = if i < n { 0.3 } else { 0.6 } * (i % n) as f64 / n as f64;
-                f / 20.0 + kelvin + zero + if i < n { 0.0 } else { 0.6 }
-            })
-            .collect();
+        let (force, strain) = resting_record(11, 2 * n, |i| {
+            let climb = if i < n { 0.3 } else { 0.6 } * (i % n) as f64 / n as f64;
+            climb + if i < n { 0.0 } else { 0.6 }
+        });
         let fit = fit_bank(0.01, &force[..n], &strain[..n], &vec![true; n]).unwrap();
         assert!(fit.model.rezero.is_on(), "{fit:?}");
         let (with, without) = with_and_without_rezero(&fit.model, &force[n..], &strain[n..]);

@@ -20,18 +20,17 @@ use clap::{Parser, Subcommand};
 use sim_host::cli;
 use sim_host::Error;
 
-/// `println!`/`print!` that ignore a closed pipe (`tactile … | head`) instead of panicking.
-macro_rules! outln {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($t)*);
-    }};
-}
+/// `print!`/`println!` that ignore a closed pipe (`tactile … | head`) instead of panicking.
 macro_rules! out {
     ($($t:tt)*) => {{
         use std::io::Write as _;
         let _ = write!(std::io::stdout(), $($t)*);
     }};
+}
+macro_rules! outln {
+    ($($t:tt)*) => {
+        out!("{}\n", format_args!($($t)*))
+    };
 }
 
 mod applicator;
