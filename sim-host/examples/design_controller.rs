@@ -110,7 +110,7 @@ fn analytic_design(config: &RigConfig) -> design::Design {
     let models: Vec<design::LoadModel> = design::DESIGN_LOADS_G
         .iter()
         .map(|&load_g| {
-            let response: Vec<sim_host::identify::ResponsePoint> = (2..300)
+            let response: Vec<sim_host::applicator_model::ResponsePoint> = (2..300)
                 .map(|hz| {
                     let w = 2.0 * std::f64::consts::PI * f64::from(hz);
                     let g = scale
@@ -120,14 +120,14 @@ fn analytic_design(config: &RigConfig) -> design::Design {
                             f64::from(load_g),
                             w,
                         );
-                    sim_host::identify::ResponsePoint {
+                    sim_host::applicator_model::ResponsePoint {
                         hz: f64::from(hz),
                         re: g.re,
                         im: g.im,
                     }
                 })
                 .collect();
-            let model = sim_host::identify::fit_model(&response).expect("fit");
+            let model = sim_host::applicator_model::fit_model(&response).expect("fit");
             design::LoadModel {
                 load_g,
                 model,

@@ -65,7 +65,7 @@ fn main() {
         .response()
         .expect("response");
     let plain = e.means.response().expect("response");
-    let fit = sim_host::identify::fit_model(&less).expect("a fit");
+    let fit = sim_host::applicator_model::fit_model(&less).expect("a fit");
     println!("fit: {fit}");
     // The design's model: the same refined with the friction simulated.
     let refined = sim_host::stick_slip::fit_with_friction(&e.means, stiction_g, &fit);

@@ -234,7 +234,7 @@ pub fn run(elf: &Path, target: Target, action: &Action, out: &Path) -> Result<St
     report.push_str(&crate::cli::calibrate(
         &records,
         &table_path,
-        crate::calibrate::FINGER_SEED,
+        crate::dynamic_calibration::FINGER_SEED,
         crate::fingers::FingerKind::Memo,
     )?);
     report.push('\n');

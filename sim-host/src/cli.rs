@@ -294,8 +294,8 @@ pub fn summarize(run: &Run, wall_s: f64) -> String {
             // The scenario's protocol, on the simulator's firmware (the rig `experiment` ran).
             let protocol = Scenario::Excitation.protocol(&ScenarioOptions::default());
             let actuator = crate::rig::RigConfig::SIM_FIRMWARE.actuator;
-            match crate::identify::frequency_response(t, protocol, &actuator) {
-                Ok(response) => match crate::identify::fit_model(&response) {
+            match crate::applicator_model::frequency_response(t, protocol, &actuator) {
+                Ok(response) => match crate::applicator_model::fit_model(&response) {
                     Some(m) => {
                         let _ = writeln!(s, "  model, drive to gauge: {m}");
                     }
@@ -442,7 +442,7 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
     report.push_str("\n# Force estimators (`tactile estimators`)\n\n");
     report.push_str(&crate::estimator_comparison::render(
         &crate::estimator_comparison::compare(
-            crate::calibrate::FINGER_SEED,
+            crate::dynamic_calibration::FINGER_SEED,
             crate::fingers::FingerKind::Memo,
         )?,
     ));
@@ -602,7 +602,7 @@ pub fn calibrate(
     seed: u64,
     finger: crate::fingers::FingerKind,
 ) -> Result<String, crate::Error> {
-    use crate::calibrate::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS};
+    use crate::dynamic_calibration::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS};
     use crate::Error::{Failed, Usage};
     // Bad usage is refused before any output is claimed or record read.
     if let Some((t, _)) = records
@@ -634,7 +634,7 @@ pub fn calibrate(
             let r = crate::record::read_record(path)?;
             // What `tactile diagnose` refuses says nothing of a taxel either (a dead strain
             // channel was only flagged, and its table estimated 5 820 g off).
-            crate::diagnose::series_of(&r).map_err(|reason| {
+            crate::chip_diagnosis::series_of(&r).map_err(|reason| {
                 Failed(format!(
                     "{}: cannot be calibrated: {reason}",
                     path.display()
@@ -662,7 +662,7 @@ pub fn calibrate(
         }
         (table, reports, format!("{} record(s)", records.len()))
     };
-    let bytes = crate::calibrate::encode_table(out, &table)?;
+    let bytes = crate::dynamic_calibration::encode_table(out, &table)?;
     let n = bytes.len();
     table_out.write(bytes)?;
     let summary = serde_json::json!({ "taxels": reports, "table_bytes": n });

@@ -43,7 +43,7 @@ pub enum Error {
     Applicator { path: PathBuf, reason: String },
     /// A calibration record that cannot be fitted.
     #[error(transparent)]
-    Calibration(#[from] crate::calibrate::CalibrationError),
+    Calibration(#[from] crate::dynamic_calibration::CalibrationError),
     /// A run that could not finish, with the reason.
     #[error("{0}")]
     Failed(String),

@@ -15,8 +15,8 @@ use tactile_core::estimator::{EstimatorKind, TaxelEstimators};
 use tactile_core::profile::Protocol;
 use tactile_core::tactile::ScanConfig;
 
-use crate::calibrate::CalibrationError;
-use crate::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS};
+use crate::dynamic_calibration::CalibrationError;
+use crate::dynamic_calibration::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS};
 use crate::finger::Effects;
 use crate::fingers::FingerKind;
 use crate::rig::TickRecord;

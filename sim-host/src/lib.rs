@@ -5,17 +5,17 @@
 //! so the firmware-in-the-loop build runs the same physics.
 
 pub mod analysis;
+pub mod applicator_model;
 pub mod board_link;
-pub mod calibrate;
+pub mod chip_diagnosis;
 pub mod cli;
 pub mod design;
-pub mod diagnose;
+pub mod dynamic_calibration;
 pub mod error;
 pub mod estimator_comparison;
 pub mod fingers;
 pub mod fit;
 pub mod fuzz;
-pub mod identify;
 pub mod metrics;
 pub mod output;
 pub mod plot;

@@ -148,7 +148,7 @@ pub fn run(
         taxel.col(),
         table.display()
     );
-    text.push_str(&crate::diagnose::chip_choice(&model));
+    text.push_str(&crate::chip_diagnosis::chip_choice(&model));
     for (k, e) in chosen.iter().enumerate() {
         let rms = (sums[k] / record.len().max(1) as f64).sqrt();
         let _ = if rms.is_finite() {

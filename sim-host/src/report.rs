@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-use crate::diagnose::{Diagnosis, Report};
+use crate::chip_diagnosis::{Diagnosis, Report};
 use tactile_ident::Series;
 
 fn residual(prediction: &[f64], data: &Series) -> Vec<f64> {

@@ -5,7 +5,7 @@
 //! A chirp small enough to keep the probe on a light preload moves the motor little, and on a
 //! rig with a large stiction the motor sticks through much of each cycle. A linear model
 //! fitted to that response, even with the friction taken off the drive as a constant against
-//! the motion ([`crate::identify::PeriodMeans::less_friction`]), reads the sticking as damping
+//! the motion ([`crate::applicator_model::PeriodMeans::less_friction`]), reads the sticking as damping
 //! of the inertia–finger mode: on a rig with 2.2 g of stiction its 10 g fit read ζ 0.17 for
 //! the plant's 0.06 (41 % RMS), and the feed-forward built on it, which compensates the
 //! friction besides, lifted a 2 g sine about 10 g by 17 dB at 30 Hz.
@@ -21,7 +21,9 @@
 use nalgebra::{SMatrix, SVector};
 use num_complex::Complex64;
 
-use crate::identify::{ApplicatorModel, ModelProblem, PeriodMeans, ResponsePoint, Spectrum};
+use crate::applicator_model::{
+    ApplicatorModel, ModelProblem, PeriodMeans, ResponsePoint, Spectrum,
+};
 
 /// Sub-steps per tick: the friction is decided this often, and the gauge read at each step's
 /// end and averaged over the tick, as the firmware averages its eight samples.
@@ -243,7 +245,7 @@ pub fn simulated_response(m: &ApplicatorModel, means: &PeriodMeans) -> Option<Ve
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::Resonance;
+    use crate::applicator_model::Resonance;
 
     /// A memo-like model: gain 1, modes at 35 and 180 Hz, the tip on the finger at 60 Hz, the
     /// amplifier at 160 Hz.

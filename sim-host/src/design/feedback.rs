@@ -8,7 +8,7 @@ use tactile_core::tracking::TrackingConfig;
 use tactile_core::CONTROL_PERIOD_S;
 
 use super::*;
-use crate::identify::ApplicatorModel;
+use crate::applicator_model::ApplicatorModel;
 
 /// Gain and phase margins of a loop given by its response on a frequency grid (first to last
 /// point): the smallest 1/|L| where the phase crosses −180° (∞ where it never does) and the

@@ -7,7 +7,7 @@ use super::models::median;
 use super::*;
 
 /// 1 + (2ζ/ω)s + s²/ω² as coefficients in s.
-fn quadratic(r: crate::identify::Resonance) -> [f64; 3] {
+fn quadratic(r: crate::applicator_model::Resonance) -> [f64; 3] {
     let w = 2.0 * std::f64::consts::PI * r.hz;
     [1.0, 2.0 * r.damping_ratio / w, 1.0 / (w * w)]
 }
@@ -39,7 +39,7 @@ pub fn inverse_series(load: &LoadModel) -> [f64; 4] {
     let tau = m.delay_s.min(0.0);
     let inverse = |hz: f64| {
         let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * hz);
-        let q = |r: crate::identify::Resonance| -> Complex64 {
+        let q = |r: crate::applicator_model::Resonance| -> Complex64 {
             let [a, b, c] = quadratic(r);
             a + b * s + c * s * s
         };
@@ -84,7 +84,7 @@ const SERIES_STEP_HZ: f64 = 0.5;
 /// The share of the identified stiction the feed-forward pushes against, in the direction the
 /// reference moves (through the amplifier's inverse where it turns, [`amplifier_tau_s`]): all
 /// of it, now that the models are fitted to the drive less the friction
-/// ([`crate::identify::PeriodMeans::less_friction`]) and refined with it simulated
+/// ([`crate::applicator_model::PeriodMeans::less_friction`]) and refined with it simulated
 /// ([`crate::stick_slip`]). Near the
 /// inertia–finger mode a sine needs less drive than the stiction, and only a compensation of
 /// the whole moves the motor there. Measured (`FRICTION=G ONLY=1 cargo run --release -p

@@ -7,7 +7,7 @@ use tactile_core::profile::Protocol;
 
 use super::models::upper_median;
 use super::*;
-use crate::identify::{ApplicatorModel, IdentifyError};
+use crate::applicator_model::{ApplicatorModel, IdentifyError};
 use crate::rig::RigConfig;
 use crate::scenario::run_protocol;
 
@@ -54,8 +54,8 @@ pub(super) fn left_out_list(left_out: &[LeftOut]) -> String {
 pub struct Excited {
     pub load_g: f32,
     /// The drive and gauge over the chirp's periods (the response is their ratio).
-    pub means: crate::identify::PeriodMeans,
-    pub hold: crate::identify::Hold,
+    pub means: crate::applicator_model::PeriodMeans,
+    pub hold: crate::applicator_model::Hold,
 }
 
 /// Runs the excitation at each of [`DESIGN_LOADS_G`] the loop takes as a command (within
@@ -132,10 +132,10 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
     if rec.column("drive_g").is_none() {
         return Err(DesignError::Record(IdentifyError::NoDriveColumn));
     }
-    let load_g = crate::identify::preload_of_record(rec).ok_or(not_excitation)?;
-    let means = crate::identify::period_means_of_record(rec)
+    let load_g = crate::applicator_model::preload_of_record(rec).ok_or(not_excitation)?;
+    let means = crate::applicator_model::period_means_of_record(rec)
         .map_err(|source| DesignError::Identify { load_g, source })?;
-    let hold = crate::identify::hold_means_of_record(rec)
+    let hold = crate::applicator_model::hold_means_of_record(rec)
         .ok_or(IdentifyError::NoHold)
         .and_then(|h| h.at_preload(load_g))
         .map_err(|source| DesignError::Identify { load_g, source })?;
@@ -170,7 +170,7 @@ pub fn identified_from(
     let gauge_noise_g =
         upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
     let (static_gain, stiction_g) =
-        crate::identify::static_line(&holds).ok_or(DesignError::NoStaticLine)?;
+        crate::applicator_model::static_line(&holds).ok_or(DesignError::NoStaticLine)?;
     // One fit per preload, side by side (each is a few hundred milliseconds).
     let fits: Vec<Option<ApplicatorModel>> = std::thread::scope(|scope| {
         let handles: Vec<_> = excited
@@ -251,13 +251,14 @@ pub fn excited_of_run(
     let Protocol::Excitation { preload_g, .. } = protocol else {
         return Err(DesignError::Record(IdentifyError::NotTheExcitation));
     };
-    let means = crate::identify::period_means(ticks, protocol, actuator).map_err(|source| {
-        DesignError::Identify {
-            load_g: preload_g,
-            source,
-        }
-    })?;
-    let hold = crate::identify::hold_means(ticks, actuator)
+    let means =
+        crate::applicator_model::period_means(ticks, protocol, actuator).map_err(|source| {
+            DesignError::Identify {
+                load_g: preload_g,
+                source,
+            }
+        })?;
+    let hold = crate::applicator_model::hold_means(ticks, actuator)
         .ok_or(IdentifyError::NoHold)
         .and_then(|h| h.at_preload(preload_g))
         .map_err(|source| DesignError::Identify {

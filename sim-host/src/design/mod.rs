@@ -1,12 +1,12 @@
 //! The force controller designed from the identified applicator: the
 //! excitation protocol run at several preloads, a low-order model fitted at each
-//! ([`crate::identify::fit_model`] to the drive less the friction, then refined with the
+//! ([`crate::applicator_model::fit_model`] to the drive less the friction, then refined with the
 //! motor's friction simulated, [`crate::stick_slip::fit_with_friction`]), and from those
 //! models the core's [`TrackingConfig`]:
 //!
 //! - the feed-forward's schedule: at each preload, the inverse of the model's path to the
 //!   contact force as a series in s up to s³ (the delay left out: no controller can undo it),
-//!   over the static gain of the holds before the chirps ([`crate::identify::static_line`],
+//!   over the static gain of the holds before the chirps ([`crate::applicator_model::static_line`],
 //!   which also gives the stiction compensated); below the lightest identified load (and above
 //!   the heaviest, where a design load gave no model), models
 //!   extrapolated by the modes' power law in load ([`extrapolate`]);
@@ -38,7 +38,7 @@ pub use feedforward::*;
 pub use identified::*;
 pub use models::*;
 
-use crate::identify::IdentifyError;
+use crate::applicator_model::IdentifyError;
 use crate::scenario::ScenarioError;
 use identified::left_out_list;
 
@@ -121,7 +121,7 @@ mod tests {
     use tactile_core::CONTROL_PERIOD_S;
 
     use super::*;
-    use crate::identify::{ApplicatorModel, Resonance};
+    use crate::applicator_model::{ApplicatorModel, Resonance};
     use feedback::biquad_at;
 
     #[test]

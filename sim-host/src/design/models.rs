@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use crate::identify::ApplicatorModel;
+use crate::applicator_model::ApplicatorModel;
 
 /// The identified model at one preload.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -12,7 +12,7 @@ pub struct LoadModel {
     pub load_g: f32,
     pub model: ApplicatorModel,
     /// Gauge grams per drive gram of the still holds before the chirps
-    /// ([`crate::identify::static_line`]): the feed-forward's static gain.
+    /// ([`crate::applicator_model::static_line`]): the feed-forward's static gain.
     pub static_gain: f64,
 }
 
@@ -33,7 +33,7 @@ pub fn implausible(m: &ApplicatorModel) -> Option<&'static str> {
     let [a, b] = m.modes;
     // NaN compares as nothing: each test asks for the ordering that makes the model usable.
     let above = |x: f64, y: f64| x.partial_cmp(&y) == Some(Greater);
-    let (lo, hi) = crate::identify::STATIC_GAIN_RANGE;
+    let (lo, hi) = crate::applicator_model::STATIC_GAIN_RANGE;
     if !(lo..hi).contains(&m.gain) {
         Some("its gain is not within 0.5–2")
     } else if !above(0.7, a.damping_ratio) {

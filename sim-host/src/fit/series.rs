@@ -42,16 +42,16 @@ impl Series {
             force: r.force_g.clone(),
             strain: r.strain_pct.clone(),
             in_fit,
-            excluded: crate::diagnose::at_top_rail(&r.strain_pct),
+            excluded: crate::chip_diagnosis::at_top_rail(&r.strain_pct),
             held_out_description,
         }
     }
 
-    /// A record checked as `tactile diagnose` checks it ([`crate::diagnose::series_of`]: finite
+    /// A record checked as `tactile diagnose` checks it ([`crate::chip_diagnosis::series_of`]: finite
     /// and plausible values, long enough, a force and a strain that vary and follow each
     /// other), then split as [`Series::from_record`] splits it.
     pub fn checked(r: &Record) -> Result<Self, tactile_ident::Refusal> {
-        let checked = crate::diagnose::series_of(r)?;
+        let checked = crate::chip_diagnosis::series_of(r)?;
         Ok(Self {
             excluded: checked.excluded,
             ..Self::from_record(r)

@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
+use sim_host::chip_diagnosis::{diagnose, series_of, Report};
 use sim_host::cli::apply_effect;
-use sim_host::diagnose::{diagnose, series_of, Report};
 use sim_host::record::{parse_record, read_record, write_record};
 use sim_host::rig::RigConfig;
 use sim_host::scenario::{run_named, ScenarioOptions};

@@ -2,7 +2,9 @@
 
 use std::sync::LazyLock;
 
-use sim_host::calibrate::{calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS, FINGER_SEED};
+use sim_host::dynamic_calibration::{
+    calibrate_simulated, TaxelFitReport, CALIBRATION_TAXELS, FINGER_SEED,
+};
 use sim_host::estimator_comparison::{compare, compare_with, EstimatorTable, PROTOCOLS};
 use sim_host::fingers::FingerKind;
 use tactile_core::calibration::CalibrationTable;

@@ -70,14 +70,14 @@ fn mutated_records_get_a_reason_or_a_finite_diagnosis() {
         let Ok(record) = parse_record(input, Path::new("fuzz.csv")) else {
             return;
         };
-        match sim_host::diagnose::series_of(&record) {
+        match sim_host::chip_diagnosis::series_of(&record) {
             Err(reason) => {
                 refused += 1;
                 assert!(!reason.to_string().is_empty());
             }
             Ok(series) => {
                 diagnosed += 1;
-                let d = sim_host::diagnose::diagnose(&series, TaxelId::default()).diagnosis;
+                let d = sim_host::chip_diagnosis::diagnose(&series, TaxelId::default()).diagnosis;
                 assert!(d.before.held_out_rms_g.is_finite(), "{}", d.summary);
                 assert!(d.after.held_out_rms_g.is_finite(), "{}", d.summary);
                 assert!(!d.summary.contains("NaN"), "{}", d.summary);

@@ -6,7 +6,7 @@ use crate::common;
 
 use sim_host::analysis::{applicator_response, peaks};
 use sim_host::applicator::{ApplicatorParams, NEWTONS_PER_GRAM};
-use sim_host::identify::{
+use sim_host::applicator_model::{
     fit_model, frequency_response, frequency_response_of_record, ResponsePoint,
 };
 use sim_host::rig::RigConfig;
@@ -47,7 +47,7 @@ fn plant(p: &ApplicatorParams, load_g: f64, hz: f64) -> num_complex::Complex64 {
 
 /// The model's form fitted to the plant's linearization about `load_g` (2–299 Hz): what the
 /// identification would read without friction or noise.
-fn linearized(p: &ApplicatorParams, load_g: f64) -> sim_host::identify::ApplicatorModel {
+fn linearized(p: &ApplicatorParams, load_g: f64) -> sim_host::applicator_model::ApplicatorModel {
     let response: Vec<ResponsePoint> = (2..300)
         .map(|hz| {
             let g = plant(p, load_g, f64::from(hz));
@@ -322,12 +322,12 @@ fn the_drive_less_the_stiction_gives_the_linear_plants_damping() {
     let actuator = config.firmware.actuator;
     let protocol = Protocol::design_excitation(10.0);
     let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();
-    let means = sim_host::identify::period_means(&run.ticks, protocol, &actuator).unwrap();
+    let means = sim_host::applicator_model::period_means(&run.ticks, protocol, &actuator).unwrap();
     let stiction_g = p.static_friction_nm / p.arm_m / NEWTONS_PER_GRAM;
     let plain = fit_model(&means.response().unwrap()).unwrap();
     let less = fit_model(&means.less_friction(stiction_g).response().unwrap()).unwrap();
     let linear = linearized(&p, 10.0);
-    let zeta = |m: &sim_host::identify::ApplicatorModel| m.modes[0].damping_ratio;
+    let zeta = |m: &sim_host::applicator_model::ApplicatorModel| m.modes[0].damping_ratio;
     eprintln!(
         "ζ plain {:.3}, less the friction {:.3}, linearized {:.3}",
         zeta(&plain),
@@ -360,14 +360,15 @@ fn with_the_friction_simulated_the_fit_comes_to_the_friction_free_plant() {
         let actuator = config.firmware.actuator;
         let protocol = Protocol::design_excitation(load_g);
         let run = run_protocol("excitation", protocol, config, false, |_| {}).unwrap();
-        let means = sim_host::identify::period_means(&run.ticks, protocol, &actuator).unwrap();
+        let means =
+            sim_host::applicator_model::period_means(&run.ticks, protocol, &actuator).unwrap();
         let less = fit_model(&means.less_friction(stiction_g).response().unwrap()).unwrap();
         let refined = sim_host::stick_slip::fit_with_friction(&means, stiction_g, &less)
             .expect("a better fit");
         let linear = linearized(&p, f64::from(load_g));
         eprintln!("{load_g} g: less the friction {less}\nrefined {refined}\nlinearized {linear}");
         let off = |a: f64, b: f64| (a / b - 1.0).abs();
-        let zeta = |m: &sim_host::identify::ApplicatorModel| m.modes[0].damping_ratio;
+        let zeta = |m: &sim_host::applicator_model::ApplicatorModel| m.modes[0].damping_ratio;
         assert!(
             off(refined.gain, linear.gain) < 0.06,
             "{load_g} g: {refined}"

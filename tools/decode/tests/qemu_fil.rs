@@ -642,7 +642,9 @@ fn the_hosts_calibration(
 #[test]
 #[ignore = "builds the firmware and runs QEMU: scripts/test-all.sh runs it with --ignored"]
 fn calibration_on_the_firmware_end_to_end() {
-    use sim_host::calibrate::{calibrate_simulated, fit_taxel, CALIBRATION_TAXELS, FINGER_SEED};
+    use sim_host::dynamic_calibration::{
+        calibrate_simulated, fit_taxel, CALIBRATION_TAXELS, FINGER_SEED,
+    };
     use tactile_core::calibration::CalibrationTable;
     use tactile_core::profile::Protocol;
     use tactile_firmware::CALIBRATION_SESSION;
@@ -1265,8 +1267,8 @@ fn the_board_calibrates_a_taxel_by_command() {
     let fw = tactile_core::calibration::CalibrationTable::decode(&table).expect("decoded");
     let seed = sim_host::rig::RigConfig::default().seed;
     let memo = sim_host::fingers::FingerKind::Memo.effects();
-    let (host, _) =
-        sim_host::calibrate::calibrate_simulated(&[taxel], seed, memo).expect("host calibration");
+    let (host, _) = sim_host::dynamic_calibration::calibrate_simulated(&[taxel], seed, memo)
+        .expect("host calibration");
     let (e, g) = (&fw.taxels[0].element, &host.taxels[0].element);
     assert!(the_hosts_calibration(e, g), "{e:?} vs {g:?}");
     // Loaded by the chunks and the load command (numbered on from the run's), then the run.

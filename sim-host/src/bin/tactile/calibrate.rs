@@ -18,7 +18,7 @@ pub struct CalibrateArgs {
     #[arg(long, default_value = "out/calibration/table.bin")]
     pub out: PathBuf,
     /// Seed of the simulated finger (without records).
-    #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
+    #[arg(long, default_value_t = sim_host::dynamic_calibration::FINGER_SEED)]
     pub seed: u64,
     /// The kind of simulated finger (without records).
     #[arg(long, value_enum, default_value_t = FingerKind::Memo)]

@@ -48,11 +48,11 @@ pub fn run(args: DiagnoseArgs) -> Result<(), Error> {
             record.sample_period_s().unwrap_or(0.0)
         );
     }
-    let series = sim_host::diagnose::into_series(record).map_err(|reason| {
+    let series = sim_host::chip_diagnosis::into_series(record).map_err(|reason| {
         Error::Failed(format!("{}: cannot be diagnosed: {reason}", file.display()))
     })?;
     let start = std::time::Instant::now();
-    let d = sim_host::diagnose::diagnose(&series, taxel);
+    let d = sim_host::chip_diagnosis::diagnose(&series, taxel);
     out!("{}", d.diagnosis.summary);
     outln!("  ({:.2} s)", start.elapsed().as_secs_f64());
     if let Some(json) = json {
@@ -83,7 +83,7 @@ pub fn run(args: DiagnoseArgs) -> Result<(), Error> {
         })?;
         let mut t = tactile_core::calibration::CalibrationTable::default();
         let _ = t.taxels.push(model);
-        table.write(sim_host::calibrate::encode_table(&path, &t)?)?;
+        table.write(sim_host::dynamic_calibration::encode_table(&path, &t)?)?;
         outln!(
             "  calibration table for taxel ({}, {}): {} (the firmware's format; {})",
             taxel.row(),

@@ -11,7 +11,7 @@ pub struct EstimatorsArgs {
     #[arg(long, default_value = "out/estimators")]
     pub out: PathBuf,
     /// Seed of the simulated finger whose four taxels are calibrated and scored.
-    #[arg(long, default_value_t = sim_host::calibrate::FINGER_SEED)]
+    #[arg(long, default_value_t = sim_host::dynamic_calibration::FINGER_SEED)]
     pub seed: u64,
     /// The kind of finger: the memo's, or one whose springs stiffen by other laws.
     #[arg(long, value_enum, default_value_t = FingerKind::Memo)]

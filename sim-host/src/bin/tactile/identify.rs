@@ -18,11 +18,12 @@ pub fn run(args: IdentifyArgs) -> Result<(), Error> {
     let IdentifyArgs { file, json } = args;
     let json = Output::claim_some(json.as_deref(), &[&file])?;
     let rec = tactile_record::read_record(&file)?;
-    let failed =
-        |e: sim_host::identify::IdentifyError| Error::Failed(format!("{}: {e}", file.display()));
-    let means = sim_host::identify::period_means_of_record(&rec).map_err(failed)?;
+    let failed = |e: sim_host::applicator_model::IdentifyError| {
+        Error::Failed(format!("{}: {e}", file.display()))
+    };
+    let means = sim_host::applicator_model::period_means_of_record(&rec).map_err(failed)?;
     let response = means.response().map_err(failed)?;
-    let plain = sim_host::identify::fit_model(&response).ok_or_else(|| {
+    let plain = sim_host::applicator_model::fit_model(&response).ok_or_else(|| {
         Error::Failed(format!(
             "{}: no model converged on the measured response",
             file.display()
@@ -30,7 +31,7 @@ pub fn run(args: IdentifyArgs) -> Result<(), Error> {
     })?;
     // The motor's friction simulated in the model, its stiction fitted to the chirp from
     // the hold's drive less its gauge (one hold gives no static line).
-    let held_g = sim_host::identify::hold_means_of_record(&rec)
+    let held_g = sim_host::applicator_model::hold_means_of_record(&rec)
         .map_or(0.0, |h| (h.drive_g - h.gauge_g).max(0.0));
     let linear = means.fit_less_friction(held_g).unwrap_or(plain);
     let refined = sim_host::stick_slip::fit_with_stiction(&means, held_g, &linear);
@@ -57,11 +58,11 @@ pub fn run(args: IdentifyArgs) -> Result<(), Error> {
     if let Some(json) = json {
         #[derive(serde::Serialize)]
         struct Out<'a> {
-            model: &'a sim_host::identify::ApplicatorModel,
+            model: &'a sim_host::applicator_model::ApplicatorModel,
             /// Fitted with the model (`null`: not simulated).
             stiction_g: Option<f64>,
-            plain_model: &'a sim_host::identify::ApplicatorModel,
-            response: &'a [sim_host::identify::ResponsePoint],
+            plain_model: &'a sim_host::applicator_model::ApplicatorModel,
+            response: &'a [sim_host::applicator_model::ResponsePoint],
         }
         let path = json.write_json(&Out {
             model: &model,
