@@ -25,7 +25,8 @@ pub struct Record {
     pub t_s: Vec<f64>,
     pub force_g: Vec<f64>,
     pub strain_pct: Vec<f64>,
-    /// Extra numeric columns by name (command_g, true_force_g, …).
+    /// Extra numeric columns by name (command_g, true_force_g, …); a column with a cell that
+    /// is not a finite number (a logger's note, a flag) is ignored.
     pub extra: Vec<(String, Vec<f64>)>,
 }
 
@@ -188,7 +189,12 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
             ));
         }
         let mut values = Vec::with_capacity(cells.len());
-        for (cell, name) in cells.iter().zip(names) {
+        for (j, (cell, name)) in cells.iter().zip(names).enumerate() {
+            if !index.contains(&j) {
+                // Another column: read if it is a number, else NaN, and the column left out.
+                values.push(cell.parse().unwrap_or(f64::NAN));
+                continue;
+            }
             let v: f64 = cell.parse().map_err(|_| {
                 err(
                     Some(n),
@@ -244,6 +250,7 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
     }
     check_sampling(&rec.t_s)
         .map_err(|(k, message)| err(row_lines.get(k).copied(), Some("t_s".into()), message))?;
+    rec.extra.retain(|(_, v)| v.iter().all(|x| x.is_finite()));
     // The columns grew by doubling: a 600 s record at 1 kHz would hold 3.6 MB unused in each.
     for v in [&mut rec.t_s, &mut rec.force_g, &mut rec.strain_pct]
         .into_iter()
@@ -425,6 +432,24 @@ mod tests {
         assert_eq!(r.force_g, vec![1.0, 2.0, 3.0]);
         assert_eq!(r.column("x"), Some(&[9.0, 8.0, 7.0][..]));
         assert!((r.sample_period_s().unwrap() - 0.005).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_column_of_text_is_ignored_and_the_required_ones_read() {
+        // A logger's note and a flag that is once "inf": both columns are left out; a number
+        // column beside them is kept.
+        let r = parse(
+            "t_s,force_g,strain_pct,note,flag,drive_g\n0.0,1.0,0.5,start,0,4\n\
+             0.005,2.0,0.6,,inf,5\n0.010,3.0,0.7,end,1,6\n",
+        )
+        .unwrap();
+        assert_eq!(r.strain_pct, vec![0.5, 0.6, 0.7]);
+        assert_eq!(r.column("note"), None);
+        assert_eq!(r.column("flag"), None);
+        assert_eq!(r.column("drive_g"), Some(&[4.0, 5.0, 6.0][..]));
+        // A required column stays strict.
+        let e = parse("t_s,force_g,strain_pct,note\n0.0,1.0,x,a\n0.005,2.0,0.6,b\n").unwrap_err();
+        assert_eq!((e.line, e.column.as_deref()), (Some(2), Some("strain_pct")));
     }
 
     #[test]
