@@ -244,6 +244,104 @@ impl Protocol {
             }
         }
     }
+
+    /// The command of a protocol that is a function of time alone, within its duration (0 for
+    /// the others, which [`CommandSource::command_g`] runs).
+    fn timed_command_g(self, t_s: f32) -> f32 {
+        match self {
+            Protocol::ForceSteps {
+                increment_g,
+                top_g,
+                hold_s,
+            } => {
+                let n = libm::roundf(top_g / increment_g);
+                let k = libm::floorf(t_s / hold_s);
+                let level = if k <= n { k } else { 2.0 * n - k };
+                (level * increment_g).max(0.0)
+            }
+            Protocol::Step {
+                load_g,
+                lead_s,
+                on_s,
+                ..
+            } if t_s >= lead_s && t_s < lead_s + on_s => load_g,
+            Protocol::StepLoads => {
+                let tt = t_s - 2.0;
+                let k = libm::floorf(tt / 75.0);
+                let within = tt - 75.0 * k;
+                match STEP_LOADS_G.get(k as usize) {
+                    Some(&g) if tt >= 0.0 && within < 50.0 => g,
+                    _ => 0.0,
+                }
+            }
+            Protocol::StaticLinearity { hold_s } => {
+                let tt = t_s - 2.0;
+                let period = hold_s + 19.0;
+                let k = libm::floorf(tt / period);
+                if tt >= 0.0 && tt - k * period < hold_s {
+                    10.0 * (k + 1.0)
+                } else {
+                    0.0
+                }
+            }
+            Protocol::PermanentDeformation => {
+                let tt = t_s - 2.0;
+                if (0.0..20.0).contains(&tt) {
+                    50.0
+                } else if (100.0..120.0).contains(&tt) {
+                    100.0
+                } else {
+                    0.0
+                }
+            }
+            Protocol::RepeatedSteps {
+                load_g,
+                on_s,
+                off_s,
+                ..
+            } => {
+                let tt = t_s - 2.0;
+                let period = on_s + off_s;
+                if tt >= 0.0 && tt - libm::floorf(tt / period) * period < on_s {
+                    load_g
+                } else {
+                    0.0
+                }
+            }
+            Protocol::Sweep {
+                offset_g,
+                amplitude_g,
+                f0_hz,
+                f1_hz,
+                duration_s,
+            } => {
+                let tt = t_s - 2.0;
+                if tt < 0.0 {
+                    // Ramp to the offset first, so the sweep starts in contact.
+                    return offset_g * t_s / 2.0;
+                }
+                // Exponential chirp: phase = 2π f0 T/ln(k) (k^(t/T) − 1), k = f1/f0.
+                let ln_k = libm::logf(f1_hz / f0_hz);
+                let phase = 2.0 * core::f32::consts::PI * f0_hz * duration_s / ln_k
+                    * (libm::expf(ln_k * tt / duration_s) - 1.0);
+                offset_g + amplitude_g * crate::trig::sinf(phase)
+            }
+            // Onto the finger in half of the settling time, then still.
+            Protocol::Excitation { preload_g, .. } => {
+                preload_g * (t_s / (0.5 * EXCITATION_SETTLE_S)).min(1.0)
+            }
+            Protocol::LowForce { hold_s } => {
+                let period = 1.0 + hold_s;
+                let k = libm::floorf(t_s / period);
+                if t_s - k * period < 1.0 {
+                    0.0
+                } else {
+                    LOW_FORCE_G.get(k as usize).copied().unwrap_or(0.0)
+                }
+            }
+            _ => 0.0,
+        }
+    }
 }
 
 /// Runs a [`Protocol`]: call [`CommandSource::command_g`] with non-decreasing times.
@@ -353,106 +451,6 @@ impl CommandSource {
             Some(&offset) if t >= 0.0 => self.sines(offset, CALIBRATION_AMPLITUDE * offset, t_s),
             None if t - CALIBRATION_OFFSETS_G.len() as f32 * per_offset_s < CALIBRATION_HOLD_S => {
                 CALIBRATION_HOLD_G
-            }
-            _ => 0.0,
-        }
-    }
-}
-
-impl Protocol {
-    /// The command of a protocol that is a function of time alone, within its duration (0 for
-    /// the others, which [`CommandSource::command_g`] runs).
-    fn timed_command_g(self, t_s: f32) -> f32 {
-        match self {
-            Protocol::ForceSteps {
-                increment_g,
-                top_g,
-                hold_s,
-            } => {
-                let n = libm::roundf(top_g / increment_g);
-                let k = libm::floorf(t_s / hold_s);
-                let level = if k <= n { k } else { 2.0 * n - k };
-                (level * increment_g).max(0.0)
-            }
-            Protocol::Step {
-                load_g,
-                lead_s,
-                on_s,
-                ..
-            } if t_s >= lead_s && t_s < lead_s + on_s => load_g,
-            Protocol::StepLoads => {
-                let tt = t_s - 2.0;
-                let k = libm::floorf(tt / 75.0);
-                let within = tt - 75.0 * k;
-                match STEP_LOADS_G.get(k as usize) {
-                    Some(&g) if tt >= 0.0 && within < 50.0 => g,
-                    _ => 0.0,
-                }
-            }
-            Protocol::StaticLinearity { hold_s } => {
-                let tt = t_s - 2.0;
-                let period = hold_s + 19.0;
-                let k = libm::floorf(tt / period);
-                if tt >= 0.0 && tt - k * period < hold_s {
-                    10.0 * (k + 1.0)
-                } else {
-                    0.0
-                }
-            }
-            Protocol::PermanentDeformation => {
-                let tt = t_s - 2.0;
-                if (0.0..20.0).contains(&tt) {
-                    50.0
-                } else if (100.0..120.0).contains(&tt) {
-                    100.0
-                } else {
-                    0.0
-                }
-            }
-            Protocol::RepeatedSteps {
-                load_g,
-                on_s,
-                off_s,
-                ..
-            } => {
-                let tt = t_s - 2.0;
-                let period = on_s + off_s;
-                if tt >= 0.0 && tt - libm::floorf(tt / period) * period < on_s {
-                    load_g
-                } else {
-                    0.0
-                }
-            }
-            Protocol::Sweep {
-                offset_g,
-                amplitude_g,
-                f0_hz,
-                f1_hz,
-                duration_s,
-            } => {
-                let tt = t_s - 2.0;
-                if tt < 0.0 {
-                    // Ramp to the offset first, so the sweep starts in contact.
-                    return offset_g * t_s / 2.0;
-                }
-                // Exponential chirp: phase = 2π f0 T/ln(k) (k^(t/T) − 1), k = f1/f0.
-                let ln_k = libm::logf(f1_hz / f0_hz);
-                let phase = 2.0 * core::f32::consts::PI * f0_hz * duration_s / ln_k
-                    * (libm::expf(ln_k * tt / duration_s) - 1.0);
-                offset_g + amplitude_g * crate::trig::sinf(phase)
-            }
-            // Onto the finger in half of the settling time, then still.
-            Protocol::Excitation { preload_g, .. } => {
-                preload_g * (t_s / (0.5 * EXCITATION_SETTLE_S)).min(1.0)
-            }
-            Protocol::LowForce { hold_s } => {
-                let period = 1.0 + hold_s;
-                let k = libm::floorf(t_s / period);
-                if t_s - k * period < 1.0 {
-                    0.0
-                } else {
-                    LOW_FORCE_G.get(k as usize).copied().unwrap_or(0.0)
-                }
             }
             _ => 0.0,
         }

@@ -188,29 +188,8 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
                 format!("{} cells, the header has {}", cells.len(), names.len()),
             ));
         }
-        let mut values = Vec::with_capacity(cells.len());
-        for (j, (cell, name)) in cells.iter().zip(names).enumerate() {
-            if !index.contains(&j) {
-                // Another column: read if it is a number, else NaN, and the column left out.
-                values.push(cell.parse().unwrap_or(f64::NAN));
-                continue;
-            }
-            let v: f64 = cell.parse().map_err(|_| {
-                err(
-                    Some(n),
-                    Some(name.clone()),
-                    format!("'{}' is not a number", shown(cell)),
-                )
-            })?;
-            if !v.is_finite() {
-                return Err(err(
-                    Some(n),
-                    Some(name.clone()),
-                    format!("'{}' is not finite", shown(cell)),
-                ));
-            }
-            values.push(v);
-        }
+        let values =
+            row_values(&cells, names, &index).map_err(|(c, m)| err(Some(n), Some(c), m))?;
         let t = values[index[0]];
         if let Some(&last) = rec.t_s.last() {
             if t <= last {
@@ -259,6 +238,34 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         v.shrink_to_fit();
     }
     Ok(rec)
+}
+
+/// A data row's values in the header's order: the `required` columns strictly (a finite
+/// number), another column NaN where it holds no number (the column is left out after the
+/// reading). `Err`: the column and what is wrong with its cell.
+fn row_values(
+    cells: &[&str],
+    names: &[String],
+    required: &[usize; 3],
+) -> Result<Vec<f64>, (String, String)> {
+    cells
+        .iter()
+        .zip(names)
+        .enumerate()
+        .map(|(j, (cell, name))| {
+            if !required.contains(&j) {
+                return Ok(cell.parse().unwrap_or(f64::NAN));
+            }
+            let v: f64 = cell
+                .parse()
+                .map_err(|_| (name.clone(), format!("'{}' is not a number", shown(cell))))?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err((name.clone(), format!("'{}' is not finite", shown(cell))))
+            }
+        })
+        .collect()
 }
 
 /// Steps within this share of the median are even sampling.
