@@ -97,6 +97,23 @@ pub fn compare(finger_seed: u64, finger: FingerKind) -> Result<EstimatorTable, c
     compare_with(&table, fits, finger_seed, finger.effects())
 }
 
+/// [`compare`] on the memo's finger with the table the firmware builds carry instead of a
+/// fresh calibration: the same table (a test holds them byte for byte), without the fits' 20 s.
+pub fn compare_firmware_table() -> Result<EstimatorTable, crate::Error> {
+    let table = CalibrationTable::decode(FIRMWARE_CALIBRATION_TABLE)
+        .map_err(|e| crate::Error::Failed(format!("boards/calibration/table.bin: {e}")))?;
+    compare_with(
+        &table,
+        Vec::new(),
+        crate::dynamic_calibration::FINGER_SEED,
+        FingerKind::Memo.effects(),
+    )
+}
+
+/// The calibration table the firmware builds carry: `tactile calibrate`'s for the memo's
+/// finger ([`crate::dynamic_calibration::FINGER_SEED`]).
+pub const FIRMWARE_CALIBRATION_TABLE: &[u8] = include_bytes!("../../boards/calibration/table.bin");
+
 /// Scores every estimator on the taxels of `table`, nominal and calibrated, on the finger
 /// `finger_seed` with `effects`.
 pub fn compare_with(

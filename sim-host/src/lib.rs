@@ -9,6 +9,7 @@ pub mod applicator_model;
 pub mod board_link;
 pub mod chip_diagnosis;
 pub mod cli;
+pub mod demo;
 pub mod design;
 pub mod dynamic_calibration;
 pub mod error;

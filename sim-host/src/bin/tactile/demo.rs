@@ -1,7 +1,6 @@
 //! `tactile demo`: the main job without a board: the memo's experiment set, plots and a report.
 
 use clap::Args;
-use sim_host::cli;
 use sim_host::Error;
 use std::path::PathBuf;
 
@@ -15,7 +14,7 @@ pub struct DemoArgs {
 
 pub fn run(args: DemoArgs) -> Result<(), Error> {
     let DemoArgs { out, seed } = args;
-    let path = cli::demo(&out, seed)?;
+    let path = sim_host::demo::demo(&out, seed)?;
     outln!("report: {}", path.display());
     Ok(())
 }
