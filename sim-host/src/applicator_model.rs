@@ -641,63 +641,25 @@ fn log_errors(model: &ApplicatorModel, response: &[ResponsePoint]) -> Vec<f64> {
 }
 
 /// A least-squares problem in the model's parameters ([`ApplicatorModel::from_theta`]): its
-/// errors at a parameter vector, `None` where they cannot be computed.
+/// errors at a parameter vector, `None` where they cannot be computed or are not finite.
 pub(crate) struct ModelProblem<'a> {
     pub(crate) errors: &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
-    pub(crate) theta: nalgebra::DVector<f64>,
 }
 
 impl<'a> ModelProblem<'a> {
-    fn errors(&self, theta: &[f64]) -> Option<Vec<f64>> {
-        let e = (self.errors)(theta)?;
-        e.iter().all(|v| v.is_finite()).then_some(e)
-    }
-
     /// Levenberg–Marquardt from `start`: the parameters it ends at.
     pub(crate) fn solve(
         errors: &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
         start: &[f64],
     ) -> Vec<f64> {
-        let problem = ModelProblem {
-            errors,
-            theta: nalgebra::DVector::from_row_slice(start),
-        };
-        let (solved, _) = levenberg_marquardt::LevenbergMarquardt::new()
-            .with_patience(50)
-            .minimize(problem);
-        solved.theta.as_slice().to_vec()
+        crate::least_squares::minimize(ModelProblem { errors }, start, 50).theta
     }
 }
 
-impl levenberg_marquardt::LeastSquaresProblem<f64, nalgebra::Dyn, nalgebra::Dyn>
-    for ModelProblem<'_>
-{
-    type ResidualStorage = nalgebra::storage::Owned<f64, nalgebra::Dyn>;
-    type JacobianStorage = nalgebra::storage::Owned<f64, nalgebra::Dyn, nalgebra::Dyn>;
-    type ParameterStorage = nalgebra::storage::Owned<f64, nalgebra::Dyn>;
-
-    fn set_params(&mut self, x: &nalgebra::DVector<f64>) {
-        self.theta.copy_from(x);
-    }
-    fn params(&self) -> nalgebra::DVector<f64> {
-        self.theta.clone()
-    }
-    fn residuals(&self) -> Option<nalgebra::DVector<f64>> {
-        self.errors(self.theta.as_slice())
-            .map(nalgebra::DVector::from_vec)
-    }
-    fn jacobian(&self) -> Option<nalgebra::DMatrix<f64>> {
-        let base = self.errors(self.theta.as_slice())?;
-        let mut j = nalgebra::DMatrix::zeros(base.len(), self.theta.len());
-        for c in 0..self.theta.len() {
-            let mut t = self.theta.clone();
-            t[c] += 1e-6;
-            let e = self.errors(t.as_slice())?;
-            for (r, (a, b)) in e.iter().zip(&base).enumerate() {
-                j[(r, c)] = (a - b) / 1e-6;
-            }
-        }
-        Some(j)
+impl crate::least_squares::Residuals for ModelProblem<'_> {
+    fn residuals(&self, theta: &[f64]) -> Option<Vec<f64>> {
+        let e = (self.errors)(theta)?;
+        e.iter().all(|v| v.is_finite()).then_some(e)
     }
 }
 

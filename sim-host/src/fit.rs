@@ -6,8 +6,8 @@
 
 mod series;
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use crate::least_squares::{minimize, Problem, Residuals};
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 use tactile_core::viscoelastic::{
     Discrete2State, MaxwellKelvin, NonlinearMk, NonlinearMkState, SecondOrder, SpringLaw,
@@ -482,55 +482,25 @@ pub struct Fit {
     pub evaluations: usize,
 }
 
-struct Problem<'a> {
+/// The strain a model predicts minus the record's, over the fitted samples.
+struct StrainMiss<'a> {
     spec: &'a ModelSpec,
     data: &'a Series,
-    theta: DVector<f64>,
     fit_index: Vec<usize>,
-    /// Cached prediction at `theta`.
-    prediction: Option<Vec<f64>>,
 }
 
-impl Problem<'_> {
-    fn residual_at(&self, pred: &[f64]) -> DVector<f64> {
-        DVector::from_iterator(
-            self.fit_index.len(),
+impl Residuals for StrainMiss<'_> {
+    fn residuals(&self, theta: &[f64]) -> Option<Vec<f64>> {
+        let pred = self.spec.simulate(theta, self.data)?;
+        Some(
             self.fit_index
                 .iter()
-                .map(|&i| pred[i] - self.data.strain[i]),
+                .map(|&i| pred[i] - self.data.strain[i])
+                .collect(),
         )
     }
-}
-
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.theta.copy_from(x);
-        self.prediction = self.spec.simulate(x.as_slice(), self.data);
-    }
-    fn params(&self) -> DVector<f64> {
-        self.theta.clone()
-    }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.prediction.as_ref().map(|p| self.residual_at(p))
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let base = self.prediction.as_ref()?;
-        let n = self.fit_index.len();
-        let mut j = DMatrix::zeros(n, self.theta.len());
-        for c in 0..self.theta.len() {
-            let h = 1e-6 * self.theta[c].abs().max(1e-2);
-            let mut t = self.theta.clone();
-            t[c] += h;
-            let p = self.spec.simulate(t.as_slice(), self.data)?;
-            for (r, &i) in self.fit_index.iter().enumerate() {
-                j[(r, c)] = (p[i] - base[i]) / h;
-            }
-        }
-        Some(j)
+    fn step(&self, theta: &[f64], c: usize) -> f64 {
+        1e-6 * theta[c].abs().max(1e-2)
     }
 }
 
@@ -563,42 +533,29 @@ pub fn fit_from(spec: &ModelSpec, data: &Series, starts: &[Vec<f64>]) -> Option<
     let fit_index: Vec<usize> = (0..data.force.len())
         .filter(|&i| data.in_fit[i] && !data.excluded.get(i).copied().unwrap_or(false))
         .collect();
-    let mut best: Option<(f64, DVector<f64>, usize)> = None;
+    let miss = StrainMiss {
+        spec,
+        data,
+        fit_index,
+    };
+    let mut best: Option<(f64, Vec<f64>)> = None;
     let mut evaluations = 0;
-    for start in starts.iter().cloned() {
-        if start.len() != spec.len() {
+    for start in starts {
+        if start.len() != spec.len() || spec.simulate(start, data).is_none() {
             continue;
         }
-        let theta = DVector::from_vec(start);
-        let mut problem = Problem {
-            spec,
-            data,
-            theta: theta.clone(),
-            fit_index: fit_index.clone(),
-            prediction: None,
-        };
-        problem.set_params(&theta);
-        if problem.prediction.is_none() {
+        let solved = minimize(&miss, start, 25);
+        evaluations += solved.evaluations;
+        if !solved.objective.is_finite() {
             continue;
         }
-        let (solved, report) = LevenbergMarquardt::new()
-            .with_patience(25)
-            .minimize(problem);
-        evaluations += report.number_of_evaluations;
-        if !report.objective_function.is_finite() {
-            continue;
-        }
-        if best
-            .as_ref()
-            .is_none_or(|b| report.objective_function < b.0)
-        {
-            best = Some((report.objective_function, solved.theta.clone(), 0));
+        if best.as_ref().is_none_or(|b| solved.objective < b.0) {
+            best = Some((solved.objective, solved.theta));
         }
     }
-    let (_, theta, _) = best?;
-    let mut theta = theta.as_slice().to_vec();
+    let (_, mut theta) = best?;
     canonical_order(spec, &mut theta);
-    summarize_fit(spec, data, theta, fit_index, evaluations)
+    summarize_fit(&miss, theta, evaluations)
 }
 
 /// Eq. 14's two branches, 1/(sN₁ + α) and 1/(sN₂ + G₂), are interchangeable: the fit can land on
@@ -615,13 +572,8 @@ fn canonical_order(spec: &ModelSpec, theta: &mut Vec<f64>) {
     }
 }
 
-fn summarize_fit(
-    spec: &ModelSpec,
-    data: &Series,
-    theta: Vec<f64>,
-    fit_index: Vec<usize>,
-    evaluations: usize,
-) -> Option<Fit> {
+fn summarize_fit(miss: &StrainMiss, theta: Vec<f64>, evaluations: usize) -> Option<Fit> {
+    let (spec, data) = (miss.spec, miss.data);
     let pred = spec.simulate(&theta, data)?;
     // Nothing fitted (every sample held out or at the rail): no fit.
     let fit_rms = rms_where(&pred, data, true)?;
@@ -629,14 +581,8 @@ fn summarize_fit(
     let g1 = spec.g1(&theta);
     // Uncertainty: s² (JᵀJ)⁻¹, with s² inflated by the residual's lag-1 correlation (the
     // effective number of independent samples is smaller than N when it is correlated).
-    let problem = Problem {
-        spec,
-        data,
-        theta: DVector::from_vec(theta.clone()),
-        fit_index,
-        prediction: Some(pred.clone()),
-    };
-    let r = problem.residuals()?;
+    let problem = Problem::new(miss, &theta);
+    let r = DVector::from_column_slice(problem.residuals_here()?);
     let n = r.len() as f64;
     let p = theta.len() as f64;
     let rho1 = tactile_ident::stats::acf(r.as_slice(), 1)[0].clamp(-0.99, 0.99);
@@ -647,7 +593,7 @@ fn summarize_fit(
     let free: Vec<usize> = (0..theta.len())
         .filter(|&i| spec.bound_reached(i, &theta).is_none())
         .collect();
-    let (standard_error, max_correlation) = match problem.jacobian().and_then(|j| {
+    let (standard_error, max_correlation) = match problem.jacobian_here().and_then(|j| {
         let j = j.select_columns(&free);
         (j.transpose() * &j).try_inverse()
     }) {

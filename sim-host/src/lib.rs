@@ -17,6 +17,7 @@ pub mod estimator_comparison;
 pub mod fingers;
 pub mod fit;
 pub mod fuzz;
+pub mod least_squares;
 pub mod metrics;
 pub mod output;
 pub mod plot;

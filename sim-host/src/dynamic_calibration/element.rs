@@ -2,8 +2,7 @@
 //! record: its internal parameters, the least-squares problem, its starts, and the share of
 //! the fit the prior on α holds.
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use crate::least_squares::{minimize, Problem, Residuals};
 use tactile_core::spring::SpringCurve;
 use tactile_core::viscoelastic::NonlinearMkState;
 
@@ -88,8 +87,6 @@ struct ElementProblem<'a> {
     forward_g_per_pct: f64,
     /// The samples the forward rows score (every [`FORWARD_STEP`]-th fitted one).
     forward_index: Vec<usize>,
-    theta: DVector<f64>,
-    prediction: Option<Vec<f64>>,
 }
 
 impl ElementProblem<'_> {
@@ -136,58 +133,16 @@ impl ElementProblem<'_> {
     fn alpha_prior_weight(&self) -> f64 {
         ALPHA_PRIOR_WEIGHT * self.smooth
     }
-    /// How much of what the fit knows about ln α is the prior's, 0–1: the prior's precision
-    /// over ln α's marginal precision in the Gauss–Newton approximation at θ (the prior only
-    /// adds to the diagonal there, so the marginal is the record's plus the prior's). 1 where
-    /// the Jacobian cannot be had or the normal matrix is singular (nothing else pins α).
-    fn alpha_prior_share(&self) -> f64 {
-        let Some(j) = self.jacobian() else {
-            return 1.0;
-        };
-        let h = j.transpose() * &j;
-        let Some(cov) = h.try_inverse() else {
-            return 1.0;
-        };
-        let share = self.alpha_prior_weight().powi(2) * cov[(ALPHA_THETA, ALPHA_THETA)];
-        if share.is_finite() {
-            share.clamp(0.0, 1.0)
-        } else {
-            1.0
-        }
-    }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for ElementProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.theta.copy_from(x);
-        self.prediction = self.predict(x.as_slice());
+impl Residuals for ElementProblem<'_> {
+    fn residuals(&self, theta: &[f64]) -> Option<Vec<f64>> {
+        Some(self.rows(theta, &self.predict(theta)?))
     }
-    fn params(&self) -> DVector<f64> {
-        self.theta.clone()
-    }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        let p = self.prediction.as_ref()?;
-        Some(DVector::from_vec(self.rows(self.theta.as_slice(), p)))
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let base = self.rows(self.theta.as_slice(), self.prediction.as_ref()?);
-        let mut j = DMatrix::zeros(base.len(), self.theta.len());
-        for c in 0..self.theta.len() {
-            // The springs are f32 curves: a step of 10⁻³ in a log compliance moves the strain
-            // far above their rounding (10⁻⁵ did not, and the fit stalled).
-            let h = 1e-3;
-            let mut t = self.theta.clone();
-            t[c] += h;
-            let p = self.predict(t.as_slice())?;
-            for (r, v) in self.rows(t.as_slice(), &p).iter().enumerate() {
-                j[(r, c)] = (v - base[r]) / h;
-            }
-        }
-        Some(j)
+    /// The springs are f32 curves: a step of 10⁻³ in a log compliance moves the strain far
+    /// above their rounding (10⁻⁵ did not, and the fit stalled).
+    fn step(&self, _theta: &[f64], _c: usize) -> f64 {
+        1e-3
     }
 }
 
@@ -203,12 +158,10 @@ pub(super) fn fit_element(
         Some(t) => vec![t.to_vec()],
         None => nominal_starts(frames, knots),
     };
-    let problem_at = element_problem(frames, in_fit, knots);
+    let problem = element_problem(frames, in_fit, knots);
     let solve = |theta: Vec<f64>| {
-        let (solved, report) = LevenbergMarquardt::new()
-            .with_patience(PATIENCE)
-            .minimize(problem_at(&theta));
-        (report.objective_function, solved.theta.as_slice().to_vec())
+        let solved = minimize(&problem, &theta, PATIENCE);
+        (solved.objective, solved.theta)
     };
     // The starts on threads (each a whole Levenberg–Marquardt run).
     let best = std::thread::scope(|scope| {
@@ -236,41 +189,48 @@ pub(super) fn fit_element(
     })
 }
 
-/// The fit's problem over the samples `in_fit` of `frames`, set at a given θ.
+/// The fit's problem over the samples `in_fit` of `frames`.
 fn element_problem<'a>(
     frames: &'a Frames,
     in_fit: &[bool],
     knots: &[f32; CURVE_KNOTS],
-) -> impl Fn(&[f64]) -> ElementProblem<'a> {
+) -> ElementProblem<'a> {
     let fit_index: Vec<usize> = (0..frames.force.len()).filter(|&i| in_fit[i]).collect();
-    let forward_index: Vec<usize> = fit_index.iter().copied().step_by(FORWARD_STEP).collect();
-    let forward_g_per_pct = top_secant_g_per_pct(frames);
-    let knots = *knots;
-    move |theta: &[f64]| {
-        let mut problem = ElementProblem {
-            frames,
-            knots,
-            smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
-            forward_g_per_pct,
-            forward_index: forward_index.clone(),
-            theta: DVector::from_column_slice(theta),
-            prediction: None,
-            fit_index: fit_index.clone(),
-        };
-        problem.set_params(&DVector::from_column_slice(theta));
-        problem
+    ElementProblem {
+        frames,
+        knots: *knots,
+        smooth: 1e-2 * (fit_index.len() as f64).sqrt(),
+        forward_g_per_pct: top_secant_g_per_pct(frames),
+        forward_index: fit_index.iter().copied().step_by(FORWARD_STEP).collect(),
+        fit_index,
     }
 }
 
-/// How much of what `fit` (to the samples `in_fit`) knows of α is its prior's; see
-/// [`ElementProblem::alpha_prior_share`]. Only the reported fit needs it: one more Jacobian.
+/// How much of what `fit` (to the samples `in_fit`) knows of α is its prior's, 0–1: the
+/// prior's precision over ln α's marginal precision in the Gauss–Newton approximation at θ
+/// (the prior only adds to the diagonal there, so the marginal is the record's plus the
+/// prior's). 1 where the Jacobian cannot be had or the normal matrix is singular (nothing
+/// else pins α). Only the reported fit needs it: one more Jacobian.
 pub(super) fn alpha_prior_share(
     frames: &Frames,
     in_fit: &[bool],
     knots: &[f32; CURVE_KNOTS],
     fit: &ElementFit,
 ) -> f64 {
-    element_problem(frames, in_fit, knots)(&fit.theta).alpha_prior_share()
+    let problem = Problem::new(element_problem(frames, in_fit, knots), &fit.theta);
+    let Some(j) = problem.jacobian_here() else {
+        return 1.0;
+    };
+    let h = j.transpose() * &j;
+    let Some(cov) = h.try_inverse() else {
+        return 1.0;
+    };
+    let share = problem.model().alpha_prior_weight().powi(2) * cov[(ALPHA_THETA, ALPHA_THETA)];
+    if share.is_finite() {
+        share.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
 }
 
 /// The record's stiffness at the top of its range (g/%): its 99.5th percentiles of force and
