@@ -3,7 +3,7 @@
 //! cargo run --release -p sim-host --example bench_fit
 use std::time::Instant;
 
-use sim_host::fit::{fit, Base, ModelSpec, Series};
+use sim_host::fit::{fit, Base, ModelSpec, Split};
 use sim_host::rig::RigConfig;
 use sim_host::scenario::{run_named, ScenarioOptions};
 
@@ -30,7 +30,7 @@ fn main() {
         .map(|t| (f64::from(t.sensed_g), f64::from(t.strain_pct)))
         .unzip();
     let n = force.len();
-    let mut data = Series::whole(0.005, force, strain);
+    let mut data = Split::whole(0.005, force, strain);
     // The usual split: every fourth 10 s block held out.
     data.in_fit = (0..n).map(|i| (i / 2000) % 4 != 3).collect();
     let spec = ModelSpec::new(Base::MkAlpha);
@@ -43,8 +43,13 @@ fn main() {
         evaluations = f.evaluations;
     }
     println!("mk-alpha fit of a 240 s record at 200 Hz ({n} samples): best of 3 {best:.3} s ({evaluations} evaluations)");
-    let series = tactile_ident::Series::new(0.005, data.force.clone(), data.strain.clone(), vec![])
-        .expect("a usable record");
+    let series = tactile_ident::Series::new(
+        0.005,
+        data.series.force_g.clone(),
+        data.series.strain_pct.clone(),
+        vec![],
+    )
+    .expect("a usable record");
     let start = Instant::now();
     let d = tactile_ident::diagnose(&series);
     println!(

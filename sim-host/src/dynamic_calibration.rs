@@ -36,7 +36,7 @@ use tactile_core::tactile::{ScanConfig, TaxelId};
 use tactile_core::viscoelastic::NonlinearMk;
 
 use crate::finger::Effects;
-use crate::fit::{fit, Base, ModelSpec, Series};
+use crate::fit::{fit, Base, ModelSpec, Split};
 use crate::rig::TickRecord;
 use crate::scenario::ScenarioError;
 use element::{alpha_prior_share, fit_element, ElementFit};
@@ -454,10 +454,10 @@ fn memo_models(
         .map(|(f, _)| f)
         .sum::<f64>()
         / n;
-    let series = Series {
+    let series = Split {
         in_fit: memo_fit,
         held_out_description: "all but the memo's level".into(),
-        ..Series::whole(frames.dt_s, frames.force.clone(), frames.strain.clone())
+        ..Split::whole(frames.dt_s, frames.force.clone(), frames.strain.clone())
     };
     let elastic = fit(&ModelSpec::new(Base::Elastic), &series, &[])?;
     // The linear model's intercept made secant at the level's mean load, so it reads zero

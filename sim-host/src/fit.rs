@@ -4,7 +4,7 @@
 //! fitting logarithms, uncertainty from the Jacobian at the optimum, and the error reported
 //! on a held-out part of the record the fit did not see.
 
-mod series;
+mod split;
 
 use crate::least_squares::{minimize, Problem, Residuals};
 use nalgebra::{DMatrix, DVector};
@@ -13,7 +13,7 @@ use tactile_core::viscoelastic::{
     Discrete2State, MaxwellKelvin, NonlinearMk, NonlinearMkState, SecondOrder, SpringLaw,
 };
 
-pub use series::*;
+pub use split::*;
 
 /// The memo's base models (the names `tactile fit --model` takes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -278,14 +278,14 @@ impl ModelSpec {
     }
 
     /// Starting points for the fit, from the memo's tables and fits.
-    pub fn starts(&self, data: &Series) -> Vec<Vec<f64>> {
+    pub fn starts(&self, data: &Split) -> Vec<Vec<f64>> {
         let mk_rows = [
             MaxwellKelvin::TABLE_I_10G,
             MaxwellKelvin::TABLE_I_30G,
             MaxwellKelvin::TABLE_I_80G,
         ];
         let ln = |x: f64| x;
-        let offset = data.strain.first().copied().unwrap_or(0.0);
+        let offset = data.series.strain_pct.first().copied().unwrap_or(0.0);
         let bases: Vec<Vec<f64>> = match self.base {
             Base::Elastic => vec![vec![ln(data.secant_g_per_pct())]],
             Base::MaxwellKelvin => mk_rows
@@ -341,11 +341,11 @@ impl ModelSpec {
     }
 
     /// Predicted strain for the whole series.
-    pub fn simulate(&self, theta: &[f64], data: &Series) -> Option<Vec<f64>> {
+    pub fn simulate(&self, theta: &[f64], data: &Split) -> Option<Vec<f64>> {
         let p = self.physical(theta);
         let nb = self.base_len();
         let offset = *p.get(nb)?;
-        let mut out = self.base_response(&p[..nb], &data.force, data.dt_s)?;
+        let mut out = self.base_response(&p[..nb], &data.series.force_g, data.series.dt_s)?;
         for y in out.iter_mut() {
             *y += offset;
         }
@@ -401,11 +401,12 @@ impl ModelSpec {
 /// the compliances (1/G₁, 1/G₂, 1/α) and the offset, so each grid point is a small linear
 /// least-squares problem; the best two become starting points for Levenberg–Marquardt. This is
 /// what keeps the fit off the local minima a ridge invites.
-fn grid_starts(data: &Series) -> Vec<Vec<f64>> {
+fn grid_starts(data: &Split) -> Vec<Vec<f64>> {
     let lowpass = |tau: f64| -> Vec<f64> {
-        let phi = (-data.dt_s / tau).exp();
+        let phi = (-data.series.dt_s / tau).exp();
         let mut x = 0.0;
-        data.force
+        data.series
+            .force_g
             .iter()
             .map(|f| {
                 x = x * phi + (1.0 - phi) * f;
@@ -413,17 +414,18 @@ fn grid_starts(data: &Series) -> Vec<Vec<f64>> {
             })
             .collect()
     };
-    let rows: Vec<usize> = (0..data.force.len())
-        .filter(|&i| data.in_fit[i] && !data.excluded.get(i).copied().unwrap_or(false))
+    let rows: Vec<usize> = (0..data.series.force_g.len())
+        .filter(|&i| data.in_fit[i] && !data.series.excluded.get(i).copied().unwrap_or(false))
         .step_by(4)
         .collect();
     // Fewer rows than unknowns (a record all at its rail) or values no solve can take: no
     // data-driven starts (the memo's remain).
-    let finite = |i: &usize| data.force[*i].is_finite() && data.strain[*i].is_finite();
+    let finite =
+        |i: &usize| data.series.force_g[*i].is_finite() && data.series.strain_pct[*i].is_finite();
     if rows.len() < 4 || !rows.iter().all(finite) {
         return Vec::new();
     }
-    let b = DVector::from_iterator(rows.len(), rows.iter().map(|&i| data.strain[i]));
+    let b = DVector::from_iterator(rows.len(), rows.iter().map(|&i| data.series.strain_pct[i]));
     let mut scored: Vec<(f64, Vec<f64>)> = Vec::new();
     let kelvin_taus = [0.5, 2.0, 8.0, 30.0];
     let maxwell_taus = [60.0, 300.0, 2000.0, 20000.0];
@@ -432,7 +434,7 @@ fn grid_starts(data: &Series) -> Vec<Vec<f64>> {
     for (tk, lk) in kelvin_taus.iter().zip(&kelvin) {
         for (tm, lm) in maxwell_taus.iter().zip(&maxwell) {
             let a = DMatrix::from_fn(rows.len(), 4, |r, c| match c {
-                0 => data.force[rows[r]],
+                0 => data.series.force_g[rows[r]],
                 1 => lk[rows[r]],
                 2 => lm[rows[r]],
                 _ => 1.0,
@@ -485,7 +487,7 @@ pub struct Fit {
 /// The strain a model predicts minus the record's, over the fitted samples.
 struct StrainMiss<'a> {
     spec: &'a ModelSpec,
-    data: &'a Series,
+    data: &'a Split,
     fit_index: Vec<usize>,
 }
 
@@ -495,7 +497,7 @@ impl Residuals for StrainMiss<'_> {
         Some(
             self.fit_index
                 .iter()
-                .map(|&i| pred[i] - self.data.strain[i])
+                .map(|&i| pred[i] - self.data.series.strain_pct[i])
                 .collect(),
         )
     }
@@ -506,11 +508,11 @@ impl Residuals for StrainMiss<'_> {
 
 /// RMS of (prediction − strain) over the samples where `mask` equals `want` (`None`: no such
 /// sample).
-fn rms_where(pred: &[f64], data: &Series, want: bool) -> Option<f64> {
+fn rms_where(pred: &[f64], data: &Split, want: bool) -> Option<f64> {
     let (s, n) = pred
         .iter()
-        .zip(&data.strain)
-        .zip(data.in_fit.iter().zip(&data.excluded))
+        .zip(&data.series.strain_pct)
+        .zip(data.in_fit.iter().zip(&data.series.excluded))
         .filter(|(_, (m, x))| **m == want && !**x)
         .fold((0.0, 0usize), |(s, n), ((p, e), _)| {
             (s + (p - e).powi(2), n + 1)
@@ -519,7 +521,7 @@ fn rms_where(pred: &[f64], data: &Series, want: bool) -> Option<f64> {
 }
 
 /// Fits `spec` from each of its starts (and from `extra_starts`), keeping the best.
-pub fn fit(spec: &ModelSpec, data: &Series, extra_starts: &[Vec<f64>]) -> Option<Fit> {
+pub fn fit(spec: &ModelSpec, data: &Split, extra_starts: &[Vec<f64>]) -> Option<Fit> {
     let starts: Vec<Vec<f64>> = spec
         .starts(data)
         .into_iter()
@@ -529,9 +531,9 @@ pub fn fit(spec: &ModelSpec, data: &Series, extra_starts: &[Vec<f64>]) -> Option
 }
 
 /// Fits `spec` from exactly the given starts (internal parameter vectors).
-pub fn fit_from(spec: &ModelSpec, data: &Series, starts: &[Vec<f64>]) -> Option<Fit> {
-    let fit_index: Vec<usize> = (0..data.force.len())
-        .filter(|&i| data.in_fit[i] && !data.excluded.get(i).copied().unwrap_or(false))
+pub fn fit_from(spec: &ModelSpec, data: &Split, starts: &[Vec<f64>]) -> Option<Fit> {
+    let fit_index: Vec<usize> = (0..data.series.force_g.len())
+        .filter(|&i| data.in_fit[i] && !data.series.excluded.get(i).copied().unwrap_or(false))
         .collect();
     let miss = StrainMiss {
         spec,
@@ -699,7 +701,7 @@ pub fn describe(fit: &Fit) -> String {
 mod tests {
     use super::*;
 
-    fn synthetic(mk: MaxwellKelvin, seconds: f64) -> Series {
+    fn synthetic(mk: MaxwellKelvin, seconds: f64) -> Split {
         let dt = 0.005;
         let n = (seconds / dt) as usize;
         let force: Vec<f64> = (0..n)
@@ -714,12 +716,14 @@ mod tests {
         let mut st = Discrete2State::default();
         let strain = force.iter().map(|f| model.update(&mut st, *f)).collect();
         let block = (BLOCK_S / dt) as usize;
-        Series {
-            dt_s: dt,
-            force,
-            strain,
+        Split {
+            series: tactile_ident::Series {
+                dt_s: dt,
+                force_g: force,
+                strain_pct: strain,
+                excluded: vec![false; n],
+            },
             in_fit: (0..n).map(|i| (i / block) % 4 != 3).collect(),
-            excluded: vec![false; n],
             held_out_description: "test".into(),
         }
     }

@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 use tactile_core::viscoelastic::{Discrete2State, MaxwellKelvin};
 
-use crate::fit::{fit, Base, Fit, ModelSpec, Series};
+use crate::fit::{fit, Base, Fit, ModelSpec, Split};
 use crate::rig::TickRecord;
 use crate::scenario::{probe_run, ScenarioError, ScenarioOptions};
 
@@ -62,9 +62,9 @@ fn at_10_hz(ticks: &[TickRecord]) -> (Vec<f64>, Vec<f64>) {
         .unzip()
 }
 
-fn record(name: &str, options: ScenarioOptions, seed: u64) -> Result<Series, ScenarioError> {
+fn record(name: &str, options: ScenarioOptions, seed: u64) -> Result<Split, ScenarioError> {
     let (force, strain) = at_10_hz(&probe_run(name, options, seed, 1.0)?);
-    Ok(Series::whole(0.1, force, strain))
+    Ok(Split::whole(0.1, force, strain))
 }
 
 fn must(f: Option<Fit>, what: &str) -> Result<Fit, crate::Error> {
@@ -123,7 +123,7 @@ pub fn reproduce(seed: u64) -> Result<Tables, crate::Error> {
     // Both subtract the fitted strain offset first.
     let rms = |est: &[f64]| {
         (est.iter()
-            .zip(&pseudo.force)
+            .zip(&pseudo.series.force_g)
             .map(|(a, b)| (a - b).powi(2))
             .sum::<f64>()
             / est.len().max(1) as f64)
@@ -131,7 +131,8 @@ pub fn reproduce(seed: u64) -> Result<Tables, crate::Error> {
     };
     let g = e.physical[0];
     let elastic_force: Vec<f64> = pseudo
-        .strain
+        .series
+        .strain_pct
         .iter()
         .map(|s| (g * (s - e.physical[1])).max(0.0))
         .collect();
@@ -143,12 +144,13 @@ pub fn reproduce(seed: u64) -> Result<Tables, crate::Error> {
         Ok(inv) => {
             let mut st = Discrete2State::default();
             pseudo
-                .strain
+                .series
+                .strain_pct
                 .iter()
                 .map(|s| inv.update(&mut st, s - p[5]).max(0.0))
                 .collect()
         }
-        Err(_) => vec![f64::NAN; pseudo.strain.len()],
+        Err(_) => vec![f64::NAN; pseudo.series.strain_pct.len()],
     };
     tables.table_iv = [
         strain_rms(&e),

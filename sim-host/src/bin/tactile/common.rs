@@ -42,8 +42,8 @@ pub fn print_and_write(
 }
 
 /// A record read strictly, checked as `tactile diagnose` checks it, and split for fitting.
-pub fn read_series(file: &Path) -> Result<sim_host::fit::Series, Error> {
-    sim_host::fit::Series::checked(&sim_host::record::read_record(file)?)
+pub fn read_series(file: &Path) -> Result<sim_host::fit::Split, Error> {
+    sim_host::fit::Split::checked(&sim_host::record::read_record(file)?)
         .map_err(|reason| Error::Failed(format!("{}: cannot be fitted: {reason}", file.display())))
 }
 
