@@ -28,6 +28,10 @@ fn main() {
                         tau_s: at.unwrap(),
                     },
                     "sag" => SynthEffect::SensitivityDrift(v),
+                    "eq14" => SynthEffect::Eq14Creep {
+                        rate_per_s: v,
+                        tau_s: at.unwrap(),
+                    },
                     _ => panic!("{k}"),
                 }
             })

@@ -26,6 +26,9 @@ pub enum SynthEffect {
     SlowRelaxation { share: f64, tau_s: f64 },
     /// The sensitivity falls linearly by this fraction over the record.
     SensitivityDrift(f64),
+    /// Not an effect but the memo's own finger (eq. 14): the creep levels off with time
+    /// constant `tau_s` = N₁/α, its rate `rate_per_s` × the elastic compliance per second.
+    Eq14Creep { tau_s: f64, rate_per_s: f64 },
 }
 
 /// What to generate.
@@ -129,7 +132,9 @@ pub fn generate(spec: &Spec) -> Generated {
             (tau, j, p, 0.0)
         })
         .collect();
-    let creep = j0 * rng.random_range(0.0..2e-4);
+    let mut creep = j0 * rng.random_range(0.0..2e-4);
+    // τ₁ = N₁/α; infinite: eq. 11's permanent creep.
+    let mut creep_tau_s = f64::INFINITY;
     let mut stiff = 0.0;
     let mut hyst = 0.0;
     let mut drift = 0.0;
@@ -147,6 +152,10 @@ pub fn generate(spec: &Spec) -> Generated {
                 modes.push((tau_s, j0 * share, 1.0, 0.0));
             }
             SynthEffect::SensitivityDrift(g) => sag = g,
+            SynthEffect::Eq14Creep { tau_s, rate_per_s } => {
+                creep = j0 * rate_per_s;
+                creep_tau_s = tau_s;
+            }
         }
     }
     let elastic_p = rng.random_range(0.6..1.4);
@@ -177,7 +186,7 @@ pub fn generate(spec: &Spec) -> Generated {
                 let side = -a_duhem / b_duhem * df.signum();
                 z = side + (z - side) * (-b_duhem * df.abs()).exp();
             }
-            creep_state += creep * f * h;
+            creep_state += (creep * f - creep_state / creep_tau_s) * h;
             prev_f = f;
         }
         let t = i as f64 * dt;

@@ -245,6 +245,62 @@ fn a_slow_relaxation_is_found_with_its_time_constant() {
     assert!((20.0..80.0).contains(&tau), "{tau}");
 }
 
+/// The memo's own finger (eq. 14: the creep levels off with N₁/α of 300–3 000 s) on records
+/// to 30 min: the baseline's, not an effect (eq. 11's permanent creep alone left it to the slow
+/// relaxation or the drift on records of 10 min and more). Where the record spans N₁/α, the
+/// baseline reports it within a fifth.
+#[test]
+fn the_memos_levelling_creep_is_the_baselines_at_any_length() {
+    // (seed, rate Hz, length s, N₁/α s, creep rate × the elastic compliance per s: the memo's
+    // element 4,2 has 1/N₁ ÷ 1/G₁ ≈ 6·10⁻⁴)
+    for (seed, rate, length, tau, rate_per_s) in [
+        (1, 100.0, 600.0, 400.0, 6.7e-4),
+        (2, 25.0, 900.0, 800.0, 6.7e-4),
+        (3, 100.0, 1200.0, 1340.0, 6.7e-4),
+        (12, 50.0, 1800.0, 600.0, 1e-3),
+        (13, 40.0, 1800.0, 3000.0, 4e-4),
+        (14, 100.0, 300.0, 300.0, 6.7e-4),
+    ] {
+        let d = diag(
+            seed,
+            rate,
+            length,
+            &[SynthEffect::Eq14Creep {
+                tau_s: tau,
+                rate_per_s,
+            }],
+        );
+        check(&d, "none");
+        if length >= tau {
+            let (found, _) = d.baseline.alpha_branch.expect("eq. 14's branch");
+            assert!((found / tau - 1.0).abs() < 0.2, "{found} s for {tau} s");
+        }
+    }
+}
+
+/// Beside the memo's levelling creep, a genuine extra relaxation (a Kelvin mode of 20–120 s with
+/// a tenth of the elastic compliance or more) is still named, and a wandering zero still a drift.
+#[test]
+fn beside_the_memos_creep_a_slow_mode_and_a_drift_are_still_named() {
+    let creep = SynthEffect::Eq14Creep {
+        tau_s: 800.0,
+        rate_per_s: 6.7e-4,
+    };
+    for (seed, share, tau_s) in [(21, 0.15, 60.0), (22, 0.3, 120.0), (23, 0.1, 30.0)] {
+        let d = diag(
+            seed,
+            100.0,
+            600.0,
+            &[creep, SynthEffect::SlowRelaxation { share, tau_s }],
+        );
+        check(&d, "slow_relaxation");
+    }
+    for (seed, rate, a) in [(24, 100.0, 0.05), (26, 100.0, 0.05), (27, 50.0, 0.03)] {
+        let d = diag(seed, rate, 600.0, &[creep, SynthEffect::Drift(a)]);
+        check(&d, "baseline_drift");
+    }
+}
+
 /// The verdict line of a diagnosis.
 fn verdict(d: &Diagnosis) -> &str {
     d.summary

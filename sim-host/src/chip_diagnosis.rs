@@ -273,7 +273,9 @@ pub fn element_of(
     let mut branches: Vec<(f64, f64)> = terms
         .iter()
         .filter_map(|(t, b)| match t {
-            Term::Relaxation(tau) | Term::SlowRelaxation(tau) if *b > 0.0 => Some((*tau, *b)),
+            Term::Relaxation(tau) | Term::SlowRelaxation(tau) | Term::Alpha(tau) if *b > 0.0 => {
+                Some((*tau, *b))
+            }
             _ => None,
         })
         .collect();
@@ -406,7 +408,7 @@ fn taxel_model_of(
     let branches: f64 = terms
         .iter()
         .filter(|(t, _)| {
-            matches!(t, Term::Relaxation(tau) | Term::SlowRelaxation(tau) if *tau >= FAST_BRANCH_S)
+            matches!(t, Term::Relaxation(tau) | Term::SlowRelaxation(tau) | Term::Alpha(tau) if *tau >= FAST_BRANCH_S)
         })
         .map(|(_, b)| b.max(0.0))
         .sum();

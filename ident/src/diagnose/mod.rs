@@ -50,6 +50,9 @@ pub struct Settings {
     pub base_tau_max_s: f64,
     /// Grid points per decade of time constant.
     pub per_decade: f64,
+    /// The range of eq. 14's N₁/α the baseline tries for its creep, s (the memo's element:
+    /// N₁ of 5 000–8 250 and α of a few g/%); beside them eq. 11's permanent creep.
+    pub alpha_tau_s: (f64, f64),
 }
 
 impl Default for Settings {
@@ -63,6 +66,7 @@ impl Default for Settings {
             tau_min_s: 0.005,
             base_tau_max_s: 20.0,
             per_decade: 6.0,
+            alpha_tau_s: (300.0, 3000.0),
         }
     }
 }
@@ -116,8 +120,11 @@ pub enum Term {
     Elastic,
     /// A Kelvin branch of the baseline, time constant s.
     Relaxation(f64),
-    /// The Maxwell dashpot (permanent creep): ∫σ dt / T.
+    /// The Maxwell dashpot (permanent creep, eq. 11): ∫σ dt / T.
     Creep,
+    /// Eq. 14's Maxwell branch, the dashpot N₁ beside the small spring α: the creep levelling
+    /// off with this time constant N₁/α, s.
+    Alpha(f64),
     /// A Kelvin branch slower than the baseline's grid, s.
     SlowRelaxation(f64),
     /// Load basis g(σ) = σ·|σ/σ_s|^(power) through a branch (None: instantaneous).
@@ -150,6 +157,7 @@ impl Term {
             Term::Elastic
                 | Term::Relaxation(_)
                 | Term::Creep
+                | Term::Alpha(_)
                 | Term::SlowRelaxation(_)
                 | Term::Stiffening { .. }
                 | Term::Play { .. }
@@ -212,8 +220,11 @@ pub struct Baseline {
     pub elastic_pct_per_g: f64,
     /// (time constant s, compliance %/g) of each Kelvin branch with weight.
     pub branches: Vec<(f64, f64)>,
-    /// Permanent creep, % per g·s.
+    /// Permanent creep, % per g·s (eq. 11), or 0 where eq. 14's branch took its place.
     pub creep_pct_per_g_s: f64,
+    /// Eq. 14's Maxwell branch where the record shows the creep levelling off: (N₁/α s, 1/α
+    /// %/g).
+    pub alpha_branch: Option<(f64, f64)>,
 }
 
 /// The diagnosis of a record.
@@ -357,7 +368,7 @@ pub fn diagnose(series: &Series) -> Diagnosis {
 pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     let prep = prepare::prepare(series, settings);
     let s = &prep.smoothed;
-    let (taus, folds) = prepare::support_and_folds(&prep);
+    let (taus, creep, folds) = prepare::support_and_folds(&prep, settings);
 
     // The baseline on the folds, its noise floors, and the first-order model beside it.
     let mut work = Work {
@@ -370,7 +381,7 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
         force_scale: prep.force_scale,
         force_origin: prep.force_origin,
     };
-    let base = baseline_columns(&mut work, &taus);
+    let base = baseline_columns(&mut work, &taus, creep);
     let scored = work.pool.score(&base);
     let tests = work.tests(&base, &scored.beta);
     let floors = Floors::new(
@@ -396,7 +407,12 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     };
 
     // Then the candidates, and rounds of selection until no effect passes.
-    let columns = CandidateColumns::new(&mut work, settings, prep.force_range, floors.force_noise);
+    let columns = CandidateColumns::new(
+        &mut work,
+        settings,
+        (prep.force_range, floors.force_noise),
+        creep,
+    );
     let selection = Selection {
         settings,
         floors: &floors,

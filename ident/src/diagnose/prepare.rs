@@ -6,7 +6,7 @@ use crate::series::{Folds, Series};
 use crate::solve::Pool;
 use crate::{stats, terms};
 
-use super::work::{baseline_columns, grid, Work};
+use super::work::{baseline_columns, creep_column, grid, Creep, Work};
 use super::{Settings, Term};
 
 /// The record prepared for the fits.
@@ -120,14 +120,15 @@ fn force_origin(q01: f64, q99: f64) -> f64 {
     }
 }
 
-/// The baseline's support and the folds. A first fit of the baseline over the whole grid sets
-/// the folds' length (its slowest branch) and the grid's support: NNLS leaves most time
-/// constants at zero, so the folds see only the branches that fit used and their neighbours
-/// (memory for long records: a column of a 600 s record at 1 kHz is 2.4 MB).
-pub(super) fn support_and_folds(prep: &Prepared) -> (Vec<f64>, Folds) {
+/// The baseline's support, its creep and the folds. A first fit of the baseline over the whole
+/// grid sets the folds' length (its slowest branch) and the grid's support: NNLS leaves most
+/// time constants at zero, so the folds see only the branches that fit used and their
+/// neighbours (memory for long records: a column of a 600 s record at 1 kHz is 2.4 MB). Then
+/// the creep: eq. 11's, or eq. 14's levelling off at the N₁/α that fits best.
+pub(super) fn support_and_folds(prep: &Prepared, settings: &Settings) -> (Vec<f64>, Creep, Folds) {
     let s = &prep.smoothed;
     let taus = &prep.taus;
-    let (slowest, support) = {
+    let (slowest, support, creep) = {
         let mut work = Work {
             s,
             pool: Pool::new(&prep.y, &s.excluded, Folds::blocked(&s.excluded, 4)),
@@ -138,7 +139,7 @@ pub(super) fn support_and_folds(prep: &Prepared) -> (Vec<f64>, Folds) {
             force_scale: prep.force_scale,
             force_origin: prep.force_origin,
         };
-        let cols = baseline_columns(&mut work, taus);
+        let cols = baseline_columns(&mut work, taus, Creep::Permanent);
         let fit = work.pool.score(&cols);
         let total: f64 = cols
             .iter()
@@ -174,12 +175,62 @@ pub(super) fn support_and_folds(prep: &Prepared) -> (Vec<f64>, Folds) {
             })
             .map(|(_, t)| *t)
             .collect();
-        (slowest, support)
+        let creep = creep_of(&mut work, &cols, fit.fit_mse, settings);
+        (slowest, support, creep)
     };
     let taus = if support.is_empty() {
         taus.clone()
     } else {
         support
     };
-    (taus, Folds::for_record(s, slowest))
+    (taus, creep, Folds::for_record(s, slowest))
+}
+
+/// The creep that fits the baseline `cols` (its creep last, eq. 11's, fitted to `permanent_mse`)
+/// best: eq. 11's, or eq. 14's with N₁/α within [`Settings::alpha_tau_s`], on the grid and
+/// then between its neighbours (a golden-section search in ln N₁/α: a slow branch a grid
+/// step off leaves a residual a slow mode would take). Both have one coefficient; on a record
+/// much shorter than N₁/α the two are the same shape and either serves.
+fn creep_of(work: &mut Work, cols: &[usize], permanent_mse: f64, settings: &Settings) -> Creep {
+    let mut trial = cols.to_vec();
+    let mut mse_at = |tau: f64| {
+        let c = creep_column(work, Creep::Alpha(tau));
+        if let Some(last) = trial.last_mut() {
+            *last = c;
+        }
+        let mse = work.pool.score(&trial).fit_mse;
+        work.pool.drop_column(c);
+        mse
+    };
+    let (lo, hi) = settings.alpha_tau_s;
+    let taus = grid(lo, hi, settings.per_decade);
+    let scores: Vec<f64> = taus.iter().map(|&tau| mse_at(tau)).collect();
+    let Some(k) = (0..scores.len()).min_by(|a, b| scores[*a].total_cmp(&scores[*b])) else {
+        return Creep::Permanent;
+    };
+    let (mut a, mut b) = (
+        taus[k.saturating_sub(1)].ln(),
+        taus[(k + 1).min(taus.len() - 1)].ln(),
+    );
+    let mut best = (scores[k], taus[k]);
+    let phi = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..8 {
+        let (x1, x2) = (b - phi * (b - a), a + phi * (b - a));
+        let (m1, m2) = (mse_at(x1.exp()), mse_at(x2.exp()));
+        for (m, x) in [(m1, x1), (m2, x2)] {
+            if m < best.0 {
+                best = (m, x.exp());
+            }
+        }
+        if m1 < m2 {
+            b = x2;
+        } else {
+            a = x1;
+        }
+    }
+    if best.0 < permanent_mse {
+        Creep::Alpha(best.1)
+    } else {
+        Creep::Permanent
+    }
 }

@@ -195,6 +195,10 @@ fn baseline(terms: &[(Term, f64)], orientation: f64, duration_s: f64) -> Baselin
             })
             .collect(),
         creep_pct_per_g_s: orientation * coef(terms, |t| t == Term::Creep) / duration_s,
+        alpha_branch: terms.iter().find_map(|(t, b)| match t {
+            Term::Alpha(tau) => Some((*tau, orientation * b)),
+            _ => None,
+        }),
     }
 }
 
@@ -207,9 +211,13 @@ fn summary(d: &Diagnosis, work: &Work, first_order: Option<&Scored>) -> String {
     let mut summary = String::new();
     let _ = writeln!(
         summary,
-        "baseline: generalized Maxwell–Kelvin (elastic, Kelvin branches {}–{} s, permanent creep); {} contiguous folds of {:.1} s held out in turn",
+        "baseline: generalized Maxwell–Kelvin (elastic, Kelvin branches {}–{} s, {}); {} contiguous folds of {:.1} s held out in turn",
         seconds(work.terms.iter().find_map(|t| match t { Term::Relaxation(x) => Some(*x), _ => None }).unwrap_or(0.0)),
         seconds(work.terms.iter().filter_map(|t| match t { Term::Relaxation(x) => Some(*x), _ => None }).fold(0.0, f64::max)),
+        match work.terms.iter().find_map(|t| match t { Term::Alpha(x) => Some(*x), _ => None }) {
+            Some(tau) => format!("creep levelling off as eq. 14's α branch, N₁/α = {}", seconds(tau)),
+            None => "permanent creep".to_string(),
+        },
         folds,
         s.duration_s() / folds as f64
     );

@@ -8,14 +8,19 @@ use crate::solve::{Scored, Sign};
 use crate::{stats, terms};
 
 use super::report::seconds;
-use super::work::{grid, Work};
+use super::work::{grid, Creep, Work};
 use super::{stiffening_load, Effect, Settings, State, Term, Try, MIN_CYCLES_SETTLED, PLAY_SHARES};
 
 /// Candidate columns that do not depend on the current model: one pass over the force each,
 /// computed where they are read rather than stored.
 pub(super) struct CandidateColumns {
-    /// Kelvin branches slower than the baseline's grid (none on a short record).
+    /// Kelvin branches slower than the baseline's grid (none on a short record), to
+    /// `slow_max_s`.
     pub(super) slow: Vec<usize>,
+    pub(super) slow_max_s: f64,
+    /// Eq. 14's branch again over its range, beside the slow modes: the baseline's N₁/α was
+    /// fitted without them, and a slow mode pulls it down toward its own.
+    pub(super) alphas: Vec<usize>,
     /// Plays of each radius started in the middle of their loop, and settled.
     pub(super) plays: [Vec<usize>; 2],
     pub(super) duhems: Vec<usize>,
@@ -26,31 +31,47 @@ pub(super) struct CandidateColumns {
 
 impl CandidateColumns {
     /// Adds the candidate columns to `work`; `force_range` is the force's, g, and
-    /// `force_noise` the variance of its noise.
+    /// `force_noise` the variance of its noise; `creep` the baseline's.
     pub(super) fn new(
         work: &mut Work,
         settings: &Settings,
-        force_range: f64,
-        force_noise: f64,
+        (force_range, force_noise): (f64, f64),
+        creep: Creep,
     ) -> CandidateColumns {
         let s = work.s;
         let (dt, t_s) = (s.dt_s, s.duration_s());
         let force: Arc<[f64]> = s.force_g.as_slice().into();
-        let slow: Vec<usize> = if t_s / 2.0 > 1.5 * settings.base_tau_max_s {
-            grid(
-                settings.base_tau_max_s * 1.5,
-                t_s / 2.0,
-                settings.per_decade,
-            )
-            .into_iter()
-            .map(|tau| {
-                let f = Arc::clone(&force);
-                let recipe = move || terms::lowpass(&f, tau, dt);
-                work.add_computed(Term::SlowRelaxation(tau), recipe, Sign::NonNegative)
-            })
-            .collect()
+        // To half the record, and below the baseline's eq. 14 branch: what that branch is, a
+        // slower mode would only take again.
+        let slowest = match creep {
+            Creep::Permanent => t_s / 2.0,
+            Creep::Alpha(tau) => (t_s / 2.0).min(tau / 2.0),
+        };
+        let slow: Vec<usize> = if slowest > 1.5 * settings.base_tau_max_s {
+            grid(settings.base_tau_max_s * 1.5, slowest, settings.per_decade)
+                .into_iter()
+                .map(|tau| {
+                    let f = Arc::clone(&force);
+                    let recipe = move || terms::lowpass(&f, tau, dt);
+                    work.add_computed(Term::SlowRelaxation(tau), recipe, Sign::NonNegative)
+                })
+                .collect()
         } else {
             Vec::new()
+        };
+        let alphas: Vec<usize> = match creep {
+            Creep::Alpha(_) if !slow.is_empty() => {
+                let (lo, hi) = settings.alpha_tau_s;
+                grid(lo, hi, settings.per_decade / 2.0)
+                    .into_iter()
+                    .map(|tau| {
+                        let f = Arc::clone(&force);
+                        let recipe = move || terms::lowpass(&f, tau, dt);
+                        work.add_computed(Term::Alpha(tau), recipe, Sign::NonNegative)
+                    })
+                    .collect()
+            }
+            _ => Vec::new(),
         };
         // Both starting states: which one the record began in is unknown, and the wrong one is a
         // step at the first loading that only the first fold sees (held out, it extrapolates).
@@ -101,6 +122,8 @@ impl CandidateColumns {
             .collect();
         CandidateColumns {
             slow,
+            slow_max_s: slowest,
+            alphas,
             plays,
             duhems,
             drift,
@@ -113,6 +136,7 @@ impl CandidateColumns {
         for c in self
             .slow
             .iter()
+            .chain(&self.alphas)
             .chain(self.plays.iter().flatten())
             .chain(&self.drift)
             .chain(&self.duhems)
@@ -152,7 +176,7 @@ pub(super) fn tries(
 ) -> (Vec<Try>, Vec<usize>) {
     let mut tries: Vec<Try> = Vec::new();
     if !columns.slow.is_empty() && !state.taken(Effect::SlowRelaxation) {
-        tries.push(slow_relaxation(columns, settings, work.s.duration_s()));
+        tries.push(slow_relaxation(columns, settings));
     }
     if !state.taken(Effect::Hysteresis) {
         tries.extend(hysteresis(columns));
@@ -179,16 +203,21 @@ pub(super) fn tries(
     (tries, temporary)
 }
 
-/// Kelvin branches slower than the baseline's grid, to half a record of `t_s` seconds.
-fn slow_relaxation(columns: &CandidateColumns, settings: &Settings, t_s: f64) -> Try {
+/// Kelvin branches slower than the baseline's grid.
+fn slow_relaxation(columns: &CandidateColumns, settings: &Settings) -> Try {
     Try::adding(
         Effect::SlowRelaxation,
         format!(
             "Kelvin branches {}–{} s",
             seconds(1.5 * settings.base_tau_max_s),
-            seconds(t_s / 2.0)
+            seconds(columns.slow_max_s)
         ),
-        columns.slow.clone(),
+        columns
+            .slow
+            .iter()
+            .chain(&columns.alphas)
+            .copied()
+            .collect(),
     )
 }
 

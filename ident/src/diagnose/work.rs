@@ -111,23 +111,42 @@ pub(super) fn grid(lo: f64, hi: f64, per_decade: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Builds the baseline's columns into `work`; returns them.
-pub(super) fn baseline_columns(work: &mut Work, taus: &[f64]) -> Vec<usize> {
+/// The baseline's creep: eq. 11's permanent creep (the Maxwell dashpot alone), or eq. 14's,
+/// levelling off with time constant N₁/α (s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Creep {
+    Permanent,
+    Alpha(f64),
+}
+
+/// Builds the baseline's columns into `work` (offset, elastic, the Kelvin branches of `taus`,
+/// the creep last); returns them.
+pub(super) fn baseline_columns(work: &mut Work, taus: &[f64], creep: Creep) -> Vec<usize> {
     let f = work.s.force_g.clone();
-    let mut cols = vec![work.add(Term::Offset, &vec![1.0; f.len()], Sign::Free)];
-    cols.extend(baseline_force_columns(work, &f, taus));
+    let dt = work.s.dt_s;
+    let mut cols = vec![
+        work.add(Term::Offset, &vec![1.0; f.len()], Sign::Free),
+        work.add(Term::Elastic, &f, Sign::NonNegative),
+    ];
+    for &tau in taus {
+        let v = terms::lowpass(&f, tau, dt);
+        cols.push(work.add(Term::Relaxation(tau), &v, Sign::NonNegative));
+    }
+    cols.push(creep_column(work, creep));
     cols
 }
 
-/// The baseline's force-driven columns (elastic, Kelvin branches, creep) of force `f`.
-fn baseline_force_columns(work: &mut Work, f: &[f64], taus: &[f64]) -> Vec<usize> {
-    let (dt, t) = (work.s.dt_s, work.s.duration_s());
-    let mut cols = vec![work.add(Term::Elastic, f, Sign::NonNegative)];
-    for &tau in taus {
-        let v = terms::lowpass(f, tau, dt);
-        cols.push(work.add(Term::Relaxation(tau), &v, Sign::NonNegative));
+/// The baseline's creep column.
+pub(super) fn creep_column(work: &mut Work, creep: Creep) -> usize {
+    let (f, dt) = (&work.s.force_g, work.s.dt_s);
+    match creep {
+        Creep::Permanent => {
+            let v = terms::integral(f, dt, work.s.duration_s());
+            work.add(Term::Creep, &v, Sign::NonNegative)
+        }
+        Creep::Alpha(tau) => {
+            let v = terms::lowpass(f, tau, dt);
+            work.add(Term::Alpha(tau), &v, Sign::NonNegative)
+        }
     }
-    let v = terms::integral(f, dt, t);
-    cols.push(work.add(Term::Creep, &v, Sign::NonNegative));
-    cols
 }
