@@ -12,7 +12,7 @@ use core::sync::atomic::{AtomicU8, Ordering};
 
 use tactile_core::calibration::TableView;
 use tactile_core::command::{
-    Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind, CHUNK_BYTES,
+    Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind,
 };
 use tactile_core::estimator::EstimatorKind;
 use tactile_core::tasks::FirmwareConfig;
@@ -152,7 +152,7 @@ impl<const CAL: usize> CommandPort<CAL> {
     /// reply and action to `out`, in order. After [`QUIET_TICKS`] ticks without a byte, a frame
     /// still incomplete is dropped (a false start in noise, or a host that stopped mid-frame),
     /// so the frames behind it are read.
-    pub fn poll(&mut self, bytes: &[u8], compiled: &[u8], mut out: impl FnMut(Reply, Action)) {
+    pub fn poll(&mut self, mut bytes: &[u8], compiled: &[u8], mut out: impl FnMut(Reply, Action)) {
         if bytes.is_empty() {
             self.quiet = self.quiet.saturating_add(1);
             if self.quiet == QUIET_TICKS {
@@ -161,16 +161,7 @@ impl<const CAL: usize> CommandPort<CAL> {
         } else {
             self.quiet = 0;
         }
-        for &b in bytes {
-            self.decoder.push(b);
-            self.drain(compiled, &mut out);
-        }
-        self.drain(compiled, &mut out);
-    }
-
-    /// Every complete frame the decoder holds, applied and answered.
-    fn drain(&mut self, compiled: &[u8], out: &mut impl FnMut(Reply, Action)) {
-        while let Some(r) = self.decoder.next_frame() {
+        while let Some(r) = self.decoder.read(&mut bytes) {
             let (result, action) = self.apply(r.command, compiled);
             out(Reply { seq: r.seq, result }, action);
         }
@@ -203,14 +194,9 @@ impl<const CAL: usize> CommandPort<CAL> {
                 self.estimator = Some(kind);
                 Action::None
             }
-            Command::TableChunk {
-                table,
-                offset,
-                len,
-                data,
-            } => {
+            Command::TableChunk { table, offset, .. } => {
+                let bytes = command.chunk_bytes();
                 let at = usize::from(offset);
-                let n = usize::from(len).min(CHUNK_BYTES);
                 let buffer: &mut [u8] = match table {
                     TableKind::Controller => &mut self.loading,
                     TableKind::Calibration => {
@@ -218,8 +204,8 @@ impl<const CAL: usize> CommandPort<CAL> {
                         &mut self.cal
                     }
                 };
-                match buffer.get_mut(at..at + n) {
-                    Some(dst) => dst.copy_from_slice(data.get(..n).unwrap_or(&[])),
+                match buffer.get_mut(at..at + bytes.len()) {
+                    Some(dst) => dst.copy_from_slice(bytes),
                     None => return (Err(room(table)), Action::None),
                 }
                 Action::None
