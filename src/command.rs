@@ -14,14 +14,8 @@
 //! let mut frame = [0u8; MAX_FRAME_BYTES];
 //! let n = Command::Hold { force_g: 30.0 }.encode(7, &mut frame);
 //! let mut decoder = Decoder::new();
-//! let mut got = None;
-//! for &b in &frame[..n] {
-//!     decoder.push(b);
-//!     while let Some(r) = decoder.next_frame() {
-//!         got = Some(r);
-//!     }
-//! }
-//! let r = got.unwrap();
+//! let mut bytes = &frame[..n];
+//! let r = decoder.read(&mut bytes).unwrap();
 //! assert_eq!((r.seq, r.command), (7, Ok(Command::Hold { force_g: 30.0 })));
 //! ```
 
@@ -236,6 +230,15 @@ fn table_kind(b: u8) -> Result<TableKind, Refusal> {
 }
 
 impl Command {
+    /// The table bytes a [`Command::TableChunk`] carries: the first `len` of its data (all of
+    /// it for a `len` past [`CHUNK_BYTES`]); none for any other command.
+    pub fn chunk_bytes(&self) -> &[u8] {
+        match self {
+            Command::TableChunk { len, data, .. } => data.get(..usize::from(*len)).unwrap_or(data),
+            _ => &[],
+        }
+    }
+
     /// The chunks that carry `table` (its bytes in [`CHUNK_BYTES`] pieces, in order; a
     /// [`Command::LoadTable`] of its length then checks and loads it). Offsets wrap past
     /// 64 KiB, which no table reaches: the port refuses a load over its buffer.
@@ -471,17 +474,12 @@ impl Command {
                 put(0, &[i as u8]);
                 (OP_ESTIMATOR, 1)
             }
-            Command::TableChunk {
-                table,
-                offset,
-                len,
-                data,
-            } => {
-                let len = usize::from(len).min(CHUNK_BYTES);
+            Command::TableChunk { table, offset, .. } => {
+                let bytes = self.chunk_bytes();
                 put(0, &[table as u8]);
                 put(1, &offset.to_le_bytes());
-                put(3, data.get(..len).unwrap_or(&[]));
-                (OP_CHUNK, 3 + len)
+                put(3, bytes);
+                (OP_CHUNK, 3 + bytes.len())
             }
             Command::LoadTable { table, len } => {
                 put(0, &[table as u8]);
@@ -506,7 +504,8 @@ impl Frame {
 }
 
 /// Reads frames from a byte stream: [`Decoder::push`] each byte, then take what is complete
-/// with [`Decoder::next_frame`] until it returns `None`.
+/// with [`Decoder::next_frame`] until it returns `None`; or both at once with
+/// [`Decoder::read`].
 #[derive(Clone, Debug)]
 pub struct Decoder {
     buf: [u8; MAX_FRAME_BYTES],
@@ -555,6 +554,20 @@ impl Decoder {
         if let Some(x) = self.buf.get_mut(self.len) {
             *x = byte;
             self.len += 1;
+        }
+    }
+
+    /// The next frame of the stream: what was pushed, then the bytes at the front of `bytes`
+    /// pushed one at a time until a frame is complete (the rest left in `bytes` for the next
+    /// call). `None` once every byte is pushed and no frame is complete.
+    pub fn read(&mut self, bytes: &mut &[u8]) -> Option<Received> {
+        loop {
+            if let Some(r) = self.next_frame() {
+                return Some(r);
+            }
+            let (&b, rest) = bytes.split_first()?;
+            *bytes = rest;
+            self.push(b);
         }
     }
 
@@ -633,19 +646,11 @@ mod tests {
         c.frame(seq).as_bytes().to_vec()
     }
 
-    fn decode_all(bytes: &[u8]) -> (Vec<Received>, u32) {
+    fn decode_all(mut bytes: &[u8]) -> (Vec<Received>, u32) {
         let mut d = Decoder::new();
-        let mut out = Vec::new();
-        for &b in bytes {
-            d.push(b);
-            while let Some(r) = d.next_frame() {
-                out.push(r);
-            }
-        }
+        let mut out: Vec<Received> = core::iter::from_fn(|| d.read(&mut bytes)).collect();
         d.idle();
-        while let Some(r) = d.next_frame() {
-            out.push(r);
-        }
+        out.extend(core::iter::from_fn(|| d.next_frame()));
         (out, d.dropped())
     }
 

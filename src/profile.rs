@@ -211,10 +211,7 @@ impl Protocol {
                 increment_g,
                 top_g,
                 hold_s,
-            } => {
-                let n = libm::roundf(top_g / increment_g);
-                (2.0 * n + 1.0) * hold_s
-            }
+            } => (2.0 * steps_to_top(increment_g, top_g) + 1.0) * hold_s,
             Protocol::Step {
                 lead_s,
                 on_s,
@@ -254,7 +251,7 @@ impl Protocol {
                 top_g,
                 hold_s,
             } => {
-                let n = libm::roundf(top_g / increment_g);
+                let n = steps_to_top(increment_g, top_g);
                 let k = libm::floorf(t_s / hold_s);
                 let level = if k <= n { k } else { 2.0 * n - k };
                 (level * increment_g).max(0.0)
@@ -538,18 +535,35 @@ fn reflect(x: f32, lo: f32, hi: f32) -> f32 {
     crate::limit(r, lo, hi)
 }
 
+/// The steps of `ForceSteps` from rest to its top (as many come down again).
+fn steps_to_top(increment_g: f32, top_g: f32) -> f32 {
+    libm::roundf(top_g / increment_g)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The source's command at each time in turn: exactly the force given with it, g.
+    fn assert_commands(s: &mut CommandSource, expected: &[(f32, f32)]) {
+        for &(t, g) in expected {
+            assert_eq!(s.command_g(t), g, "at {t} s");
+        }
+    }
+
     #[test]
     fn force_steps_climb_and_descend_in_10_g_increments() {
         let mut s = CommandSource::new(Protocol::FORCE_STEPS_MEMO);
-        assert_eq!(s.command_g(0.1), 0.0);
-        assert_eq!(s.command_g(0.6), 10.0);
-        assert_eq!(s.command_g(5.2), 100.0);
-        assert_eq!(s.command_g(5.6), 90.0);
-        assert_eq!(s.command_g(10.4), 0.0);
+        assert_commands(
+            &mut s,
+            &[
+                (0.1, 0.0),
+                (0.6, 10.0),
+                (5.2, 100.0),
+                (5.6, 90.0),
+                (10.4, 0.0),
+            ],
+        );
         assert!((Protocol::FORCE_STEPS_MEMO.duration_s() - 10.5).abs() < 1e-6);
     }
 
@@ -637,24 +651,35 @@ mod tests {
             assert!(hi - lo > 0.5 * offset, "{offset}: {lo}..{hi}");
         }
         // The hold after the last level (62–82 s), then the recovery at rest to the end.
-        for t in [62.5, 70.0, 81.9] {
-            assert_eq!(s.command_g(t), CALIBRATION_HOLD_G, "{t}");
-        }
-        for t in [82.1, 100.0, 121.9] {
-            assert_eq!(s.command_g(t), 0.0, "{t}");
-        }
+        let hold = CALIBRATION_HOLD_G;
+        assert_commands(
+            &mut s,
+            &[
+                (62.5, hold),
+                (70.0, hold),
+                (81.9, hold),
+                (82.1, 0.0),
+                (100.0, 0.0),
+                (121.9, 0.0),
+            ],
+        );
     }
 
     #[test]
     fn step_loads_follow_the_memo_timing() {
         let mut s = CommandSource::new(Protocol::StepLoads);
-        assert_eq!(s.command_g(1.0), 0.0);
-        assert_eq!(s.command_g(2.5), 10.0);
-        assert_eq!(s.command_g(51.9), 10.0);
-        assert_eq!(s.command_g(52.1), 0.0);
-        assert_eq!(s.command_g(78.0), 30.0);
-        assert_eq!(s.command_g(2.0 + 225.0 + 10.0), 80.0);
-        assert_eq!(s.command_g(2.0 + 225.0 + 60.0), 0.0);
+        assert_commands(
+            &mut s,
+            &[
+                (1.0, 0.0),
+                (2.5, 10.0),
+                (51.9, 10.0),
+                (52.1, 0.0),
+                (78.0, 30.0),
+                (2.0 + 225.0 + 10.0, 80.0),
+                (2.0 + 225.0 + 60.0, 0.0),
+            ],
+        );
     }
 
     #[test]

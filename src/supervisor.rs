@@ -739,26 +739,23 @@ mod tests {
         assert_eq!(latched_at, Some(50));
     }
 
+    /// An implausible jump of the reading, and an overrun: zero output and latched in the
+    /// same tick (period).
     #[test]
-    fn an_implausible_jump_latches_in_the_same_tick() {
-        let mut l = memo_loop();
-        run_normally(&mut l, 100);
-        let out = l.tick(30.0, Ok(90.0), false);
-        assert_eq!(out.dac_code, zero());
-        assert!(out
-            .faults
-            .contains(FaultFlags::FORCE_SLEW | FaultFlags::LATCHED));
-    }
-
-    #[test]
-    fn an_overrun_gives_zero_output_in_the_same_period() {
-        let mut l = memo_loop();
-        run_normally(&mut l, 100);
-        let out = l.tick(30.0, Ok(30.0), true);
-        assert_eq!(out.dac_code, zero());
-        assert!(out
-            .faults
-            .contains(FaultFlags::DEADLINE_OVERRUN | FaultFlags::LATCHED));
+    fn a_jump_or_an_overrun_latches_with_zero_output_in_the_same_tick() {
+        for (reading_g, overrun, fault) in [
+            (90.0, false, FaultFlags::FORCE_SLEW),
+            (30.0, true, FaultFlags::DEADLINE_OVERRUN),
+        ] {
+            let mut l = memo_loop();
+            run_normally(&mut l, 100);
+            let out = l.tick(30.0, Ok(reading_g), overrun);
+            assert_eq!(out.dac_code, zero(), "{fault:?}");
+            assert!(
+                out.faults.contains(fault | FaultFlags::LATCHED),
+                "{fault:?}"
+            );
+        }
     }
 
     #[test]

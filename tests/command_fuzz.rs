@@ -54,19 +54,11 @@ fn frame(c: &Command, seq: u16) -> Vec<u8> {
 }
 
 /// Everything the decoder reads from `bytes`, with a pause at the end.
-fn read(bytes: &[u8]) -> Vec<Received> {
+fn read(mut bytes: &[u8]) -> Vec<Received> {
     let mut d = Decoder::new();
-    let mut out = Vec::new();
-    for &b in bytes {
-        d.push(b);
-        while let Some(r) = d.next_frame() {
-            out.push(r);
-        }
-    }
+    let mut out: Vec<Received> = std::iter::from_fn(|| d.read(&mut bytes)).collect();
     d.idle();
-    while let Some(r) = d.next_frame() {
-        out.push(r);
-    }
+    out.extend(std::iter::from_fn(|| d.next_frame()));
     out
 }
 

@@ -43,6 +43,28 @@ pub fn diagnosis_report(
 
 /// The figure: the residual against time before and after, their autocorrelations with the
 /// whiteness bounds, and the residual against load.
+/// The least to the greatest of `values` (at least 1e-6 wide): a chart's axis.
+fn span<'v>(values: impl IntoIterator<Item = &'v f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .into_iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    lo..hi.max(lo + 1e-6)
+}
+
+/// One of the figure's charts on `area`, with its caption and room for the axes' labels.
+fn panel<'a, 'b, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, plotters::coord::Shift>,
+    caption: &str,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .caption(caption, ("sans-serif", 20))
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(60);
+    builder
+}
+
 fn residual_figure(
     png: &Path,
     data: &Series,
@@ -56,16 +78,9 @@ fn residual_figure(
     // 1. Residual against time, before and after.
     let every = (r0.len() / 4000).max(1);
     let t = |i: usize| i as f64 * data.dt_s;
-    let (lo, hi) = r0
-        .iter()
-        .chain(r1)
-        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-    let mut c = ChartBuilder::on(&areas[0])
-        .caption("residual (model − measured strain)", ("sans-serif", 20))
-        .margin(8)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..t(r0.len()), lo..hi.max(lo + 1e-6))?;
+    let residuals = span(r0.iter().chain(r1));
+    let mut c = panel(&areas[0], "residual (model − measured strain)")
+        .build_cartesian_2d(0.0..t(r0.len()), residuals.clone())?;
     c.configure_mesh()
         .x_desc("time (s)")
         .y_desc("strain (%)")
@@ -88,14 +103,7 @@ fn residual_figure(
     let lag_s = data
         .dt_s
         .max(1.0 / tactile_ident::residual::WHITENESS_RATE_HZ);
-    let mut c = ChartBuilder::on(&areas[1])
-        .caption(
-            "residual autocorrelation (95 % bounds dashed)",
-            ("sans-serif", 20),
-        )
-        .margin(8)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
+    let mut c = panel(&areas[1], "residual autocorrelation (95 % bounds dashed)")
         .build_cartesian_2d(0.0..50.0 * lag_s, -0.2..1.0)?;
     c.configure_mesh().x_desc("lag (s)").y_desc("rho").draw()?;
     for (acf, color, name) in [
@@ -124,16 +132,8 @@ fn residual_figure(
         .border_style(BLACK)
         .draw()?;
     // 3. Residual against load.
-    let (flo, fhi) = data
-        .force_g
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-    let mut c = ChartBuilder::on(&areas[2])
-        .caption("residual against load", ("sans-serif", 20))
-        .margin(8)
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .build_cartesian_2d(flo..fhi.max(flo + 1e-6), lo..hi.max(lo + 1e-6))?;
+    let mut c = panel(&areas[2], "residual against load")
+        .build_cartesian_2d(span(&data.force_g), residuals)?;
     c.configure_mesh()
         .x_desc("force (g)")
         .y_desc("strain (%)")

@@ -289,6 +289,17 @@ impl ForceBank {
 mod tests {
     use super::*;
 
+    /// A spring of 10 g/% that re-zeroes below 8 g, its zero following with `tau_s`.
+    fn rezeroing_spring(tau_s: f32) -> BankModel {
+        let mut m = BankModel::elastic(10.0);
+        m.rezero = Rezero {
+            below_g: 8.0,
+            quiet: 0.05,
+            tau_s,
+        };
+        m
+    }
+
     #[test]
     fn a_lowpass_term_follows_a_step_by_its_time_constant() {
         // One lowpass of τ = 1 s at 10 ms, weight 10 g: after a unit step at rest, the term
@@ -327,12 +338,7 @@ mod tests {
         // A spring of 10 g/% whose zero has moved by +0.5 %: at rest the estimate reads 5 g
         // until the re-zero has taken it off (τ = 0.5 s: e^(−10) left after 5 s); a load of
         // 50 g is read above the bound and leaves the zero alone.
-        let mut m = BankModel::elastic(10.0);
-        m.rezero = Rezero {
-            below_g: 8.0,
-            quiet: 0.05,
-            tau_s: 0.5,
-        };
+        let m = rezeroing_spring(0.5);
         let mut bank = ForceBank::new(&m, 0.01).unwrap();
         assert_eq!(bank.force_g(0.0), 0.0);
         let first = bank.force_g(0.5);
@@ -360,12 +366,7 @@ mod tests {
         // The same spring and bound (8 g: a band of 32 g at start-up). Started at a strain of
         // 2 % (20 g), the bank takes it as its zero and reads a later 50 g press as 50 g;
         // started under 4 % (40 g) it reads 40 g. Without a re-zero there is no start-up zero.
-        let mut m = BankModel::elastic(10.0);
-        m.rezero = Rezero {
-            below_g: 8.0,
-            quiet: 0.05,
-            tau_s: 1.0,
-        };
+        let m = rezeroing_spring(1.0);
         let mut drifted = ForceBank::new(&m, 0.01).unwrap();
         assert!(drifted.force_g(2.0).abs() < 1e-5);
         assert!((drifted.zero_g() - 20.0).abs() < 1e-5);

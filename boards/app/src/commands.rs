@@ -12,7 +12,7 @@ use core::sync::atomic::{AtomicU8, Ordering};
 
 use tactile_core::calibration::TableView;
 use tactile_core::command::{
-    Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind, CHUNK_BYTES,
+    Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind,
 };
 use tactile_core::estimator::EstimatorKind;
 use tactile_core::tasks::FirmwareConfig;
@@ -152,7 +152,7 @@ impl<const CAL: usize> CommandPort<CAL> {
     /// reply and action to `out`, in order. After [`QUIET_TICKS`] ticks without a byte, a frame
     /// still incomplete is dropped (a false start in noise, or a host that stopped mid-frame),
     /// so the frames behind it are read.
-    pub fn poll(&mut self, bytes: &[u8], compiled: &[u8], mut out: impl FnMut(Reply, Action)) {
+    pub fn poll(&mut self, mut bytes: &[u8], compiled: &[u8], mut out: impl FnMut(Reply, Action)) {
         if bytes.is_empty() {
             self.quiet = self.quiet.saturating_add(1);
             if self.quiet == QUIET_TICKS {
@@ -161,16 +161,7 @@ impl<const CAL: usize> CommandPort<CAL> {
         } else {
             self.quiet = 0;
         }
-        for &b in bytes {
-            self.decoder.push(b);
-            self.drain(compiled, &mut out);
-        }
-        self.drain(compiled, &mut out);
-    }
-
-    /// Every complete frame the decoder holds, applied and answered.
-    fn drain(&mut self, compiled: &[u8], out: &mut impl FnMut(Reply, Action)) {
-        while let Some(r) = self.decoder.next_frame() {
+        while let Some(r) = self.decoder.read(&mut bytes) {
             let (result, action) = self.apply(r.command, compiled);
             out(Reply { seq: r.seq, result }, action);
         }
@@ -203,14 +194,9 @@ impl<const CAL: usize> CommandPort<CAL> {
                 self.estimator = Some(kind);
                 Action::None
             }
-            Command::TableChunk {
-                table,
-                offset,
-                len,
-                data,
-            } => {
+            Command::TableChunk { table, offset, .. } => {
+                let bytes = command.chunk_bytes();
                 let at = usize::from(offset);
-                let n = usize::from(len).min(CHUNK_BYTES);
                 let buffer: &mut [u8] = match table {
                     TableKind::Controller => &mut self.loading,
                     TableKind::Calibration => {
@@ -218,8 +204,8 @@ impl<const CAL: usize> CommandPort<CAL> {
                         &mut self.cal
                     }
                 };
-                match buffer.get_mut(at..at + n) {
-                    Some(dst) => dst.copy_from_slice(data.get(..n).unwrap_or(&[])),
+                match buffer.get_mut(at..at + bytes.len()) {
+                    Some(dst) => dst.copy_from_slice(bytes),
                     None => return (Err(room(table)), Action::None),
                 }
                 Action::None
@@ -346,6 +332,37 @@ mod tests {
             .collect()
     }
 
+    /// `table` as the chunks that load it, numbered from `seq`, with one byte flipped by
+    /// `damage` (chunk, byte, bits) if given, then its load, numbered `load_seq`.
+    fn loading(
+        table: &[u8],
+        kind: TableKind,
+        seq: u16,
+        damage: Option<(usize, usize, u8)>,
+        load_seq: u16,
+    ) -> Vec<(u16, Command)> {
+        let mut out = chunks(table, kind, seq);
+        if let Some((chunk, byte, bits)) = damage {
+            if let Command::TableChunk { data, .. } = &mut out[chunk].1 {
+                data[byte] ^= bits;
+            }
+        }
+        let len = table.len() as u16;
+        out.push((load_seq, Command::LoadTable { table: kind, len }));
+        out
+    }
+
+    /// The replies to `commands`, polled in one tick with `compiled` as the build's table.
+    fn replies_to<const CAL: usize>(
+        port: &mut CommandPort<CAL>,
+        commands: &[(u16, Command)],
+        compiled: &[u8],
+    ) -> Vec<Reply> {
+        let mut replies = Vec::new();
+        port.poll(&bytes(commands), compiled, |r, _| replies.push(r));
+        replies
+    }
+
     fn poll(port: &mut CommandPort<0>, commands: &[(u16, Command)]) -> Vec<(Reply, Action)> {
         let mut got = Vec::new();
         let compiled = crate::CONTROLLER_TABLE;
@@ -446,41 +463,18 @@ mod tests {
         let mut port = CommandPort::<0>::new(120.0, 600.0);
         // No table compiled in: the designed controller is refused until one is loaded.
         let none: [u8; 0] = [];
-        let mut replies = Vec::new();
-        port.poll(
-            &bytes(&[(1, Command::Controller(ControllerChoice::Designed))]),
-            &none,
-            |r, _| replies.push(r),
-        );
+        let designed = [(1, Command::Controller(ControllerChoice::Designed))];
+        let replies = replies_to(&mut port, &designed, &none);
         assert_eq!(replies[0].result, Err(Refusal::NoControllerTable));
         let table = crate::CONTROLLER_TABLE;
-        let mut commands = chunks(&table, TableKind::Controller, 10);
         // A damaged table first: refused, nothing loaded.
-        let mut damaged = commands.clone();
-        if let Command::TableChunk { data, .. } = &mut damaged[1].1 {
-            data[7] ^= 1;
-        }
-        damaged.push((
-            50,
-            Command::LoadTable {
-                table: TableKind::Controller,
-                len: table.len() as u16,
-            },
-        ));
-        let mut replies = Vec::new();
-        port.poll(&bytes(&damaged), &none, |r, _| replies.push(r));
+        let damaged = loading(&table, TableKind::Controller, 10, Some((1, 7, 1)), 50);
+        let replies = replies_to(&mut port, &damaged, &none);
         assert_eq!(replies.last().unwrap().result, Err(Refusal::TableRefused));
         assert!(port.tracking(&none).is_none());
-        commands.push((
-            60,
-            Command::LoadTable {
-                table: TableKind::Controller,
-                len: table.len() as u16,
-            },
-        ));
+        let mut commands = loading(&table, TableKind::Controller, 10, None, 60);
         commands.push((61, Command::Controller(ControllerChoice::Designed)));
-        let mut replies = Vec::new();
-        port.poll(&bytes(&commands), &none, |r, _| replies.push(r));
+        let replies = replies_to(&mut port, &commands, &none);
         assert!(replies.iter().all(|r| r.result.is_ok()), "{replies:?}");
         assert_eq!(
             port.firmware(crate::BOARD, &none).tracking,
@@ -494,29 +488,15 @@ mod tests {
     fn a_calibration_table_is_loaded_in_chunks_and_checked() {
         use tactile_core::calibration::table_bytes;
         let table = crate::CALIBRATION_TABLE;
-        let chunks = |damage: bool| -> Vec<(u16, Command)> {
-            let mut out = chunks(&table, TableKind::Calibration, 0);
-            if damage {
-                if let Command::TableChunk { data, .. } = &mut out[2].1 {
-                    data[5] ^= 0x20;
-                }
-            }
-            out.push((
-                500,
-                Command::LoadTable {
-                    table: TableKind::Calibration,
-                    len: table.len() as u16,
-                },
-            ));
-            out
+        let chunks = |damage: bool| {
+            let damage = damage.then_some((2, 5, 0x20));
+            loading(&table, TableKind::Calibration, 0, damage, 500)
         };
         let mut port = CommandPort::<{ table_bytes(8) }>::new(120.0, 600.0);
-        let mut replies = Vec::new();
-        port.poll(&bytes(&chunks(true)), &[], |r, _| replies.push(r));
+        let replies = replies_to(&mut port, &chunks(true), &[]);
         assert_eq!(replies.last().unwrap().result, Err(Refusal::TableRefused));
         assert_eq!(port.calibration_table(), None);
-        let mut replies = Vec::new();
-        port.poll(&bytes(&chunks(false)), &[], |r, _| replies.push(r));
+        let replies = replies_to(&mut port, &chunks(false), &[]);
         assert!(replies.iter().all(|r| r.result.is_ok()), "{replies:?}");
         assert_eq!(port.calibration_table(), Some(&table[..]));
         let mut copy = [0u8; 4096];
@@ -525,8 +505,7 @@ mod tests {
         // A buffer too short for it gets nothing rather than a part.
         assert_eq!(port.copy_calibration_table(&mut copy[..table.len() - 1]), 0);
         let mut none = CommandPort::<0>::new(120.0, 600.0);
-        let mut replies = Vec::new();
-        none.poll(&bytes(&chunks(false)[..1]), &[], |r, _| replies.push(r));
+        let replies = replies_to(&mut none, &chunks(false)[..1], &[]);
         assert_eq!(
             replies[0].result,
             Err(Refusal::Unsupported {

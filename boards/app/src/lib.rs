@@ -46,4 +46,4 @@ pub use tactile_core::tasks::{
     ArrayEstimate, CalibrationStatus, ConfigError, Controller, FirmwareConfig, ScanReport, Scanner,
 };
 pub use tactile_core::CONTROL_PERIOD_S;
-pub use telemetry::{Message, Numbered, Outbox, RunEnd, RunStart};
+pub use telemetry::{drain, Message, Numbered, Outbox, RunEnd, RunStart};

@@ -5,7 +5,7 @@
 //! there means something else lost frames (the RTT buffer, a damaged log): the two kinds of
 //! loss are told apart, and neither is silent.
 
-use heapless::spsc::Producer;
+use heapless::spsc::{Consumer, Producer};
 use tactile_core::telemetry::{ControlFrame, FaultFlags, FrameCounter, TaxelFrame};
 
 /// A frame that carries a sequence number.
@@ -80,6 +80,30 @@ impl<X> Numbered for Message<X> {
     fn flag_dropped(&mut self) {
         if let Message::Tick(frame, _) = self {
             frame.flag_dropped();
+        }
+    }
+}
+
+/// The telemetry task's body: every control message waiting, then one taxel frame, again until
+/// both queues are empty; each handed to its log.
+pub fn drain<C, T>(
+    control: &mut Consumer<'_, C>,
+    taxels: &mut Consumer<'_, T>,
+    mut log_control: impl FnMut(C),
+    mut log_taxel: impl FnMut(T),
+) {
+    loop {
+        let mut idle = true;
+        while let Some(m) = control.dequeue() {
+            idle = false;
+            log_control(m);
+        }
+        if let Some(t) = taxels.dequeue() {
+            idle = false;
+            log_taxel(t);
+        }
+        if idle {
+            break;
         }
     }
 }

@@ -16,14 +16,7 @@
 //! semihosting. With `-icount shift=0` one instruction is one nanosecond of virtual time, and
 //! SysTick counts the 168 MHz core clock, so SysTick counts × 1000/168 are instructions.
 #![cfg_attr(target_os = "none", no_std, no_main)]
-// The firmware's paths never panic by accident: no unwrap, expect, panicking index or panic!
-// (scripts/test-all.sh runs clippy for the thumb target with -D warnings).
-#![deny(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::indexing_slicing,
-    clippy::panic
-)]
+// No unwrap, expect, panicking index or panic! here: Cargo.toml's `[lints]`.
 
 #[cfg(not(target_os = "none"))]
 fn main() {
@@ -486,25 +479,17 @@ mod app {
 
     #[task(priority = 1, shared = [cost], local = [control_rx, taxel_rx])]
     async fn telemetry(mut cx: telemetry::Context) {
-        loop {
-            let mut idle = true;
-            while let Some(m) = cx.local.control_rx.dequeue() {
-                idle = false;
-                match m {
-                    Message::Tick(frame, truth) => defmt::info!("{} {}", frame, truth),
-                    Message::Start(s) => defmt::info!("{}", s),
-                    Message::End(e) => defmt::info!("{}", e),
-                    Message::Reply(r) => defmt::info!("{}", r),
-                }
-            }
-            if let Some((frame, estimate)) = cx.local.taxel_rx.dequeue() {
-                idle = false;
-                defmt::info!("{} {}", frame, estimate);
-            }
-            if idle {
-                break;
-            }
-        }
+        tactile_firmware::drain(
+            cx.local.control_rx,
+            cx.local.taxel_rx,
+            |m| match m {
+                Message::Tick(frame, truth) => defmt::info!("{} {}", frame, truth),
+                Message::Start(s) => defmt::info!("{}", s),
+                Message::End(e) => defmt::info!("{}", e),
+                Message::Reply(r) => defmt::info!("{}", r),
+            },
+            |(frame, estimate)| defmt::info!("{} {}", frame, estimate),
+        );
         if SESSION_DONE.load(Ordering::Acquire)
             && !cx.local.control_rx.ready()
             && !cx.local.taxel_rx.ready()

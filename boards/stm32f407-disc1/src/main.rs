@@ -24,14 +24,7 @@
 //! anything else; the independent watchdog (100 ms) is fed from `idle` only when control and
 //! telemetry have both checked in; the reset cause (RCC_CSR) is logged at boot.
 #![cfg_attr(target_os = "none", no_std, no_main)]
-// The firmware's paths never panic by accident: no unwrap, expect, panicking index or panic!
-// (scripts/test-all.sh runs clippy for the thumb target with -D warnings).
-#![deny(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::indexing_slicing,
-    clippy::panic
-)]
+// No unwrap, expect, panicking index or panic! here: Cargo.toml's `[lints]`.
 
 #[cfg(not(target_os = "none"))]
 fn main() {
@@ -479,24 +472,16 @@ mod app {
     #[task(priority = 1, local = [control_rx, taxel_rx])]
     async fn telemetry(cx: telemetry::Context) {
         CHECK_INS.telemetry();
-        loop {
-            let mut idle = true;
-            while let Some(m) = cx.local.control_rx.dequeue() {
-                idle = false;
-                match m {
-                    Message::Tick(frame, ()) => defmt::info!("{}", frame),
-                    Message::Start(s) => defmt::info!("{}", s),
-                    Message::End(e) => defmt::info!("{}", e),
-                    Message::Reply(r) => defmt::info!("{}", r),
-                }
-            }
-            if let Some((frame, estimate)) = cx.local.taxel_rx.dequeue() {
-                idle = false;
-                defmt::info!("{} {}", frame, estimate);
-            }
-            if idle {
-                break;
-            }
-        }
+        tactile_firmware::drain(
+            cx.local.control_rx,
+            cx.local.taxel_rx,
+            |m| match m {
+                Message::Tick(frame, ()) => defmt::info!("{}", frame),
+                Message::Start(s) => defmt::info!("{}", s),
+                Message::End(e) => defmt::info!("{}", e),
+                Message::Reply(r) => defmt::info!("{}", r),
+            },
+            |(frame, estimate)| defmt::info!("{} {}", frame, estimate),
+        );
     }
 }

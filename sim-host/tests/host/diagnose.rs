@@ -12,7 +12,8 @@ use sim_host::rig::RigConfig;
 use sim_host::scenario::{run_named, ScenarioOptions};
 use tactile_core::tactile::TaxelId;
 
-fn bench_record(effects: &[&str], seed: u64) -> sim_host::record::Record {
+/// The rig without its array scan, a linear finger (no stiffening) with `effects` switched on.
+fn rig(seed: u64, effects: &[&str]) -> RigConfig {
     let mut config = RigConfig {
         seed,
         scan_array: false,
@@ -21,6 +22,23 @@ fn bench_record(effects: &[&str], seed: u64) -> sim_host::record::Record {
     for e in [&["stiffening=0"], effects].concat() {
         apply_effect(&mut config.effects, e).unwrap();
     }
+    config
+}
+
+/// Writes `ticks` as the simulated firmware's record at 200 Hz to `path`.
+fn write_sim_record(path: &Path, ticks: &[sim_host::rig::TickRecord]) {
+    write_record(
+        path,
+        &[("sample_rate_hz".into(), "200".into())],
+        ticks,
+        5,
+        &sim_host::rig::RigConfig::SIM_FIRMWARE.actuator,
+    )
+    .unwrap();
+}
+
+fn bench_record(effects: &[&str], seed: u64) -> sim_host::record::Record {
+    let config = rig(seed, effects);
     let options = ScenarioOptions {
         protocol_seed: seed * 7 + 3,
         ..Default::default()
@@ -33,14 +51,7 @@ fn bench_record(effects: &[&str], seed: u64) -> sim_host::record::Record {
         "diagnose_test_{call}_{seed}_{}.csv",
         effects.join("_").replace(['=', '@', '.'], "-")
     ));
-    write_record(
-        &path,
-        &[("sample_rate_hz".into(), "200".into())],
-        &run.ticks,
-        5,
-        &sim_host::rig::RigConfig::SIM_FIRMWARE.actuator,
-    )
-    .unwrap();
+    write_sim_record(&path, &run.ticks);
     let text = std::fs::read_to_string(&path).unwrap();
     let _ = std::fs::remove_file(&path);
     parse_record(text.as_bytes(), &path).unwrap()
@@ -65,6 +76,16 @@ fn check(d: &Report, expected: &str) {
     }
 }
 
+/// The value `name` of the first effect's size.
+fn first_size(d: &Report, name: &str) -> f64 {
+    d.diagnosis.sizes[0]
+        .values
+        .iter()
+        .find(|v| v.0 == name)
+        .unwrap()
+        .1
+}
+
 #[test]
 fn a_linear_finger_gets_none_and_the_memo_stiffening_is_found() {
     check(&run(&bench_record(&[], 11)), "none");
@@ -78,12 +99,7 @@ fn a_linear_finger_gets_none_and_the_memo_stiffening_is_found() {
 fn simulator_effects_are_named() {
     let d = run(&bench_record(&["interference=0.11@7.3"], 51));
     check(&d, "periodic_interference");
-    let hz = d.diagnosis.sizes[0]
-        .values
-        .iter()
-        .find(|v| v.0 == "hz")
-        .unwrap()
-        .1;
+    let hz = first_size(&d, "hz");
     assert!((hz - 7.3).abs() < 0.05, "{hz}");
     check(&run(&bench_record(&["drift=0.02"], 42)), "baseline_drift");
 }
@@ -176,22 +192,15 @@ fn bad_records_are_refused_with_the_reason() {
 /// a clipped signal.
 #[test]
 fn a_clipped_record_is_judged_on_what_it_saw() {
-    let mut config = RigConfig {
-        seed: 5,
-        scan_array: false,
-        ..Default::default()
-    };
-    apply_effect(&mut config.effects, "stiffening=0").unwrap();
-    let run_ = run_named("step-loads", &ScenarioOptions::default(), config, |_| {}).unwrap();
-    let path = crate::common::scratch("diagnose_test_clipped_step_loads.csv");
-    write_record(
-        &path,
-        &[("sample_rate_hz".into(), "200".into())],
-        &run_.ticks,
-        5,
-        &sim_host::rig::RigConfig::SIM_FIRMWARE.actuator,
+    let run_ = run_named(
+        "step-loads",
+        &ScenarioOptions::default(),
+        rig(5, &[]),
+        |_| {},
     )
     .unwrap();
+    let path = crate::common::scratch("diagnose_test_clipped_step_loads.csv");
+    write_sim_record(&path, &run_.ticks);
     let record = read_record(&path).unwrap();
     let _ = std::fs::remove_file(&path);
     let series = series_of(&record).unwrap();
@@ -212,12 +221,7 @@ fn simulator_hysteresis_and_delays_are_named() {
     for (strength, seed, ms) in [("delay=0.008", 62, 8.0), ("delay=0.02", 63, 20.0)] {
         let d = run(&bench_record(&[strength], seed));
         check(&d, "time_delay");
-        let fitted = d.diagnosis.sizes[0]
-            .values
-            .iter()
-            .find(|v| v.0 == "delay_ms")
-            .unwrap()
-            .1;
+        let fitted = first_size(&d, "delay_ms");
         assert!((fitted - ms).abs() < 0.5 * ms, "{fitted} ms for {ms} ms");
     }
 }

@@ -14,9 +14,14 @@ fn quiet() -> RigConfig {
     }
 }
 
+/// The experiment `name` with its default options on the quiet rig.
+fn run_default(name: &str) -> sim_host::scenario::Run {
+    run_named(name, &ScenarioOptions::default(), quiet(), |_| {}).unwrap()
+}
+
 #[test]
 fn force_steps_settle_within_one_gram_in_a_tenth_of_a_second() {
-    let run = run_named("force-steps", &ScenarioOptions::default(), quiet(), |_| {}).unwrap();
+    let run = run_default("force-steps");
     let worst = worst_step_settling_s(&run.ticks).expect("every step settles");
     // Memo Appendix A: about 0.08 s.
     assert!(worst <= 0.1, "worst settling {worst} s");
@@ -28,7 +33,7 @@ fn force_steps_settle_within_one_gram_in_a_tenth_of_a_second() {
 
 #[test]
 fn low_force_fails_with_fixed_gains_and_holds_with_the_a1_schedule() {
-    let scheduled = run_named("low-force", &ScenarioOptions::default(), quiet(), |_| {}).unwrap();
+    let scheduled = run_default("low-force");
     for (level, lost, worst) in hold_quality(&scheduled.ticks, 0.3) {
         assert_eq!(lost, 0.0, "A1 lost contact at {level} g");
         assert!(worst <= 1.0, "A1 at {level} g: error {worst} g");
@@ -63,13 +68,7 @@ fn closed_loop_magnitude_is_flat_to_15_hz_and_the_filter_bump_shows_at_20() {
 
 #[test]
 fn static_linearity_bends_like_graph_1() {
-    let run = run_named(
-        "static-linearity",
-        &ScenarioOptions::default(),
-        quiet(),
-        |_| {},
-    )
-    .unwrap();
+    let run = run_default("static-linearity");
     let points = static_linearity(&run.ticks, STEP_SLEW_G_PER_S);
     assert_eq!(points.len(), 10, "{points:?}");
     let strains: Vec<f64> = points.iter().map(|p| p.1).collect();
@@ -91,13 +90,7 @@ fn static_linearity_bends_like_graph_1() {
 
 #[test]
 fn permanent_deformation_is_about_0_2_and_0_4_percent() {
-    let run = run_named(
-        "permanent-deformation",
-        &ScenarioOptions::default(),
-        quiet(),
-        |_| {},
-    )
-    .unwrap();
+    let run = run_default("permanent-deformation");
     let residual = residual_deformation(&run.ticks);
     assert_eq!(residual.len(), 2, "{residual:?}");
     let (r50, r100) = (residual[0].1, residual[1].1);

@@ -203,11 +203,9 @@ fn command_count(script: &[(u32, Vec<u8>)]) -> usize {
     let mut decoder = tactile_core::command::Decoder::new();
     let mut n = 0;
     for (_, bytes) in script {
-        for &b in bytes {
-            decoder.push(b);
-            while decoder.next_frame().is_some() {
-                n += 1;
-            }
+        let mut bytes = &bytes[..];
+        while decoder.read(&mut bytes).is_some() {
+            n += 1;
         }
     }
     n

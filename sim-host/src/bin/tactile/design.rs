@@ -29,19 +29,14 @@ pub struct DesignArgs {
 }
 
 pub fn run(args: DesignArgs) -> Result<(), Error> {
-    let DesignArgs {
-        applicator,
-        records,
-        json,
-        table,
-    } = args;
+    let (applicator, records) = (args.applicator, args.records);
     let inputs: Vec<&Path> = records
         .iter()
         .map(PathBuf::as_path)
         .chain(applicator.as_deref())
         .collect();
-    let json = Output::claim_some(json.as_deref(), &inputs)?;
-    let table = Output::claim_some(table.as_deref(), &inputs)?;
+    let json = Output::claim_some(args.json.as_deref(), &inputs)?;
+    let table = Output::claim_some(args.table.as_deref(), &inputs)?;
     let mut config = sim_host::rig::RigConfig {
         scan_array: false,
         ..Default::default()

@@ -26,14 +26,13 @@ pub struct EstimateArgs {
 }
 
 pub fn run(args: EstimateArgs) -> Result<(), Error> {
-    let EstimateArgs {
-        file,
-        table,
-        taxel,
-        estimator,
-        out,
-    } = args;
-    let text = sim_host::record_estimates::run(&file, &table, taxel, estimator, out.as_deref())?;
+    let text = sim_host::record_estimates::run(
+        &args.file,
+        &args.table,
+        args.taxel,
+        args.estimator,
+        args.out.as_deref(),
+    )?;
     out!("{text}");
     Ok(())
 }

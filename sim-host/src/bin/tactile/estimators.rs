@@ -23,15 +23,13 @@ pub struct EstimatorsArgs {
 }
 
 pub fn run(args: EstimatorsArgs) -> Result<(), Error> {
-    let EstimatorsArgs {
-        out,
-        seed,
-        finger,
-        qemu,
-    } = args;
-    let firmware = qemu.map(|dir| read_firmware_figures(&dir)).transpose()?;
-    let files = claim_report(&out, "estimators")?;
-    let t = sim_host::estimator_comparison::compare(seed, finger)?;
+    let firmware = args
+        .qemu
+        .as_deref()
+        .map(read_firmware_figures)
+        .transpose()?;
+    let files = claim_report(&args.out, "estimators")?;
+    let t = sim_host::estimator_comparison::compare(args.seed, args.finger)?;
     let mut text = sim_host::estimator_comparison::render(&t);
     if let Some(f) = &firmware {
         text.push('\n');
