@@ -18,7 +18,8 @@ mod write;
 
 pub use figures::FirmwareFigures;
 pub use logger::{
-    held_values, runs_of, Resampling, GAP_STEPS, JITTER_SHARE, MAX_HELD_RUN, MIN_HELD_RUN,
+    bridge_held, held_values, runs_of, Resampling, GAP_STEPS, JITTER_SHARE, MAX_HELD_RUN,
+    MIN_HELD_RUN,
 };
 pub use write::{write_frames, write_record, write_ticks};
 

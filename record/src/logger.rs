@@ -238,6 +238,28 @@ pub fn runs_of(mask: &[bool]) -> usize {
         .count()
 }
 
+/// Each run of `held` samples of `v` replaced by the line from the read before it to the read
+/// after it: where a model's input (the force) was held, its history needs a value at every
+/// sample, and the line is the closest guess at one (the held one lags the signal).
+pub fn bridge_held(v: &mut [f64], held: &[bool]) {
+    let n = v.len().min(held.len());
+    let mut k = 0;
+    while k < n {
+        if !held[k] || k == 0 {
+            k += 1;
+            continue;
+        }
+        let end = (k..n).find(|&j| !held[j]).unwrap_or(n);
+        if end < n {
+            let (a, b, span) = (v[k - 1], v[end], (end - k + 1) as f64);
+            for (i, x) in v[k..end].iter_mut().enumerate() {
+                *x = a + (b - a) * (i + 1) as f64 / span;
+            }
+        }
+        k = end;
+    }
+}
+
 impl Record {
     /// Samples the logger repeated in the force or the strain ([`held_values`]).
     pub fn held_values(&self) -> Vec<bool> {
@@ -414,6 +436,19 @@ mod tests {
             assert_eq!(count(&held_values(&v)), 0);
         }
         assert!(held_values(&[]).is_empty() && held_values(&[1.0; 20]).iter().all(|x| !x));
+    }
+
+    #[test]
+    fn a_held_run_is_bridged_by_the_line_between_its_reads() {
+        let mut v = [0.0, 1.0, 1.0, 1.0, 1.0, 5.0, 6.0];
+        let held = [false, false, true, true, true, false, false];
+        bridge_held(&mut v, &held);
+        // From 1 (the read) to 5 (the next) in four steps.
+        assert_eq!(v, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        // A run to the end has no read after it: left as held.
+        let mut w = [0.0, 1.0, 1.0];
+        bridge_held(&mut w, &[false, false, true]);
+        assert_eq!(w, [0.0, 1.0, 1.0]);
     }
 
     #[test]
