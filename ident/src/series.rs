@@ -1,5 +1,6 @@
 //! A record as the identification sees it: checked once, then split into contiguous folds.
 
+use serde::Serialize;
 use thiserror::Error;
 
 use crate::stats;
@@ -87,14 +88,30 @@ pub fn check_period(dt_s: f64) -> Result<(), Refusal> {
     }
 }
 
+/// How a record was taken in before the identification, for the report: its time stamps
+/// mended on reading, and why samples are left out.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Intake {
+    /// The reader's resampling of jittered stamps and merging of rows stamped alike; `None`:
+    /// the record as written.
+    pub resampling: Option<tactile_record::Resampling>,
+    /// Samples at the strain's converter rail.
+    pub rail_samples: usize,
+    /// Samples a logger repeated instead of reading (`tactile_record::held_values`), and in
+    /// how many runs.
+    pub held_samples: usize,
+    pub held_runs: usize,
+}
+
 /// A checked record: evenly sampled force (g) and strain (%), with the samples to leave out of
-/// every fit and score (the strain at its converter's rail).
+/// every fit and score (the strain at its converter's rail, a logger's held values).
 #[derive(Clone, Debug)]
 pub struct Series {
     pub dt_s: f64,
     pub force_g: Vec<f64>,
     pub strain_pct: Vec<f64>,
     pub excluded: Vec<bool>,
+    pub intake: Intake,
 }
 
 impl Series {
@@ -158,7 +175,48 @@ impl Series {
             force_g,
             strain_pct,
             excluded,
+            intake: Intake::default(),
         })
+    }
+
+    /// A logger's record checked: `rail` (the strain's converter rail) and the values the
+    /// logger held ([`tactile_record::held_values`]) left out, a held force bridged (the
+    /// models' input needs a value at every sample), and the reader's `resampling` kept for
+    /// the report.
+    pub fn logged(
+        dt_s: f64,
+        mut force_g: Vec<f64>,
+        strain_pct: Vec<f64>,
+        rail: Vec<bool>,
+        resampling: Option<tactile_record::Resampling>,
+    ) -> Result<Series, Refusal> {
+        let rail = if rail.len() == force_g.len() {
+            rail
+        } else {
+            vec![false; force_g.len()]
+        };
+        let held_force = tactile_record::held_values(&force_g);
+        let held: Vec<bool> = held_force
+            .iter()
+            .zip(tactile_record::held_values(&strain_pct))
+            .zip(&rail)
+            .map(|((f, s), at_rail)| (*f || s) && !at_rail)
+            .collect();
+        let intake = Intake {
+            resampling,
+            rail_samples: rail.iter().filter(|x| **x).count(),
+            held_samples: held.iter().filter(|x| **x).count(),
+            held_runs: tactile_record::runs_of(&held),
+        };
+        tactile_record::bridge_held(&mut force_g, &held_force);
+        let excluded = rail.iter().zip(&held).map(|(a, b)| *a || *b).collect();
+        Ok(Series::new(dt_s, force_g, strain_pct, excluded)?.with_intake(intake))
+    }
+
+    /// The series with how its record was taken in (its samples left out already in
+    /// `excluded`).
+    pub fn with_intake(self, intake: Intake) -> Series {
+        Series { intake, ..self }
     }
 
     pub fn len(&self) -> usize {

@@ -13,9 +13,14 @@ use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
 mod figures;
+mod logger;
 mod write;
 
 pub use figures::FirmwareFigures;
+pub use logger::{
+    bridge_held, held_values, runs_of, Resampling, GAP_STEPS, JITTER_SHARE, MAX_HELD_RUN,
+    MIN_HELD_RUN,
+};
 pub use write::{write_frames, write_record, write_ticks};
 
 /// A record read back: the three required columns, any extra ones, and the metadata.
@@ -28,6 +33,9 @@ pub struct Record {
     /// Extra numeric columns by name (command_g, true_force_g, …); a column with a cell that
     /// is not a finite number (a logger's note, a flag) is ignored.
     pub extra: Vec<(String, Vec<f64>)>,
+    /// How the time column was mended on reading (jitter resampled, duplicate rows merged);
+    /// `None`: as written.
+    pub resampling: Option<Resampling>,
 }
 
 impl Record {
@@ -49,21 +57,19 @@ impl Record {
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
     }
-    /// Sample period from the time column: the median step, or, where the time stamps jitter
-    /// (a step more than 1 % off the median), the step of the even grid that fits them.
+    /// Sample period from the time column: its median step (after reading, within a rounding
+    /// of the step jittered stamps were resampled onto).
     pub fn sample_period_s(&self) -> Option<f64> {
-        let median = median_step(&self.t_s)?;
-        Some(if max_step_deviation(&self.t_s, median) > EVEN_STEP_SHARE {
-            grid(&self.t_s).map_or(median, |g| g.1)
-        } else {
-            median
-        })
+        logger::median_step(&self.t_s)
     }
 
-    /// How far the time stamps stray from an even grid, as a share of the step: 0 for a record
-    /// sampled evenly, at most [`JITTER_SHARE`] for one that was read.
+    /// How far the time stamps spread about an even grid, as a share of the step: as read
+    /// (before any resampling), 0 for a record sampled evenly.
     pub fn jitter(&self) -> f64 {
-        grid_deviation(&self.t_s).unwrap_or(0.0)
+        match &self.resampling {
+            Some(r) => r.jitter_share,
+            None => logger::stamp_spread(&self.t_s).unwrap_or(0.0),
+        }
     }
 }
 
@@ -92,10 +98,12 @@ fn in_column(column: &Option<String>) -> String {
 
 const REQUIRED: [&str; 3] = ["t_s", "force_g", "strain_pct"];
 
-/// Reads a record strictly. Time must increase and be evenly sampled: every step within 1 % of
-/// the median, or time stamps that jitter by at most [`JITTER_SHARE`] of a step about an even
-/// grid (read as evenly sampled at that grid's step; no gap, no change of rate); every cell of
-/// the required and extra columns must be a finite number.
+/// Reads a record strictly. Time must not go back; rows stamped with the time of the row
+/// before are averaged into it. Stamps within 1 % of the median step are kept; stamps that
+/// jitter (spread by at most [`JITTER_SHARE`] of a step about an even grid) are resampled onto
+/// that grid's step by linear interpolation ([`Record::resampling`] says so); a gap of more than
+/// [`GAP_STEPS`] steps, or a clock that changes rate, is refused. Every cell of the required
+/// columns must be a finite number.
 pub fn read_record(path: &Path) -> Result<Record, RecordError> {
     let err = |line: Option<usize>, column: Option<String>, message: String| RecordError {
         file: path.to_path_buf(),
@@ -121,6 +129,8 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
     let mut index = [0usize; 3];
     // File line of each data row, for errors found after reading.
     let mut row_lines: Vec<usize> = Vec::new();
+    // Rows averaged into the last one (with it), and rows merged in all.
+    let (mut same_time, mut merged) = (1usize, 0usize);
     for (i, line) in reader.lines().enumerate() {
         let n = i + 1;
         let line = line.map_err(|e| err(Some(n), None, format!("unreadable line: {e}")))?;
@@ -191,14 +201,22 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         let values =
             row_values(&cells, names, &index).map_err(|(c, m)| err(Some(n), Some(c), m))?;
         let t = values[index[0]];
-        if let Some(&last) = rec.t_s.last() {
-            if t <= last {
+        match rec.t_s.last() {
+            Some(&last) if t < last => {
                 return Err(err(
                     Some(n),
                     Some("t_s".into()),
-                    format!("time {t} does not increase (previous {last})"),
-                ));
+                    format!("time {t} goes back (previous {last}): sort the rows by time"),
+                ))
             }
+            Some(&last) if t == last => {
+                // A logger that stamps coarser than it samples: the rows are one sample.
+                same_time += 1;
+                merged += 1;
+                merge_row(&mut rec, &values, &index, same_time);
+                continue;
+            }
+            _ => same_time = 1,
         }
         rec.t_s.push(t);
         row_lines.push(n);
@@ -227,9 +245,9 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
             format!("{} data rows; a record needs at least two", rec.len()),
         ));
     }
-    check_sampling(&rec.t_s)
-        .map_err(|(k, message)| err(row_lines.get(k).copied(), Some("t_s".into()), message))?;
     rec.extra.retain(|(_, v)| v.iter().all(|x| x.is_finite()));
+    logger::mend_time(&mut rec, merged)
+        .map_err(|(k, message)| err(row_lines.get(k).copied(), Some("t_s".into()), message))?;
     // The columns grew by doubling: a 600 s record at 1 kHz would hold 3.6 MB unused in each.
     for v in [&mut rec.t_s, &mut rec.force_g, &mut rec.strain_pct]
         .into_iter()
@@ -238,6 +256,23 @@ pub fn parse_record(reader: impl BufRead, path: &Path) -> Result<Record, RecordE
         v.shrink_to_fit();
     }
     Ok(rec)
+}
+
+/// Averages a row into the record's last one, which then stands for `rows` rows.
+fn merge_row(rec: &mut Record, values: &[f64], index: &[usize; 3], rows: usize) {
+    let mean = |old: &mut f64, new: f64| *old += (new - *old) / rows as f64;
+    if let (Some(f), Some(e)) = (rec.force_g.last_mut(), rec.strain_pct.last_mut()) {
+        mean(f, values[index[1]]);
+        mean(e, values[index[2]]);
+    }
+    let mut extra = rec.extra.iter_mut();
+    for (j, v) in values.iter().enumerate() {
+        if !index.contains(&j) {
+            if let Some(last) = extra.next().and_then(|(_, col)| col.last_mut()) {
+                mean(last, *v);
+            }
+        }
+    }
 }
 
 /// A data row's values in the header's order: the `required` columns strictly (a finite
@@ -266,118 +301,6 @@ fn row_values(
             }
         })
         .collect()
-}
-
-/// Steps within this share of the median are even sampling.
-const EVEN_STEP_SHARE: f64 = 0.01;
-/// Most a time stamp may stray from the even grid that fits the stamps, as a share of the step:
-/// the jitter of a logger's clock, not a change of rate. The samples are then read as evenly
-/// spaced (a sampler's clock ticks evenly; its time stamps are what jitter).
-pub const JITTER_SHARE: f64 = 0.25;
-
-fn median_step(t: &[f64]) -> Option<f64> {
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    Some(d[d.len() / 2])
-}
-
-/// Largest step's departure from `step`, as a share of it.
-fn max_step_deviation(t: &[f64], step: f64) -> f64 {
-    t.windows(2)
-        .map(|w| ((w[1] - w[0]) - step).abs() / step)
-        .fold(0.0, f64::max)
-}
-
-/// The even grid that fits the time stamps best (least squares): its first time and its step.
-fn grid(t: &[f64]) -> Option<(f64, f64)> {
-    let n = t.len();
-    if n < 2 {
-        return None;
-    }
-    let nf = n as f64;
-    let k_mean = (nf - 1.0) / 2.0;
-    let t_mean = t.iter().sum::<f64>() / nf;
-    let (mut skt, mut skk) = (0.0, 0.0);
-    for (k, v) in t.iter().enumerate() {
-        let dk = k as f64 - k_mean;
-        skt += dk * (v - t_mean);
-        skk += dk * dk;
-    }
-    let step = skt / skk;
-    Some((t_mean - step * k_mean, step))
-}
-
-/// Each time stamp's departure from the grid `(t0, step)`, as a share of its step.
-fn grid_offsets(t: &[f64], (t0, step): (f64, f64)) -> impl Iterator<Item = f64> + '_ {
-    t.iter()
-        .enumerate()
-        .map(move |(k, v)| (v - (t0 + k as f64 * step)) / step)
-}
-
-/// Largest departure of a time stamp from the even grid that fits them, as a share of the step.
-fn grid_deviation(t: &[f64]) -> Option<f64> {
-    Some(grid_offsets(t, grid(t)?).map(f64::abs).fold(0.0, f64::max))
-}
-
-/// Even sampling, or time stamps that jitter about an even grid; else the index of the first
-/// row that breaks it and why (a gap, a burst, a clock that changes rate).
-fn check_sampling(t: &[f64]) -> Result<(), (usize, String)> {
-    let Some(step) = median_step(t) else {
-        return Ok(());
-    };
-    if max_step_deviation(t, step) <= EVEN_STEP_SHARE {
-        return Ok(());
-    }
-    for (k, w) in t.windows(2).enumerate() {
-        let d = w[1] - w[0];
-        if d > 1.5 * step {
-            let missing = ((d / step).round() - 1.0).max(1.0);
-            let samples = if missing > 1.0 { "samples" } else { "sample" };
-            return Err((
-                k + 1,
-                format!(
-                    "a gap of {d:.6} s after {} s (about {missing:.0} {samples} missing at the \
-                     median step {step:.6} s): split the record there or fill the gap",
-                    w[0]
-                ),
-            ));
-        }
-        if d < 0.5 * step {
-            return Err((
-                k + 1,
-                format!(
-                    "uneven sampling: step {d:.6} s from {} s, the record's median step is \
-                     {step:.6} s",
-                    w[0]
-                ),
-            ));
-        }
-    }
-    // Every step is within half of the median: jitter, unless the stamps wander off the grid.
-    let Some(fitted) = grid(t) else {
-        return Ok(());
-    };
-    match grid_offsets(t, fitted)
-        .enumerate()
-        .find(|(_, d)| d.abs() > JITTER_SHARE)
-    {
-        None => Ok(()),
-        Some((k, off)) => Err((
-            k,
-            format!(
-                "uneven sampling: time {} s is {:.0} % of a step off the even grid of {:.6} s \
-                 that fits the time stamps (they may jitter by {:.0} %): a rate that changes \
-                 within the record, or jitter too large to read as even sampling",
-                t[k],
-                100.0 * off.abs(),
-                fitted.1,
-                100.0 * JITTER_SHARE
-            ),
-        )),
-    }
 }
 
 /// A cell trimmed, and without the double quotes around it if it has them.
@@ -484,17 +407,18 @@ mod tests {
         assert_eq!(e.column.as_deref(), Some("strain_pct"));
         let e = parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.005,1,1\n").unwrap_err();
         assert_eq!((e.line, e.column.as_deref()), (Some(4), Some("t_s")));
+        assert!(e.message.contains("goes back"), "{e}");
         let e = parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1\n").unwrap_err();
         assert_eq!(e.line, Some(3));
         let e = parse("# only=comments\n").unwrap_err();
         assert!(e.message.contains("empty"));
         let e =
-            parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.02,1,1\n0.05,1,1\n").unwrap_err();
+            parse("t_s,force_g,strain_pct\n0.0,1,1\n0.01,1,1\n0.02,1,1\n0.06,1,1\n").unwrap_err();
         assert!(
-            e.message.contains("a gap of 0.030000 s after 0.02 s"),
+            e.message.contains("a gap of 0.040000 s after 0.02 s"),
             "{e}"
         );
-        assert!(e.message.contains("about 2 samples missing"), "{e}");
+        assert!(e.message.contains("about 3 samples missing"), "{e}");
         assert_eq!(e.line, Some(5));
         let e = parse("t_s\tforce_g\tstrain_pct\n0.0\t1\t1\n").unwrap_err();
         assert!(e.message.ends_with("this header tab-separated"), "{e}");
@@ -543,18 +467,26 @@ mod tests {
     }
 
     #[test]
-    fn time_stamps_that_jitter_about_an_even_grid_are_read_as_even() {
+    fn time_stamps_that_jitter_about_an_even_grid_are_resampled() {
         // A logger's stamps ±20 % of a 10 ms step (a pattern, so the test is exact).
         let jitter = [0.0, 0.2, -0.15, 0.1, -0.2, 0.05, 0.18, -0.1];
         let r = parse(&stamps(801, 0.01, |k| jitter[k % 8])).unwrap();
-        // The pattern's mean is 0.01 step: the grid 0.1 ms late, its step 10 ms (but for the
-        // pattern's slight trend over the record's last partial cycle); the farthest stamp is
-        // the -0.2 one, 0.21 of a step off that grid.
-        assert!((r.sample_period_s().unwrap() - 0.01).abs() < 1e-8);
-        assert!((r.jitter() - 0.21).abs() < 1e-3, "{}", r.jitter());
-        // Even stamps: no jitter, and the median step as before.
+        // The stamps spread from -0.2 to +0.2 of a step about the grid that fits them (but for
+        // the pattern's slight trend over the record's last partial cycle): 0.4 of a step.
+        assert!((r.jitter() - 0.4).abs() < 2e-3, "{}", r.jitter());
+        // Resampled onto the step of the grid that fits them, 10 ms (the median step, 11.3 ms
+        // for this pattern, would resample a 100 Hz logger at 88 Hz).
+        let rs = r.resampling.as_ref().unwrap();
+        assert!((rs.resampled_step_s.unwrap() - 0.01).abs() < 1e-7, "{rs:?}");
+        assert!((r.sample_period_s().unwrap() - 0.01).abs() < 1e-7);
+        // The force column is k at stamp (k + jitter)·10 ms: interpolated at 40 ms (between
+        // the stamps 38 and 50.5 ms of rows 4 and 5) it is 4 + 2/12.5.
+        assert!((r.force_g[4] - 4.16).abs() < 1e-4, "{}", r.force_g[4]);
+        // Even stamps: no jitter, the values as written, and the median step as before.
         let even = parse(&stamps(100, 0.01, |_| 0.0)).unwrap();
         assert!(even.jitter() < 1e-6);
+        assert_eq!(even.resampling, None);
+        assert_eq!(even.force_g[17], 17.0);
         assert!((even.sample_period_s().unwrap() - 0.01).abs() < 1e-12);
     }
 
@@ -575,12 +507,10 @@ mod tests {
             "{e}"
         );
         assert_eq!(e.column.as_deref(), Some("t_s"));
-        // Stamps that bunch (a step under half the median) are uneven sampling.
-        let e = refused(&stamps(50, 0.01, |k| if k == 20 { -0.6 } else { 0.0 }));
-        assert!(
-            e.message.contains("uneven sampling: step 0.004000 s"),
-            "{e}"
-        );
-        assert_eq!(e.line, Some(22));
+        // A stamp 60 % of a step early (once refused as a burst) is jitter: read, resampled.
+        let r = parse(&stamps(50, 0.01, |k| if k == 20 { -0.6 } else { 0.0 })).unwrap();
+        assert!((r.jitter() - 0.6).abs() < 0.05, "{}", r.jitter());
+        // The grid's step, pulled a little long, ends it before the last stamp.
+        assert!((49..=50).contains(&r.len()), "{}", r.len());
     }
 }

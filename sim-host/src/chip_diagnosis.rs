@@ -27,8 +27,9 @@ pub const EXPORT_LOADS_G: [f64; 4] = {
     [l[0] as f64, l[1] as f64, l[2] as f64, l[3] as f64]
 };
 
-/// The record as the identification takes it: its period, force, strain, and the strain's rail
-/// samples left out.
+/// The record as the identification takes it: its period, force, strain, the strain's rail
+/// samples and the logger's held values left out (a held force bridged, as the models' input
+/// needs a value at every sample), and how its time stamps were mended.
 pub fn series_of(r: &Record) -> Result<Series, Refusal> {
     into_series(r.clone())
 }
@@ -41,7 +42,7 @@ pub fn into_series(r: Record) -> Result<Series, Refusal> {
         rail.iter_mut().for_each(|x| *x = false);
     }
     let dt = r.sample_period_s().unwrap_or(0.0);
-    Series::new(dt, r.force_g, r.strain_pct, rail)
+    Series::logged(dt, r.force_g, r.strain_pct, rail, r.resampling)
 }
 
 /// Samples at the strain's converter rail: the record's largest value, repeated for at least

@@ -17,7 +17,7 @@ mod work;
 use serde::Serialize;
 
 use crate::residual::ResidualTests;
-use crate::series::Series;
+use crate::series::{Intake, Series};
 use crate::solve::{Pool, Scored};
 
 use floors::Floors;
@@ -230,6 +230,8 @@ pub struct Baseline {
 /// The diagnosis of a record.
 #[derive(Clone, Debug, Serialize)]
 pub struct Diagnosis {
+    /// How the record was taken in: its time stamps mended, the samples left out and why.
+    pub intake: Intake,
     pub effect: String,
     pub effects: Vec<Effect>,
     pub before: Errors,

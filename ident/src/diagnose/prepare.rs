@@ -55,6 +55,7 @@ pub(super) fn prepare(series: &Series, settings: &Settings) -> Prepared {
         // Not copied (a 600 s record at 1 kHz: 4.8 MB): the strain is read from `series`.
         strain_pct: Vec::new(),
         excluded: series.excluded.clone(),
+        intake: series.intake.clone(),
     };
     let s = &smoothed;
     let (dt, t_s) = (s.dt_s, s.duration_s());

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use crate::residual::ResidualTests;
-use crate::series::Folds;
+use crate::series::{Folds, Intake};
 use crate::solve::Scored;
 use crate::{stats, terms};
 
@@ -113,6 +113,7 @@ pub(super) fn finish(
         folds: folds.ranges.clone(),
     };
     let mut diagnosis = Diagnosis {
+        intake: s.intake.clone(),
         effect,
         effects,
         before: errors(&before.scored, secant),
@@ -221,14 +222,7 @@ fn summary(d: &Diagnosis, work: &Work, first_order: Option<&Scored>) -> String {
         folds,
         s.duration_s() / folds as f64
     );
-    let railed = s.excluded.iter().filter(|x| **x).count();
-    if railed > 0 {
-        let _ = writeln!(
-            summary,
-            "  the strain sits at its converter's rail for {railed} samples ({:.1} % of the record): left out of every fit and score",
-            100.0 * railed as f64 / s.len() as f64
-        );
-    }
+    intake(&mut summary, &d.intake, &s.excluded);
     let _ = writeln!(
         summary,
         "  grams through the record's secant {:.3} g/%; noise floor {:.4} % ({:.3} g)",
@@ -289,6 +283,57 @@ fn summary(d: &Diagnosis, work: &Work, first_order: Option<&Scored>) -> String {
         }
     );
     summary
+}
+
+/// How the record was taken in: its time stamps mended, its samples at the rail, its held
+/// values, and any other samples its caller left out (`excluded`).
+fn intake(summary: &mut String, intake: &Intake, excluded: &[bool]) {
+    let share = |n: usize| 100.0 * n as f64 / excluded.len().max(1) as f64;
+    if let Some(r) = &intake.resampling {
+        if let Some(step) = r.resampled_step_s {
+            let _ = writeln!(
+                summary,
+                "  the time stamps jitter by {:.0} % of the step: every column resampled onto an even {step:.6} s by linear interpolation",
+                100.0 * r.jitter_share
+            );
+        }
+        if r.merged_duplicates > 0 {
+            let _ = writeln!(
+                summary,
+                "  {} rows stamped with the time of the row before: averaged into it",
+                r.merged_duplicates
+            );
+        }
+    }
+    let railed = intake.rail_samples;
+    if railed > 0 {
+        let _ = writeln!(
+            summary,
+            "  the strain sits at its converter's rail for {railed} samples ({:.1} % of the record): left out of every fit and score",
+            share(railed)
+        );
+    }
+    let held = intake.held_samples;
+    if held > 0 {
+        let _ = writeln!(
+            summary,
+            "  the logger repeated a value instead of reading for {held} samples in {} runs ({:.1} % of the record): left out of every fit and score",
+            intake.held_runs,
+            share(held)
+        );
+    }
+    let other = excluded
+        .iter()
+        .filter(|x| **x)
+        .count()
+        .saturating_sub(railed + held);
+    if other > 0 {
+        let _ = writeln!(
+            summary,
+            "  {other} samples ({:.1} % of the record) left out of every fit and score",
+            share(other)
+        );
+    }
 }
 
 /// The verdict in words.

@@ -11,6 +11,7 @@ mod estimators;
 mod faults;
 mod fuzz;
 mod identify;
+mod logger;
 mod memo_experiments;
 mod refusals;
 mod tables;

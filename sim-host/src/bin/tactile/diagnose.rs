@@ -39,15 +39,6 @@ pub fn run(args: DiagnoseArgs) -> Result<(), Error> {
         std::fs::create_dir_all(dir).map_err(Error::io(dir))?;
     }
     let record = sim_host::record::read_record(&file)?;
-    let jitter = record.jitter();
-    if jitter > 0.01 {
-        outln!(
-            "time stamps jitter by up to {:.0} % of the step: read as evenly sampled every \
-             {:.6} s",
-            100.0 * jitter,
-            record.sample_period_s().unwrap_or(0.0)
-        );
-    }
     let series = sim_host::chip_diagnosis::into_series(record).map_err(|reason| {
         Error::Failed(format!("{}: cannot be diagnosed: {reason}", file.display()))
     })?;
