@@ -722,6 +722,7 @@ mod tests {
                 force_g: force,
                 strain_pct: strain,
                 excluded: vec![false; n],
+                intake: Default::default(),
             },
             in_fit: (0..n).map(|i| (i / block) % 4 != 3).collect(),
             held_out_description: "test".into(),

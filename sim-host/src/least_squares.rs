@@ -148,16 +148,18 @@ mod tests {
         assert!(s.objective < 1e-12);
     }
 
+    /// The decay at x = 1, to be zero.
+    fn one_point() -> Decay {
+        Decay {
+            x: vec![1.0],
+            y: vec![0.0],
+        }
+    }
+
     #[test]
     fn the_jacobian_is_the_derivative_to_the_steps_order() {
         // d/da = exp(−b x), d/db = −a x exp(−b x) at a = 2, b = 0.5, x = 1.
-        let p = Problem::new(
-            Decay {
-                x: vec![1.0],
-                y: vec![0.0],
-            },
-            &[2.0, 0.5],
-        );
+        let p = Problem::new(one_point(), &[2.0, 0.5]);
         let j = p.jacobian_here().unwrap();
         let e = (-0.5f64).exp();
         assert!((j[(0, 0)] - e).abs() < 1e-5, "{j}");
@@ -166,13 +168,7 @@ mod tests {
 
     #[test]
     fn a_model_that_cannot_be_computed_has_no_residuals_and_no_jacobian() {
-        let p = Problem::new(
-            Decay {
-                x: vec![1.0],
-                y: vec![0.0],
-            },
-            &[1.0],
-        );
+        let p = Problem::new(one_point(), &[1.0]);
         assert!(p.residuals_here().is_none());
         assert!(p.jacobian_here().is_none());
     }

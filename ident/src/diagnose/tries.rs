@@ -47,29 +47,26 @@ impl CandidateColumns {
             Creep::Permanent => t_s / 2.0,
             Creep::Alpha(tau) => (t_s / 2.0).min(tau / 2.0),
         };
-        let slow: Vec<usize> = if slowest > 1.5 * settings.base_tau_max_s {
-            grid(settings.base_tau_max_s * 1.5, slowest, settings.per_decade)
-                .into_iter()
+        // Kelvin branches of the time constants `taus`, each a `term`.
+        let mut branches = |taus: Vec<f64>, term: fn(f64) -> Term| -> Vec<usize> {
+            taus.into_iter()
                 .map(|tau| {
                     let f = Arc::clone(&force);
                     let recipe = move || terms::lowpass(&f, tau, dt);
-                    work.add_computed(Term::SlowRelaxation(tau), recipe, Sign::NonNegative)
+                    work.add_computed(term(tau), recipe, Sign::NonNegative)
                 })
                 .collect()
+        };
+        let slow = if slowest > 1.5 * settings.base_tau_max_s {
+            let taus = grid(settings.base_tau_max_s * 1.5, slowest, settings.per_decade);
+            branches(taus, Term::SlowRelaxation)
         } else {
             Vec::new()
         };
-        let alphas: Vec<usize> = match creep {
+        let alphas = match creep {
             Creep::Alpha(_) if !slow.is_empty() => {
                 let (lo, hi) = settings.alpha_tau_s;
-                grid(lo, hi, settings.per_decade / 2.0)
-                    .into_iter()
-                    .map(|tau| {
-                        let f = Arc::clone(&force);
-                        let recipe = move || terms::lowpass(&f, tau, dt);
-                        work.add_computed(Term::Alpha(tau), recipe, Sign::NonNegative)
-                    })
-                    .collect()
+                branches(grid(lo, hi, settings.per_decade / 2.0), Term::Alpha)
             }
             _ => Vec::new(),
         };

@@ -26,6 +26,7 @@ impl Split {
             force_g: r.force_g.clone(),
             strain_pct: r.strain_pct.clone(),
             excluded: crate::chip_diagnosis::at_top_rail(&r.strain_pct),
+            intake: Default::default(),
         };
         Self::in_blocks(series)
     }
@@ -69,6 +70,7 @@ impl Split {
                 force_g,
                 strain_pct,
                 excluded: vec![false; n],
+                intake: Default::default(),
             },
             in_fit: vec![true; n],
             held_out_description: "none (the whole record is fitted, as in the memo)".into(),
