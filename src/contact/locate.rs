@@ -16,8 +16,8 @@ pub struct LocatorConfig {
     pub window: usize,
     /// Levenberg–Marquardt iterations at most (each one a pass over the window).
     pub max_iterations: u8,
-    /// Share of the window's load (sum of squares) a point may leave unexplained: above it the
-    /// frame is not one point. Noise and gain spread leave well under a percent.
+    /// Share of the array's load (sum of squares) the fitted point may leave unexplained: above
+    /// it the frame is not one point. Noise and a ±2 % gain spread leave about 0.02 %.
     pub max_residual_share: f32,
     /// A second local maximum at least two taxels from the peak carrying this share of the
     /// peak's force (and above the noise) makes the frame two contacts.
@@ -30,8 +30,8 @@ impl LocatorConfig {
         min_force_g: 2.0,
         window: 2,
         max_iterations: 12,
-        max_residual_share: 0.02,
-        second_peak_share: 0.15,
+        max_residual_share: 0.01,
+        second_peak_share: 0.05,
     };
 }
 
@@ -60,7 +60,8 @@ pub struct ContactEstimate {
     pub y_mm: f32,
     /// The fitted point's force (the sum of the finite taxels for `Nothing`), grams.
     pub force_g: f32,
-    /// Share of the window's sum of squares the fitted point leaves unexplained.
+    /// Share of the array's sum of squares the fitted point leaves unexplained (a second
+    /// contact outside the fitted window counts).
     pub residual_share: f32,
     /// Force-weighted centroid of the whole array, mm, beside the fit (0 for `Nothing`).
     pub centroid_x_mm: f32,
@@ -143,6 +144,7 @@ impl Locator {
         let Some(mut fit) = self.fit(forces_g, window) else {
             return nothing;
         };
+        fit.residual_share = self.residual_share(forces_g, &fit);
         fit.centroid_x_mm = centroid_x_mm;
         fit.centroid_y_mm = centroid_y_mm;
         if fit.residual_share > cfg.max_residual_share {
@@ -152,6 +154,21 @@ impl Locator {
             fit.kind = ContactKind::TwoPeaks;
         }
         fit
+    }
+
+    /// The fitted point's unexplained share of the whole array's sum of squares.
+    fn residual_share(&self, forces_g: &[f32; TAXELS], fit: &ContactEstimate) -> f32 {
+        let whole = Window {
+            rows: (0, ROWS - 1),
+            cols: (0, COLS - 1),
+        };
+        let n = self.normal(forces_g, whole, [fit.x_mm, fit.y_mm, fit.force_g]);
+        let share = if n.load > 0.0 { n.cost / n.load } else { 0.0 };
+        if share.is_finite() {
+            share
+        } else {
+            1.0
+        }
     }
 
     fn window_about(&self, peak: TaxelId) -> Window {
