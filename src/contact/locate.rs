@@ -272,7 +272,7 @@ impl Locator {
             sx += f * cx;
             sy += f * cy;
         }
-        if !(w > 0.0) {
+        if w.is_nan() || w <= 0.0 {
             return None;
         }
         let (x0, y0) = (sx / w, sy / w);
@@ -348,7 +348,7 @@ fn solve_damped(n: &Normal, lambda: f32) -> Option<[f32; 3]> {
     // | b d e |
     // | c e f |
     let det = a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c);
-    if !(det.abs() > f32::MIN_POSITIVE) || !det.is_finite() {
+    if !det.is_finite() || det.abs() <= f32::MIN_POSITIVE {
         return None;
     }
     let dx = (r0 * (d * f - e * e) - b * (r1 * f - e * r2) + c * (r1 * e - d * r2)) / det;
