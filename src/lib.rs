@@ -39,6 +39,7 @@
 
 pub mod calibration;
 pub mod command;
+pub mod contact;
 pub mod control;
 pub mod estimator;
 pub mod filter;

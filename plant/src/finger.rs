@@ -15,6 +15,7 @@ use tactile_core::tactile::{
 use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState, SpringLaw};
 
 use crate::noise::Noise;
+use crate::spatial::{loaded_of, SpatialLaw};
 
 /// Effects beyond the memo's own physics, each with a strength; all off by default.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -210,8 +211,12 @@ pub struct Finger {
     /// The taxel converter (the firmware's `taxel_adc`).
     pub adc: AdcScale,
     noise: Noise,
-    /// Taxels that carry part of the probe's load, with their share.
+    /// Taxels other than the probe's that carry part of the probe's load, with their share.
     loaded: heapless::Vec<(usize, f64), TAXELS>,
+    /// Every taxel's share of the probe's load, by taxel index (the probe's own included).
+    shares: [f64; TAXELS],
+    /// How the load spreads: the fixed kernel about the probe's centre unless pressed elsewhere.
+    law: SpatialLaw,
     /// Fraction of the previous taxel left in a scan sample.
     blend: f64,
     plays_g: [f64; 3],
@@ -274,18 +279,7 @@ impl Finger {
                 detector_v: rest_amplitude_v - f64::from(amplifier.diode_drop_v),
             }
         });
-        let mut loaded = heapless::Vec::new();
-        for i in 0..TAXELS {
-            let id = TaxelId::from_index(i);
-            let w = crosstalk_weight(
-                id.row() as i32 - probe.row() as i32,
-                id.col() as i32 - probe.col() as i32,
-            );
-            if w > 0.0 && i != probe.index() {
-                // At most 64 entries: the push cannot fail.
-                let _ = loaded.push((i, w));
-            }
-        }
+        let shares = SpatialLaw::Kernel.shares(probe, 0.0, 0.0);
         Self {
             element,
             taxels,
@@ -293,7 +287,9 @@ impl Finger {
             effects,
             readout,
             adc,
-            loaded,
+            loaded: loaded_of(&shares, probe),
+            shares,
+            law: SpatialLaw::Kernel,
             blend: f64::from(scan.blend()),
             noise: Noise::new(seed ^ 0x6e6f_6973),
             plays_g: [0.0; 3],
@@ -301,6 +297,30 @@ impl Finger {
             delay_line: [0.0; MAX_DELAY_TICKS],
             delay_head: 0,
         }
+    }
+
+    /// Moves the contact to (`x_mm`, `y_mm`) (x along the columns, y along the rows, from the
+    /// centre of taxel r0c0) under `law`; the probe's channel stays on [`Finger::probe`], which
+    /// reads its share as every taxel does. Between presses: the taxels' states are kept.
+    pub fn press_at(&mut self, law: SpatialLaw, x_mm: f64, y_mm: f64) {
+        self.law = law;
+        self.shares = law.shares(self.probe, x_mm, y_mm);
+        self.loaded = loaded_of(&self.shares, self.probe);
+    }
+
+    /// How the load spreads now.
+    pub fn law(&self) -> SpatialLaw {
+        self.law
+    }
+
+    /// Taxel `index`'s share of the probe's load (0 outside the array).
+    pub fn load_share(&self, index: usize) -> f64 {
+        self.shares.get(index).copied().unwrap_or(0.0)
+    }
+
+    /// The probe taxel's own share (1 for the fixed kernel: the probe over its centre).
+    fn probe_share(&self) -> f64 {
+        self.load_share(self.probe.index())
     }
 
     pub fn probe_taxel(&self) -> &Taxel {
@@ -330,6 +350,8 @@ impl Finger {
     /// tick's mean contact force). Neighbours accumulate their share and are brought up to date
     /// when scanned.
     pub fn tick(&mut self, probe_stress_g: f64, dt_s: f64) {
+        // The probe taxel's own stress (the probe's for the kernel: a share of exactly 1).
+        let own_g = self.probe_share() * probe_stress_g;
         for &(i, w) in &self.loaded {
             if let Some(t) = self.taxels.get_mut(i) {
                 t.stress_integral_g_s += w * probe_stress_g * dt_s;
@@ -338,18 +360,18 @@ impl Finger {
         let probe = self.probe.index();
         let element = self.element_of(probe);
         let t = &mut self.taxels[probe];
-        element.step(&mut t.state, probe_stress_g, dt_s);
+        element.step(&mut t.state, own_g, dt_s);
         t.stress_integral_g_s = 0.0;
         t.last_update_s += dt_s;
         // Sensor-side effects of the element under the probe.
         for (p, r) in self.plays_g.iter_mut().zip(FINGER_PLAY_RADII_G) {
-            *p = tactile_core::hysteresis::play(*p, probe_stress_g, r);
+            *p = tactile_core::hysteresis::play(*p, own_g, r);
         }
         if self.effects.slow_relaxation > 0.0 {
             let g3 = NonlinearMk::ELEMENT_4_2.g2.stiffness(STIFFENING_PIVOT_G)
                 / self.effects.slow_relaxation;
             let phi = libm::exp(-dt_s / self.effects.slow_relaxation_tau_s);
-            self.slow_kelvin_pct = self.slow_kelvin_pct * phi + (1.0 - phi) * probe_stress_g / g3;
+            self.slow_kelvin_pct = self.slow_kelvin_pct * phi + (1.0 - phi) * own_g / g3;
         }
     }
 
@@ -379,7 +401,8 @@ impl Finger {
 
     /// True strain of the element under the probe carrying `stress_g`, with the sensor-side
     /// effects (hysteresis, slow relaxation, drift, interference) but before the read-out.
-    fn probe_sensor_strain_pct(&self, stress_g: f64, t_s: f64) -> f64 {
+    fn probe_sensor_strain_pct(&self, probe_stress_g: f64, t_s: f64) -> f64 {
+        let stress_g = self.probe_share() * probe_stress_g;
         let t = self.probe_taxel();
         let mut e = self.probe_element().strain_pct(&t.state, stress_g);
         if self.effects.hysteresis_pct > 0.0 {
@@ -458,8 +481,7 @@ impl Finger {
         let strain = if taxel == self.probe {
             self.probe_sensor_strain_pct(probe_stress_g, t_s)
         } else {
-            let (pr, pc) = (self.probe.row() as i32, self.probe.col() as i32);
-            let w = crosstalk_weight(taxel.row() as i32 - pr, taxel.col() as i32 - pc);
+            let w = self.load_share(i);
             self.catch_up(i, t_s);
             let t = &self.taxels[i];
             self.element_of(i).strain_pct(&t.state, w * probe_stress_g) + self.time_effects_pct(t_s)

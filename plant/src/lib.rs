@@ -7,6 +7,7 @@
 //! - [`rig`]: the firmware's own control and scan tasks closed around the simulated board.
 //! - [`config`], [`fault`]: what a run is made of, and the faults the board can inject.
 //! - [`noise`]: seeded Gaussian noise.
+//! - [`spatial`]: how the probe's load spreads: the fixed kernel, or a half-space anywhere.
 #![cfg_attr(not(test), no_std)]
 
 pub mod applicator;
@@ -16,3 +17,4 @@ pub mod finger;
 pub mod hardware;
 pub mod noise;
 pub mod rig;
+pub mod spatial;
