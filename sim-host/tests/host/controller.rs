@@ -659,3 +659,67 @@ fn a_gauge_twice_as_sensitive_is_identified_within_its_range() {
         }
     }
 }
+
+#[test]
+fn tactile_experiment_runs_the_designed_loop_from_a_table_and_refuses_a_damaged_one() {
+    // The committed table read as `tactile experiment --controller` reads it: the force steps
+    // settle as the designed loop's do when the design hands it over.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let table = root.join("boards/controller/table.bin");
+    let mut cfg = rig();
+    cfg.firmware.tracking = Some(sim_host::error::read_controller(&table).unwrap());
+    let out = crate::common::scratch("controller_experiment");
+    let o = sim_host::cli::experiment(
+        "force-steps",
+        &ScenarioOptions::default(),
+        cfg,
+        &out,
+        200.0,
+        false,
+    )
+    .unwrap();
+    let settle = metrics::settling_after_first_s(&o.run.ticks);
+    eprintln!("force-steps under the committed table: settling after the first {settle:?}");
+    assert!(settle.last().is_some_and(|t| *t <= 0.030), "{settle:?}");
+    let over = metrics::step_overshoots_g(&o.run.ticks);
+    assert!(over.iter().skip(1).all(|o| o.1 <= 1.0), "{over:?}");
+    let record = std::fs::read_to_string(out.join("force-steps.csv")).unwrap();
+    assert!(record.contains("law") && record.contains("designed"));
+
+    // The command: the same run from the file, and a table with a flipped byte refused with
+    // the firmware's reason, naming the file (exit 1), before anything runs.
+    let (code, stdout, stderr) = crate::common::tactile([
+        "experiment".as_ref(),
+        "force-steps".as_ref(),
+        "--no-plot".as_ref(),
+        "--controller".as_ref(),
+        table.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    let mut bytes = std::fs::read(&table).unwrap();
+    bytes[40] ^= 0x10;
+    let damaged = crate::common::scratch("damaged_table.bin");
+    std::fs::write(&damaged, bytes).unwrap();
+    let readme = root.join("README.md");
+    for (file, reason) in [
+        (damaged.as_path(), "checksum"),
+        (readme.as_path(), "no TCTL header"),
+    ] {
+        let (code, _, stderr) = crate::common::tactile([
+            "experiment".as_ref(),
+            "force-steps".as_ref(),
+            "--controller".as_ref(),
+            file.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        eprintln!("{stderr}");
+        assert_eq!(code, Some(1), "{stderr}");
+        assert!(
+            stderr.contains(&file.display().to_string()) && stderr.contains(reason),
+            "{stderr}"
+        );
+    }
+}
