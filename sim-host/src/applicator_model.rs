@@ -301,13 +301,8 @@ impl PeriodMeans {
 
     /// The model fitted to the response of the drive less `stiction_g` of Coulomb friction
     /// ([`Self::less_friction`]): where the fit with the friction simulated starts, for the
-    /// design and `tactile identify` alike.
-    pub fn fit_less_friction(&self, stiction_g: f64) -> Option<ApplicatorModel> {
-        self.fit_less_friction_with_pole(stiction_g, None)
-    }
-
-    /// [`Self::fit_less_friction`] with the amplifier's pole held at `pole_hz` where given.
-    pub fn fit_less_friction_with_pole(
+    /// design and `tactile identify` alike (the amplifier's pole held at `pole_hz` where given).
+    pub fn fit_less_friction(
         &self,
         stiction_g: f64,
         pole_hz: Option<f64>,
@@ -649,27 +644,25 @@ fn log_errors(model: &ApplicatorModel, response: &[ResponsePoint]) -> Vec<f64> {
         .collect()
 }
 
-/// The parameters a fit searches of `theta` ([`ApplicatorModel::theta`], and any after):
-/// all but the pole's where `pole_hz` holds it.
+/// The parameters a fit searches of `theta` ([`ApplicatorModel::theta`], and any after): all
+/// but the pole's (index 7) where `pole_hz` holds it; [`with_pole`] puts it back.
 pub(crate) fn searched(theta: &[f64], pole_hz: Option<f64>) -> Vec<f64> {
-    let mut t = theta.to_vec();
-    if pole_hz.is_some() && t.len() > POLE_INDEX {
-        t.remove(POLE_INDEX);
-    }
-    t
+    let skip = pole_hz.map(|_| 7);
+    theta
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != skip)
+        .map(|(_, v)| *v)
+        .collect()
 }
 
-/// [`searched`]'s inverse: the pole put back where `pole_hz` holds it.
 pub(crate) fn with_pole(theta: &[f64], pole_hz: Option<f64>) -> Vec<f64> {
     let mut t = theta.to_vec();
     if let Some(hz) = pole_hz {
-        t.insert(POLE_INDEX.min(t.len()), hz.ln());
+        t.insert(7.min(t.len()), hz.ln());
     }
     t
 }
-
-/// Where the pole's logarithm is in [`ApplicatorModel::theta`].
-const POLE_INDEX: usize = 7;
 
 /// A least-squares problem in the model's parameters ([`ApplicatorModel::from_theta`]): its
 /// errors at a parameter vector, `None` where they cannot be computed or are not finite.

@@ -180,7 +180,7 @@ pub fn identified_from(
                 scope.spawn(move || {
                     // The linear fit starts the one with the friction simulated (seconds).
                     let fit = |pole_hz: Option<f64>| {
-                        let linear = e.means.fit_less_friction_with_pole(stiction_g, pole_hz)?;
+                        let linear = e.means.fit_less_friction(stiction_g, pole_hz)?;
                         let refined = crate::stick_slip::fit_with_friction_and_pole(
                             &e.means, stiction_g, &linear, pole_hz,
                         );
