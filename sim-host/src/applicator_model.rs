@@ -301,9 +301,13 @@ impl PeriodMeans {
 
     /// The model fitted to the response of the drive less `stiction_g` of Coulomb friction
     /// ([`Self::less_friction`]): where the fit with the friction simulated starts, for the
-    /// design and `tactile identify` alike.
-    pub fn fit_less_friction(&self, stiction_g: f64) -> Option<ApplicatorModel> {
-        fit_model(&self.less_friction(stiction_g).response().ok()?)
+    /// design and `tactile identify` alike (the amplifier's pole held at `pole_hz` where given).
+    pub fn fit_less_friction(
+        &self,
+        stiction_g: f64,
+        pole_hz: Option<f64>,
+    ) -> Option<ApplicatorModel> {
+        fit_model_with_pole(&self.less_friction(stiction_g).response().ok()?, pole_hz)
     }
 
     /// The drive less the motor's Coulomb friction, `stiction_g` against the motor's motion,
@@ -640,6 +644,26 @@ fn log_errors(model: &ApplicatorModel, response: &[ResponsePoint]) -> Vec<f64> {
         .collect()
 }
 
+/// The parameters a fit searches of `theta` ([`ApplicatorModel::theta`], and any after): all
+/// but the pole's (index 7) where `pole_hz` holds it; [`with_pole`] puts it back.
+pub(crate) fn searched(theta: &[f64], pole_hz: Option<f64>) -> Vec<f64> {
+    let skip = pole_hz.map(|_| 7);
+    theta
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != skip)
+        .map(|(_, v)| *v)
+        .collect()
+}
+
+pub(crate) fn with_pole(theta: &[f64], pole_hz: Option<f64>) -> Vec<f64> {
+    let mut t = theta.to_vec();
+    if let Some(hz) = pole_hz {
+        t.insert(7.min(t.len()), hz.ln());
+    }
+    t
+}
+
 /// A least-squares problem in the model's parameters ([`ApplicatorModel::from_theta`]): its
 /// errors at a parameter vector, `None` where they cannot be computed or are not finite.
 pub(crate) struct ModelProblem<'a> {
@@ -667,6 +691,15 @@ impl crate::least_squares::Residuals for ModelProblem<'_> {
 /// (magnitude and phase weigh alike at every frequency), from starts at the picked resonances
 /// and on a grid; `None` if no start converges.
 pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
+    fit_model_with_pole(response, None)
+}
+
+/// [`fit_model`] with the amplifier's pole held at `pole_hz` where given (one beyond what the
+/// chirp reaches runs off: a 400 Hz amplifier's fits put it at 10¹⁵ Hz).
+pub fn fit_model_with_pole(
+    response: &[ResponsePoint],
+    pole_hz: Option<f64>,
+) -> Option<ApplicatorModel> {
     let gain = response.first()?.value().norm();
     let top = response.last()?.hz;
     let picked = modes(response, 2);
@@ -691,10 +724,13 @@ pub fn fit_model(response: &[ResponsePoint]) -> Option<ApplicatorModel> {
             rms_log_error: 0.0,
         }
         .theta();
-        let errors =
-            |theta: &[f64]| Some(log_errors(&ApplicatorModel::from_theta(theta)?, response));
+        let start = searched(&start, pole_hz);
+        let errors = |theta: &[f64]| {
+            let m = ApplicatorModel::from_theta(&with_pole(theta, pole_hz))?;
+            Some(log_errors(&m, response))
+        };
         let solved = ModelProblem::solve(&errors, &start);
-        let Some(mut m) = ApplicatorModel::from_theta(&solved) else {
+        let Some(mut m) = ApplicatorModel::from_theta(&with_pole(&solved, pole_hz)) else {
             continue;
         };
         let e = log_errors(&m, response);

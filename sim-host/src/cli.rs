@@ -205,6 +205,11 @@ pub fn experiment(
     std::fs::create_dir_all(out).map_err(crate::Error::io(out))?;
     let seed = config.seed;
     let effects = config.effects;
+    let law = if config.firmware.tracking.is_some() {
+        "designed"
+    } else {
+        "A1"
+    };
     let bar = progress_bar(name, f64::from(protocol.duration_s()));
     let start = Instant::now();
     let run = scenario::run_protocol(name, protocol, config, options.fixed_gains, |f| {
@@ -224,6 +229,7 @@ pub fn experiment(
             format!("{}", 1.0 / (every as f64 * CONTROL_PERIOD_S)),
         ),
         ("fixed_gains".to_string(), options.fixed_gains.to_string()),
+        ("law".to_string(), law.to_string()),
         ("effects".to_string(), format!("{effects:?}")),
     ];
     let record = out.join(format!("{name}.csv"));

@@ -41,6 +41,13 @@ pub enum Error {
     /// describes no rig.
     #[error("{}: {reason}", .path.display())]
     Applicator { path: PathBuf, reason: String },
+    /// A controller table that cannot be read or is refused, with the reason.
+    #[error("{}: {source}", .path.display())]
+    Controller {
+        path: PathBuf,
+        #[source]
+        source: tactile_core::tracking::TrackingError,
+    },
     /// A calibration record that cannot be fitted.
     #[error(transparent)]
     Calibration(#[from] crate::dynamic_calibration::CalibrationError),
@@ -84,4 +91,16 @@ pub fn read_applicator(
         toml::from_str(&text).map_err(|e| fail(e.to_string().trim_end().to_string()))?;
     params.validate().map_err(|e| fail(e.to_string()))?;
     Ok(params)
+}
+
+/// Reads a controller table (`tactile design --table`), checked as the firmware checks it at
+/// start-up: a table it would refuse is refused here with the same reason.
+pub fn read_controller(
+    path: &std::path::Path,
+) -> Result<tactile_core::tracking::TrackingConfig, Error> {
+    let bytes = std::fs::read(path).map_err(Error::io(path))?;
+    tactile_core::tracking::TrackingConfig::decode(&bytes).map_err(|source| Error::Controller {
+        path: path.to_path_buf(),
+        source,
+    })
 }

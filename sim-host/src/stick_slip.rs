@@ -158,7 +158,17 @@ pub fn fit_with_friction(
     stiction_g: f64,
     start: &ApplicatorModel,
 ) -> Option<ApplicatorModel> {
-    refine(means, stiction_g, start, false).map(|r| r.0)
+    fit_with_friction_and_pole(means, stiction_g, start, None)
+}
+
+/// [`fit_with_friction`] with the amplifier's pole held at `pole_hz` where given.
+pub fn fit_with_friction_and_pole(
+    means: &PeriodMeans,
+    stiction_g: f64,
+    start: &ApplicatorModel,
+    pole_hz: Option<f64>,
+) -> Option<ApplicatorModel> {
+    refine(means, stiction_g, start, (false, pole_hz)).map(|r| r.0)
 }
 
 /// [`fit_with_friction`] with the stiction fitted too, from `stiction_g`: the model and the
@@ -168,23 +178,28 @@ pub fn fit_with_stiction(
     stiction_g: f64,
     start: &ApplicatorModel,
 ) -> Option<(ApplicatorModel, f64)> {
-    refine(means, stiction_g, start, true)
+    refine(means, stiction_g, start, (true, None))
 }
 
 fn refine(
     means: &PeriodMeans,
     stiction_g: f64,
     start: &ApplicatorModel,
-    fit_stiction: bool,
+    (fit_stiction, pole_hz): (bool, Option<f64>),
 ) -> Option<(ApplicatorModel, f64)> {
+    use crate::applicator_model::{searched, with_pole};
     let spectrum = Spectrum::of(means);
     let measured = spectrum.transform(&means.gauge_g);
     let drive = means.centred_drive_g();
     // The model's parameters, then (where fitted) ln of the stiction.
-    let stiction = |theta: &[f64]| theta.get(9).map_or(stiction_g, |v| v.exp());
+    let stiction = |theta: &[f64]| {
+        with_pole(theta, pole_hz)
+            .get(9)
+            .map_or(stiction_g, |v| v.exp())
+    };
     let errors = |theta: &[f64]| {
         log_errors(
-            &ApplicatorModel::from_theta(theta.get(..9)?)?,
+            &ApplicatorModel::from_theta(with_pole(theta, pole_hz).get(..9)?)?,
             &drive,
             means.dt_s,
             &spectrum,
@@ -197,7 +212,7 @@ fn refine(
         let c = e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64;
         c.is_finite().then_some(c)
     };
-    let mut from = start.theta().to_vec();
+    let mut from = searched(&start.theta(), pole_hz);
     if fit_stiction {
         // A rig without friction starts at a hundredth of a gram.
         from.push(stiction_g.max(0.01).ln());
@@ -208,7 +223,7 @@ fn refine(
     if after >= before {
         return None;
     }
-    let mut m = ApplicatorModel::from_theta(solved.get(..9)?)?;
+    let mut m = ApplicatorModel::from_theta(with_pole(&solved, pole_hz).get(..9)?)?;
     if m.modes[0].hz > m.modes[1].hz {
         return None;
     }

@@ -67,6 +67,7 @@ pub struct Excited {
 /// whose excitation cannot be identified, even with its chirp halved, is left out.
 pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
     let top_g = tactile_core::supervisor::GAUGE_COMMAND_SHARE * config.firmware.gauge.force_max_g;
+    let held_share = held_share(config)?;
     let runs: Vec<Result<Excited, DesignError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = DESIGN_LOADS_G
             .iter()
@@ -76,7 +77,7 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
                     scan_array: false,
                     ..config.clone()
                 };
-                scope.spawn(move || excite(config, load_g))
+                scope.spawn(move || excite(config, load_g, held_share))
             })
             .collect();
         handles
@@ -178,11 +179,18 @@ pub fn identified_from(
             .map(|e| {
                 scope.spawn(move || {
                     // The linear fit starts the one with the friction simulated (seconds).
-                    let linear = e.means.fit_less_friction(stiction_g)?;
-                    Some(
-                        crate::stick_slip::fit_with_friction(&e.means, stiction_g, &linear)
-                            .unwrap_or(linear),
-                    )
+                    let fit = |pole_hz: Option<f64>| {
+                        let linear = e.means.fit_less_friction(stiction_g, pole_hz)?;
+                        let refined = crate::stick_slip::fit_with_friction_and_pole(
+                            &e.means, stiction_g, &linear, pole_hz,
+                        );
+                        Some(refined.unwrap_or(linear))
+                    };
+                    let free = fit(None)?;
+                    if free.pole_hz > POLE_RANGE_HZ.1 {
+                        return fit(Some(POLE_RANGE_HZ.1)).or(Some(free));
+                    }
+                    Some(free)
                 })
             })
             .collect();
@@ -251,34 +259,108 @@ pub fn excited_of_run(
     let Protocol::Excitation { preload_g, .. } = protocol else {
         return Err(DesignError::Record(IdentifyError::NotTheExcitation));
     };
-    let means =
-        crate::applicator_model::period_means(ticks, protocol, actuator).map_err(|source| {
-            DesignError::Identify {
-                load_g: preload_g,
-                source,
-            }
-        })?;
+    excited_at(ticks, protocol, actuator, preload_g)
+}
+
+/// [`excited_of_run`] for a run whose command was chosen to hold `load_g` (a drive stronger
+/// or weaker than the firmware's scale holds another force at the preload commanded).
+fn excited_at(
+    ticks: &[crate::rig::TickRecord],
+    protocol: Protocol,
+    actuator: &tactile_core::control::ActuatorConfig,
+    load_g: f32,
+) -> Result<Excited, DesignError> {
+    let failed = |source| DesignError::Identify { load_g, source };
+    let means = crate::applicator_model::period_means(ticks, protocol, actuator).map_err(failed)?;
     let hold = crate::applicator_model::hold_means(ticks, actuator)
         .ok_or(IdentifyError::NoHold)
-        .and_then(|h| h.at_preload(preload_g))
-        .map_err(|source| DesignError::Identify {
-            load_g: preload_g,
-            source,
-        })?;
+        .and_then(|h| h.at_preload(load_g))
+        .map_err(failed)?;
     Ok(Excited {
-        load_g: preload_g,
+        load_g,
         means,
         hold,
     })
 }
 
+/// Runs of the excitation a preload gets to find the command that holds it.
+pub const HOLD_TRIES: usize = 4;
+
+/// The force A1 holds per gram commanded at the lightest preload, where that is off the
+/// preload (`None` where it holds it, or the hold says nothing): the first guess at the command
+/// each preload needs, so that a heavy preload is not first commanded past the gauge's range.
+fn held_share(config: &RigConfig) -> Result<Option<f64>, DesignError> {
+    let load_g = DESIGN_LOADS_G[0];
+    let mut protocol = Protocol::design_excitation(load_g);
+    if let Protocol::Excitation { periods, .. } = &mut protocol {
+        *periods = 1;
+    }
+    let run = run_protocol("excitation", protocol, config.clone(), false, |_| {})?;
+    let hold = crate::applicator_model::hold_means(&run.ticks, &config.firmware.actuator);
+    Ok(hold
+        .map(|h| h.gauge_g / f64::from(load_g))
+        .filter(|share| share.is_finite() && *share > 0.1 && (share - 1.0).abs() > HELD_SHARE_OFF))
+}
+
+/// How far off 1 the force held per gram commanded must be for the commands to be moved: A1's
+/// steady error on the memo's drive is under a gram at 10 g; a drive 1.5× as strong holds 14 g.
+pub const HELD_SHARE_OFF: f64 = 0.25;
+
 /// The excitation at one preload on the simulated rig ([`Protocol::design_excitation`]), its
 /// chirp halved while the probe leaves the finger or the gauge leaves its range.
-fn excite(config: RigConfig, load_g: f32) -> Result<Excited, DesignError> {
+///
+/// A1 has no integral action: on a drive stronger or weaker than the firmware's scale
+/// (27–29 g at the probe per volt for the memo's 18.8) it holds another force than it is
+/// commanded (14.1 g for 10 g), and the 100 g preload's chirp rang the gauge into the
+/// supervisor. So a hold off the preload is read as the rig's static gain: the command is
+/// moved until the gauge holds the preload (secant steps through the holds' forces), and the
+/// chirp scaled by the same ratio, so that it is the same force at the probe.
+fn excite(config: RigConfig, load_g: f32, held_share: Option<f64>) -> Result<Excited, DesignError> {
+    let actuator = config.firmware.actuator;
+    let top_g = tactile_core::supervisor::GAUGE_COMMAND_SHARE * config.firmware.gauge.force_max_g;
     let mut protocol = Protocol::design_excitation(load_g);
+    let chirp_g = match protocol {
+        Protocol::Excitation { amplitude_g, .. } => amplitude_g,
+        _ => 0.0,
+    };
+    let command = |c: f64| (c as f32).clamp(0.25 * load_g, top_g.max(load_g));
+    if let (
+        Some(share),
+        Protocol::Excitation {
+            preload_g,
+            amplitude_g,
+            ..
+        },
+    ) = (held_share, &mut protocol)
+    {
+        *preload_g = command(f64::from(load_g) / share);
+        *amplitude_g = chirp_g * *preload_g / load_g;
+    }
+    let mut tried: Vec<(f64, f64)> = Vec::new();
     loop {
         let run = run_protocol("excitation", protocol, config.clone(), false, |_| {})?;
-        match excited_of_run(&run.ticks, protocol, &config.firmware.actuator) {
+        let Protocol::Excitation {
+            preload_g: command_g,
+            amplitude_g,
+            ..
+        } = &mut protocol
+        else {
+            return Err(DesignError::Record(IdentifyError::NotTheExcitation));
+        };
+        let hold = crate::applicator_model::hold_means(&run.ticks, &actuator);
+        if let Some(h) = hold.filter(|h| h.gauge_g > 0.1 * f64::from(load_g)) {
+            let off = matches!(
+                h.at_preload(load_g),
+                Err(IdentifyError::HoldOffPreload { .. })
+            );
+            if off && tried.len() + 1 < HOLD_TRIES {
+                tried.push((f64::from(*command_g), h.gauge_g));
+                *command_g = command(command_for(&tried, f64::from(load_g)));
+                *amplitude_g = chirp_g * *command_g / load_g;
+                continue;
+            }
+        }
+        match excited_at(&run.ticks, protocol, &actuator, load_g) {
             Err(DesignError::Identify {
                 source: IdentifyError::LostContact { .. } | IdentifyError::Faulted { .. },
                 ..
@@ -289,5 +371,17 @@ fn excite(config: RigConfig, load_g: f32) -> Result<Excited, DesignError> {
             }
             other => return other,
         }
+    }
+}
+
+/// The command whose hold reads `load_g`, from the (command, held force) runs so far: through
+/// the origin from one, the secant of the last two after.
+fn command_for(tried: &[(f64, f64)], load_g: f64) -> f64 {
+    match tried {
+        [.., (c0, h0), (c1, h1)] if (h1 - h0).abs() > 1e-3 => {
+            c1 + (load_g - h1) * (c1 - c0) / (h1 - h0)
+        }
+        [.., (c, h)] => c * load_g / h,
+        [] => load_g,
     }
 }

@@ -48,6 +48,10 @@ pub struct ExperimentArgs {
     /// every field).
     #[arg(long)]
     pub applicator: Option<PathBuf>,
+    /// Run the firmware's designed loop with this controller table (`tactile design --table`)
+    /// instead of A1.
+    #[arg(long, conflicts_with = "fixed_gains")]
+    pub controller: Option<PathBuf>,
 }
 
 pub fn run(args: ExperimentArgs) -> Result<(), Error> {
@@ -65,6 +69,7 @@ pub fn run(args: ExperimentArgs) -> Result<(), Error> {
         no_plot,
         fault,
         applicator,
+        controller,
     } = args;
     if !(record_hz > 0.0 && record_hz <= 1000.0) {
         return Err(Error::Usage(format!(
@@ -89,6 +94,9 @@ pub fn run(args: ExperimentArgs) -> Result<(), Error> {
     };
     if let Some(path) = &applicator {
         config.set_applicator(sim_host::error::read_applicator(path)?);
+    }
+    if let Some(path) = &controller {
+        config.firmware.tracking = Some(sim_host::error::read_controller(path)?);
     }
     for effect in effects {
         effect.apply(&mut config.effects);

@@ -33,7 +33,7 @@ pub fn run(args: IdentifyArgs) -> Result<(), Error> {
     // the hold's drive less its gauge (one hold gives no static line).
     let held_g = sim_host::applicator_model::hold_means_of_record(&rec)
         .map_or(0.0, |h| (h.drive_g - h.gauge_g).max(0.0));
-    let linear = means.fit_less_friction(held_g).unwrap_or(plain);
+    let linear = means.fit_less_friction(held_g, None).unwrap_or(plain);
     let refined = sim_host::stick_slip::fit_with_stiction(&means, held_g, &linear);
     let (model, stiction_g) = refined.map_or((plain, None), |(m, s)| (m, Some(s)));
     outln!(
