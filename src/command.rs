@@ -94,7 +94,7 @@ impl Run {
 pub enum TableKind {
     /// The per-taxel calibration table ([`crate::calibration::CalibrationTable`]).
     Calibration,
-    /// The designed force controller's table ([`crate::tracking::TrackingConfig`]).
+    /// The designed force controller's table ([`crate::designed::DesignedConfig`]).
     Controller,
 }
 

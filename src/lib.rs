@@ -17,7 +17,7 @@
 //! - [`hysteresis`]: play operators, and a loop taken off a force estimate.
 //! - [`profile`]: the memo's protocols as setpoint generators (firmware and simulator).
 //! - [`supervisor`]: the force loop (command check, slew, A1, filter, DAC) and its fault table.
-//! - [`tracking`]: the designed force controller (reference model, scheduled model-inverse
+//! - [`designed`]: the designed force controller (reference model, scheduled model-inverse
 //!   feed-forward, integral feedback), the alternative to A1.
 //! - [`telemetry`]: the frames streamed over defmt, with sequence numbers and drop counts.
 //! - [`io`]: what a board puts behind the task bodies (converter codes in, DAC codes out).
@@ -41,6 +41,7 @@ pub mod calibration;
 pub mod command;
 pub mod contact;
 pub mod control;
+pub mod designed;
 pub mod estimator;
 pub mod filter;
 pub mod gauge;
@@ -54,7 +55,6 @@ pub mod supervisor;
 pub mod tactile;
 pub mod tasks;
 pub mod telemetry;
-pub mod tracking;
 pub mod trig;
 pub mod viscoelastic;
 

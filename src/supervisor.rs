@@ -20,11 +20,11 @@
 //! Latched faults clear only through [`ForceLoop::clear_faults`].
 
 use crate::control::{ActuatorConfig, Adjusted, ForceLaw, ForceLawConfig, SlewLimiter};
+use crate::designed::{DesignedConfig, DesignedController, DesignedError};
 use crate::filter::{FilterError, LowpassNotch, LowpassNotchConfig, LowpassNotchState};
 use crate::gauge::{AdcCode, GaugeFault};
 use crate::profile::ChirpSample;
 use crate::telemetry::FaultFlags;
-use crate::tracking::{Tracking, TrackingConfig, TrackingError};
 
 /// Thresholds of the supervisor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,7 +80,7 @@ pub struct ForceLoopConfig {
     /// Slew limit of the command ahead of the law, g/s.
     pub slew_g_per_s: f32,
     /// The designed controller in place of A1 and its filter; `None`: A1 (the memo's law).
-    pub tracking: Option<TrackingConfig>,
+    pub designed: Option<DesignedConfig>,
     /// The gauge's physical range, g (`GaugeConfig::force_min_g`, `force_max_g`): the
     /// excitation's guard keeps the reading off its edges.
     pub gauge_range_g: (f32, f32),
@@ -102,7 +102,7 @@ pub enum LoopError {
     #[error(transparent)]
     Filter(#[from] FilterError),
     #[error(transparent)]
-    Tracking(#[from] TrackingError),
+    DesignedController(#[from] DesignedError),
 }
 
 /// What one tick of the loop decided.
@@ -180,7 +180,7 @@ enum Law {
         filter: LowpassNotch,
         state: LowpassNotchState,
     },
-    Designed(Tracking),
+    Designed(DesignedController),
 }
 
 impl Law {
@@ -250,8 +250,8 @@ impl Law {
 impl ForceLoop {
     pub fn new(config: ForceLoopConfig) -> Result<Self, LoopError> {
         let filter = config.filter.discretize()?;
-        let law = match config.tracking {
-            Some(t) => Law::Designed(Tracking::new(t)?),
+        let law = match config.designed {
+            Some(t) => Law::Designed(DesignedController::new(t)?),
             None => Law::A1 {
                 law: ForceLaw::new(config.law),
                 filter,
@@ -458,7 +458,7 @@ impl ForceLoop {
     /// ramps on its own.
     fn shape(&mut self, command_g: f32) -> f32 {
         // NOTE: the designed controller takes a rest and a touch-down unslewed: it unloads the
-        // finger along its own ramp (`tracking`'s rest), which slows as the finger softens, and
+        // finger along its own ramp (the designed controller's rest), which slows as the finger softens, and
         // loads it along another from where it landed. Slewed, a command that started under
         // the force a probe landed at (pressed 0.5 g through a rest on a 28 g/V rig, the first
         // slewed step 0.5 g) ended that ramp at once, and the reference took the slew's 500 g/s
@@ -634,7 +634,7 @@ mod tests {
             actuator: ActuatorConfig::MEMO,
             supervisor: SupervisorConfig::DESIGN,
             slew_g_per_s: 500.0,
-            tracking: None,
+            designed: None,
             gauge_range_g: (GaugeConfig::MEMO.force_min_g, GaugeConfig::MEMO.force_max_g),
         })
         .unwrap()
@@ -865,9 +865,9 @@ mod tests {
     #[test]
     fn a_touch_down_on_a_pressed_finger_ramps_from_where_it_landed() {
         let mut l = ForceLoop::new(ForceLoopConfig {
-            tracking: Some(TrackingConfig {
+            designed: Some(DesignedConfig {
                 contact_g: 0.4,
-                ..TrackingConfig::UNIT_PLANT
+                ..DesignedConfig::UNIT_PLANT
             }),
             ..memo_loop().config
         })

@@ -59,7 +59,7 @@ proptest! {
             actuator: ActuatorConfig::MEMO,
             supervisor: SupervisorConfig::DESIGN,
             slew_g_per_s: 500.0,
-            tracking: None,
+            designed: None,
             gauge_range_g: (-30.0, 135.0),
         }).unwrap();
         for (command, reading, kind, overrun) in steps {

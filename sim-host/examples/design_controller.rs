@@ -44,7 +44,7 @@ fn main() {
         tc.kp = 0.0;
         tc.ki_per_s = 0.0;
     }
-    designed.firmware.tracking = Some(tc);
+    designed.firmware.designed = Some(tc);
     if let Some((name, field, factor)) = run_off {
         let mut off = designed.applicator;
         *field(&mut off) *= factor;

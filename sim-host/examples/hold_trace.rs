@@ -12,7 +12,7 @@ fn main() {
     config.set_applicator(
         sim_host::error::read_applicator(std::path::Path::new(&a[0])).expect("applicator"),
     );
-    config.firmware.tracking = Some(
+    config.firmware.designed = Some(
         design::design_for_rig(&config)
             .expect("design")
             .design

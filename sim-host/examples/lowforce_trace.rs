@@ -24,7 +24,7 @@ fn main() {
         sim_host::error::read_applicator(std::path::Path::new(file))
             .unwrap_or_else(|e| panic!("{file}: {e}")),
     );
-    config.firmware.tracking = Some(
+    config.firmware.designed = Some(
         design::design_for_rig(&config)
             .expect("design")
             .design

@@ -33,7 +33,7 @@ fn main() {
         "{file}: stiction identified {:.2} g; pulses on {:.2} g, push +{:.2} g, brake {:.2} g, contact at {:.2} g",
         r.identified.stiction_g, c.approach_hold_g, c.approach_push_g, c.approach_brake_g, c.contact_g
     );
-    cfg.firmware.tracking = Some(c);
+    cfg.firmware.designed = Some(c);
     for gap_mm in [0.0, 0.2, 1.0] {
         for target_g in [2.0f32, 5.0, 10.0] {
             let t = metrics::touch_down(cfg.clone(), gap_mm * 1e-3, target_g, 3.0).expect("rig");

@@ -205,7 +205,7 @@ pub fn experiment(
     std::fs::create_dir_all(out).map_err(crate::Error::io(out))?;
     let seed = config.seed;
     let effects = config.effects;
-    let law = if config.firmware.tracking.is_some() {
+    let law = if config.firmware.designed.is_some() {
         "designed"
     } else {
         "A1"

@@ -132,7 +132,7 @@ fn controller_comparison(out: &Path, seed: u64) -> Result<(String, String), crat
         .map_err(|e| crate::Error::Failed(format!("the controller's design: {e}")))?;
     let designed = RigConfig {
         firmware: tactile_core::tasks::FirmwareConfig {
-            tracking: Some(r.design.config),
+            designed: Some(r.design.config),
             ..a1.firmware
         },
         ..a1.clone()

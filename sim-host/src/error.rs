@@ -46,7 +46,7 @@ pub enum Error {
     Controller {
         path: PathBuf,
         #[source]
-        source: tactile_core::tracking::TrackingError,
+        source: tactile_core::designed::DesignedError,
     },
     /// A calibration record that cannot be fitted.
     #[error(transparent)]
@@ -97,9 +97,9 @@ pub fn read_applicator(
 /// start-up: a table it would refuse is refused here with the same reason.
 pub fn read_controller(
     path: &std::path::Path,
-) -> Result<tactile_core::tracking::TrackingConfig, Error> {
+) -> Result<tactile_core::designed::DesignedConfig, Error> {
     let bytes = std::fs::read(path).map_err(Error::io(path))?;
-    tactile_core::tracking::TrackingConfig::decode(&bytes).map_err(|source| Error::Controller {
+    tactile_core::designed::DesignedConfig::decode(&bytes).map_err(|source| Error::Controller {
         path: path.to_path_buf(),
         source,
     })

@@ -2,12 +2,12 @@
 //! the simulator's rig.
 
 use crate::control::{ActuatorConfig, ForceLawConfig};
+use crate::designed::DesignedConfig;
 use crate::estimator::EstimatorKind;
 use crate::filter::LowpassNotchConfig;
 use crate::gauge::{AdcScale, GaugeConfig};
 use crate::supervisor::{LoopError, SupervisorConfig};
 use crate::tactile::{ScanConfig, TaxelId, PROBED_TAXEL};
-use crate::tracking::TrackingConfig;
 use crate::viscoelastic::{ModelError, SecondOrder};
 
 /// Everything the task bodies are built from.
@@ -16,7 +16,7 @@ pub struct FirmwareConfig {
     pub law: ForceLawConfig,
     pub filter: LowpassNotchConfig,
     /// The designed force controller in place of A1 and the filter (`None`: A1).
-    pub tracking: Option<TrackingConfig>,
+    pub designed: Option<DesignedConfig>,
     pub gauge: GaugeConfig,
     pub actuator: ActuatorConfig,
     /// Converter of the taxel channels (offset/gain stage output, memo's ±10 V).
@@ -46,7 +46,7 @@ impl FirmwareConfig {
     pub const MEMO: FirmwareConfig = FirmwareConfig {
         law: ForceLawConfig::MEMO,
         filter: LowpassNotchConfig::MEMO,
-        tracking: None,
+        designed: None,
         gauge: GaugeConfig::MEMO,
         actuator: ActuatorConfig::MEMO,
         taxel_adc: AdcScale::BIPOLAR_10V_12BIT,

@@ -77,7 +77,7 @@ impl ControlLoop {
             actuator: config.actuator,
             supervisor: config.supervisor,
             slew_g_per_s,
-            tracking: config.tracking,
+            designed: config.designed,
             gauge_range_g: (config.gauge.force_min_g, config.gauge.force_max_g),
         })?;
         let inverse = config

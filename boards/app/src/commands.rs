@@ -14,9 +14,9 @@ use tactile_core::calibration::TableView;
 use tactile_core::command::{
     Command, ControllerChoice, Decoder, Limits, Param, Refusal, Run, TableKind,
 };
+use tactile_core::designed::{DesignedConfig, TABLE_BYTES};
 use tactile_core::estimator::EstimatorKind;
 use tactile_core::tasks::FirmwareConfig;
-use tactile_core::tracking::{TrackingConfig, TABLE_BYTES};
 
 /// A command taken (`Ok`) or refused with the reason; its sequence number either way.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,7 +66,7 @@ pub struct CommandPort<const CAL: usize> {
     estimator: Option<EstimatorKind>,
     /// The controller table being loaded, and the one loaded (checked) last.
     loading: [u8; TABLE_BYTES],
-    loaded: Option<TrackingConfig>,
+    loaded: Option<DesignedConfig>,
     /// The calibration table: its bytes, and the length of the one loaded (checked) last. A
     /// chunk unloads it (the next run then uses the build's) until the new one is loaded: one
     /// buffer, where RAM is short.
@@ -184,7 +184,7 @@ impl<const CAL: usize> CommandPort<CAL> {
             Command::Stop => Action::Stop,
             Command::ClearFaults => Action::ClearFaults,
             Command::Controller(choice) => {
-                if choice == ControllerChoice::Designed && self.tracking(compiled).is_none() {
+                if choice == ControllerChoice::Designed && self.designed(compiled).is_none() {
                     return (Err(Refusal::NoControllerTable), Action::None);
                 }
                 self.controller = choice;
@@ -216,7 +216,7 @@ impl<const CAL: usize> CommandPort<CAL> {
             } => match self
                 .loading
                 .get(..usize::from(len))
-                .and_then(|b| TrackingConfig::decode(b).ok())
+                .and_then(|b| DesignedConfig::decode(b).ok())
             {
                 Some(config) => {
                     self.loaded = Some(config);
@@ -243,18 +243,18 @@ impl<const CAL: usize> CommandPort<CAL> {
     }
 
     /// The designed controller's configuration: the table loaded last, else the build's.
-    pub fn tracking(&self, compiled: &[u8]) -> Option<TrackingConfig> {
+    pub fn designed(&self, compiled: &[u8]) -> Option<DesignedConfig> {
         self.loaded
-            .or_else(|| TrackingConfig::decode(compiled).ok())
+            .or_else(|| DesignedConfig::decode(compiled).ok())
     }
 
     /// The configuration the next run starts with: `base` with the chosen force law and the
     /// chosen array estimator.
     pub fn firmware(&self, base: FirmwareConfig, compiled: &[u8]) -> FirmwareConfig {
         FirmwareConfig {
-            tracking: match self.controller {
+            designed: match self.controller {
                 ControllerChoice::A1 => None,
-                ControllerChoice::Designed => self.tracking(compiled),
+                ControllerChoice::Designed => self.designed(compiled),
             },
             array_estimator: self.estimator.or(base.array_estimator),
             ..base
@@ -454,7 +454,7 @@ mod tests {
         assert_eq!(got[1].1, Action::None);
         assert_eq!(got[4].1, Action::Stop);
         let fw = port.firmware(crate::BOARD, &crate::CONTROLLER_TABLE);
-        assert!(fw.tracking.is_some());
+        assert!(fw.designed.is_some());
         assert_eq!(fw.array_estimator, Some(EstimatorKind::Elastic));
     }
 
@@ -471,14 +471,14 @@ mod tests {
         let damaged = loading(&table, TableKind::Controller, 10, Some((1, 7, 1)), 50);
         let replies = replies_to(&mut port, &damaged, &none);
         assert_eq!(replies.last().unwrap().result, Err(Refusal::TableRefused));
-        assert!(port.tracking(&none).is_none());
+        assert!(port.designed(&none).is_none());
         let mut commands = loading(&table, TableKind::Controller, 10, None, 60);
         commands.push((61, Command::Controller(ControllerChoice::Designed)));
         let replies = replies_to(&mut port, &commands, &none);
         assert!(replies.iter().all(|r| r.result.is_ok()), "{replies:?}");
         assert_eq!(
-            port.firmware(crate::BOARD, &none).tracking,
-            TrackingConfig::decode(&table).ok()
+            port.firmware(crate::BOARD, &none).designed,
+            DesignedConfig::decode(&table).ok()
         );
     }
 

@@ -13,7 +13,7 @@ use tactile_plant::finger::{
 use tactile_plant::rig::{FaultInjection, InjectedFault, RigConfig};
 
 use crate::table::{CALIBRATION_TABLE, CONTROLLER_TABLE};
-use tactile_core::tracking::TrackingConfig;
+use tactile_core::designed::DesignedConfig;
 
 /// One run of the firmware-in-the-loop session: a protocol on a fresh simulated board, with
 /// the fault that board injects. The QEMU firmware runs [`FIL_SESSION`] in order; the QEMU
@@ -41,8 +41,8 @@ impl FilRun {
         let defaults = RigConfig::default();
         let firmware = FirmwareConfig {
             calibration: &CALIBRATION_TABLE,
-            tracking: if self.designed {
-                TrackingConfig::decode(&CONTROLLER_TABLE).ok()
+            designed: if self.designed {
+                DesignedConfig::decode(&CONTROLLER_TABLE).ok()
             } else {
                 None
             },

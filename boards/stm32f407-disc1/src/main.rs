@@ -224,8 +224,8 @@ mod app {
         #[cfg(feature = "controller-designed")]
         let (config, port) = {
             let table = &tactile_firmware::CONTROLLER_TABLE;
-            let tracking = tactile_core::tracking::TrackingConfig::decode(table);
-            match &tracking {
+            let designed = tactile_core::designed::DesignedConfig::decode(table);
+            match &designed {
                 Ok(_) => defmt::info!(
                     "controller: the designed one ({=usize} B table)",
                     table.len()
@@ -235,7 +235,7 @@ mod app {
             let port = Port::new(config.supervisor.command_max_g, tactile_firmware::HOLD_S);
             (
                 tactile_core::tasks::FirmwareConfig {
-                    tracking: tracking.ok(),
+                    designed: designed.ok(),
                     ..config
                 },
                 port.with_controller(tactile_core::command::ControllerChoice::Designed),

@@ -1,10 +1,10 @@
 //! The design itself: the loads the schedule covers, the feedback the margins allow there, the
 //! feed-forward's schedule and the touch-down's pulses, gathered in the core's
-//! [`TrackingConfig`]; and the design of a rig from its identification.
+//! [`DesignedConfig`]; and the design of a rig from its identification.
 
 use num_complex::Complex64;
 use serde::Serialize;
-use tactile_core::tracking::{InverseSeries, TrackingConfig, TRACKING_POINTS};
+use tactile_core::designed::{DesignedConfig, InverseSeries, DESIGNED_POINTS};
 use tactile_core::CONTROL_PERIOD_S;
 
 use super::feedback::{largest_passing, worst_margins};
@@ -16,7 +16,7 @@ use crate::rig::RigConfig;
 #[derive(Clone, Debug, Serialize)]
 pub struct Design {
     #[serde(skip)]
-    pub config: TrackingConfig,
+    pub config: DesignedConfig,
     pub models: Vec<LoadModel>,
     pub feedback: Feedback,
     /// The least margins at each model's load over its [`variants`].
@@ -39,11 +39,11 @@ pub fn design(
     let families: Vec<Vec<Vec<Complex64>>> = loads.iter().map(|m| grid.family(m)).collect();
     let schedule = schedule(&grid, feedback, &loads, &families);
     let (push_g, contact_g) = touch_down(&loads, stiction_g, gauge_noise_g)?;
-    let config = TrackingConfig {
+    let config = DesignedConfig {
         dt_s: CONTROL_PERIOD_S as f32,
         reference_hz: REFERENCE_HZ,
         schedule,
-        points: loads.len().min(TRACKING_POINTS) as u8,
+        points: loads.len().min(DESIGNED_POINTS) as u8,
         friction_g,
         amplifier_tau_s: amplifier_tau_s(models) as f32,
         held_friction_g: (HELD_FRICTION_SHARE * f64::from(stiction_g)) as f32,
@@ -135,7 +135,7 @@ impl LoopGrid {
 }
 
 /// The identified models and, outside them (under `lightest`, over `heaviest`), the
-/// extrapolated ones, in increasing load, at most [`TRACKING_POINTS`].
+/// extrapolated ones, in increasing load, at most [`DESIGNED_POINTS`].
 fn designed_loads(models: &[LoadModel], lightest: f32, heaviest: f32) -> Vec<LoadModel> {
     // Above the heaviest, the design's loads whose excitation gave no model (the heavy rig's
     // 100 g chirp leaves the gauge's range: the 75 g model ran to 110 g, and a 10 g sine
@@ -148,7 +148,7 @@ fn designed_loads(models: &[LoadModel], lightest: f32, heaviest: f32) -> Vec<Loa
         .chain(models.iter().copied())
         .collect();
     all.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
-    all.truncate(TRACKING_POINTS);
+    all.truncate(DESIGNED_POINTS);
     all
 }
 
@@ -238,7 +238,7 @@ fn schedule(
     feedback: Feedback,
     loads: &[LoadModel],
     families: &[Vec<Vec<Complex64>>],
-) -> [InverseSeries; TRACKING_POINTS] {
+) -> [InverseSeries; DESIGNED_POINTS] {
     let share_at = |plants: &[Vec<Complex64>]| {
         if grid.passes(feedback, plants) {
             1.0
@@ -251,7 +251,7 @@ fn schedule(
         c: [1.0, 0.0, 0.0, 0.0],
         feedback: 0.0,
         gauge_s2: 0.0,
-    }; TRACKING_POINTS];
+    }; DESIGNED_POINTS];
     for ((slot, m), plants) in schedule.iter_mut().zip(loads).zip(families) {
         let w_z = 2.0 * std::f64::consts::PI * m.model.anti_resonance.hz;
         *slot = InverseSeries {
@@ -277,7 +277,7 @@ fn touch_down(
     // momentum worth TOUCH_OVERSHOOT_G. A pulse's shape has a mean of one half, so its peak
     // is twice the push.
     let w_light = 2.0 * std::f64::consts::PI * loads.first().map_or(50.0, |m| m.model.modes[0].hz);
-    let pulse_s = f64::from(tactile_core::tracking::APPROACH_TICKS) * CONTROL_PERIOD_S;
+    let pulse_s = f64::from(tactile_core::designed::APPROACH_TICKS) * CONTROL_PERIOD_S;
     let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32;
     // And enough to press the finger to the contact test's force against a stiction 15 % above
     // the identified (the identification reads it 4–9 % low on the three rigs).
@@ -305,7 +305,7 @@ pub const LEAST_STICTION_SHARE: f32 = 0.07;
 
 /// The overshoot a touch-down's momentum is sized for, g (the bound is 1 g).
 pub const TOUCH_OVERSHOOT_G: f64 = 0.5;
-/// The reading that tells the probe is on the finger (`tactile_core::tracking::CONTACT_COUNT`
+/// The reading that tells the probe is on the finger (`tactile_core::designed::CONTACT_COUNT`
 /// of the last `CONTACT_TICKS` at it), g: above the tip's inertia under a push (a third of the
 /// push's net force on the memo rig), and over [`CONTACT_DEVIATIONS`] of the gauge's noise.
 pub const CONTACT_G: f32 = 0.4;

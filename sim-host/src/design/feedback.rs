@@ -4,7 +4,7 @@
 
 use num_complex::Complex64;
 use serde::Serialize;
-use tactile_core::tracking::TrackingConfig;
+use tactile_core::designed::DesignedConfig;
 use tactile_core::CONTROL_PERIOD_S;
 
 use super::*;
@@ -88,7 +88,7 @@ impl ErrorFilter {
     /// prewarped to its frequency; the poles matched, e^(−ωT)).
     pub fn biquad(&self) -> [f64; 5] {
         match *self {
-            ErrorFilter::Pass => tactile_core::tracking::FEEDBACK_PASS.map(f64::from),
+            ErrorFilter::Pass => tactile_core::designed::FEEDBACK_PASS.map(f64::from),
             ErrorFilter::Notch { hz, damping } => {
                 let w = 2.0 * std::f64::consts::PI * hz;
                 let k = w / (w * CONTROL_PERIOD_S / 2.0).tan();
@@ -128,7 +128,7 @@ pub(super) fn biquad_at([b0, b1, b2, a1, a2]: [f64; 5], z_inv: Complex64) -> Com
 }
 
 /// The feedback's response at `hz`: (kp + ki·T/(1 − z⁻¹))·F(z)·z⁻¹, F the biquad on the
-/// error and z⁻¹ the tick the loop waits for the reading; as `tactile_core::tracking` runs it.
+/// error and z⁻¹ the tick the loop waits for the reading; as `tactile_core::designed` runs it.
 fn feedback_at(kp: f64, ki_per_s: f64, biquad: [f64; 5], hz: f64) -> Complex64 {
     let z_inv = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * hz * CONTROL_PERIOD_S);
     (kp + ki_per_s * CONTROL_PERIOD_S / (1.0 - z_inv)) * biquad_at(biquad, z_inv) * z_inv
@@ -136,7 +136,7 @@ fn feedback_at(kp: f64, ki_per_s: f64, biquad: [f64; 5], hz: f64) -> Complex64 {
 
 /// The feedback a controller table runs at `load_g` (its share there), as [`Feedback::response`]
 /// computes a design's: to check a table on a plant it was not designed on.
-pub fn table_feedback(c: &TrackingConfig, load_g: f32) -> impl Fn(f64) -> Complex64 {
+pub fn table_feedback(c: &DesignedConfig, load_g: f32) -> impl Fn(f64) -> Complex64 {
     let share = f64::from(c.series_at(load_g).1);
     let (kp, ki) = (share * f64::from(c.kp), share * f64::from(c.ki_per_s));
     let biquad = c.feedback_filter.map(f64::from);

@@ -96,7 +96,7 @@ const SERIES_STEP_HZ: f64 = 0.5;
 /// now within −0.86…+0.72 dB to 40 Hz on the memo's rig, −3.3…+1.0 dB on the heavy rig's.
 pub const FRICTION_SHARE: f64 = 1.0;
 
-/// The current amplifier's time constant, s (`TrackingConfig::amplifier_tau_s`): 1/(2πf_p) of
+/// The current amplifier's time constant, s (`DesignedConfig::amplifier_tau_s`): 1/(2πf_p) of
 /// the identified pole, the median over the loads (the amplifier is one whatever the load;
 /// the light loads' fits scatter most). The feed-forward's series already undoes the amplifier
 /// for the force; the friction compensation, added after it, passes (1 + τs) on the chip so
@@ -116,7 +116,7 @@ pub fn amplifier_tau_s(models: &[LoadModel]) -> f64 {
 }
 
 /// The share of the identified stiction held, once the reference stops, in the direction it
-/// last moved (`TrackingConfig::held_friction_g`): the rest of the stiction is a dead band
+/// last moved (`DesignedConfig::held_friction_g`): the rest of the stiction is a dead band
 /// about the target, where a motor that stops short stays until the integral pushes it on.
 /// Measured (`HELD=S ONLY=1 cargo run --release -p sim-host --example design_controller
 /// applicators/FILE.toml`), every step after the first into ±1 g, worst, memo / heavy / light

@@ -2,7 +2,7 @@
 //! excitation protocol run at several preloads, a low-order model fitted at each
 //! ([`crate::applicator_model::fit_model`] to the drive less the friction, then refined with the
 //! motor's friction simulated, [`crate::stick_slip::fit_with_friction`]), and from those
-//! models the core's [`TrackingConfig`]:
+//! models the core's [`DesignedConfig`]:
 //!
 //! - the feed-forward's schedule: at each preload, the inverse of the model's path to the
 //!   contact force as a series in s up to s³ (the delay left out: no controller can undo it),

@@ -75,7 +75,7 @@ fn designed() -> (RigConfig, Design) {
     let base = rig();
     let d = design::design_for_rig(&base).expect("design").design;
     let mut cfg = base;
-    cfg.firmware.tracking = Some(d.config);
+    cfg.firmware.designed = Some(d.config);
     (cfg, d)
 }
 
@@ -91,7 +91,7 @@ fn the_designed_loop_holds_with_twice_its_feedback_gains() {
         let mut t = d.config;
         t.kp *= gain;
         t.ki_per_s *= gain;
-        c.firmware.tracking = Some(t);
+        c.firmware.designed = Some(t);
         let mut rig = sim_host::rig::Rig::new(c).unwrap();
         let ticks: Vec<_> = (0..1500).map(|_| rig.tick(load_g, |_, _| {})).collect();
         metrics::rms(
@@ -112,7 +112,7 @@ fn the_designed_loop_holds_with_twice_its_feedback_gains() {
 /// never saw, without the stiction that damps the identified models.
 fn friction_free_margins(
     p: &sim_host::applicator::ApplicatorParams,
-    c: &tactile_core::tracking::TrackingConfig,
+    c: &tactile_core::designed::DesignedConfig,
     loads_g: &[f64],
 ) -> (f64, f64) {
     let law = tactile_core::viscoelastic::NonlinearMk::ELEMENT_4_2.g1;
@@ -160,7 +160,7 @@ fn the_designed_feedback_keeps_its_margins_on_the_friction_free_plant() {
 /// The closed loop's bounds for a 2 g sine about 10 g, dB. The issue's ±1 dB is not met there
 /// above the light load's inertia–finger mode (docs/design.md, "Not yet"): the sine needs less
 /// drive than the stiction, and the figure follows the friction compensation's size, which
-/// the loop learns from sines slower than the mode (`tracking::FrictionAdapt`; the heavy rig's
+/// the loop learns from sines slower than the mode (`designed::FrictionAdapt`; the heavy rig's
 /// 25 Hz −8.3 → −0.5 dB) but not above it, where the memo rig's 40 Hz is −1.74 dB short, the
 /// sensitive gauge's rig's −1.76 (−2.9 and −3.3 before the friction compensation passed the
 /// amplifier's inverse and the feedback compared the reading the reference predicts; −2.4
@@ -197,7 +197,7 @@ const LARGER_SINE_DB: (f64, f64) = (-1.25, 1.25);
 fn a_larger_sine_at_a_light_load_takes_the_contacts_stiffening_in() {
     // 5 g about 10 g on the memo's rig, to 40 Hz (above its 10 g mode, 35 Hz): the finger
     // stiffens by a third over the swing, and the force's own rate takes drive there
-    // (dc₂/dF·F'², `tracking`'s feed-forward). Without that term the sine rang +2.5 dB at
+    // (dc₂/dF·F'², the designed controller's feed-forward). Without that term the sine rang +2.5 dB at
     // 40 Hz (measured with the term taken out); with it −0.86…+0.57 dB at 5–40 Hz.
     let (designed, _) = designed();
     for hz in [5.0, 20.0, 30.0, 40.0] {
@@ -222,7 +222,7 @@ fn more_stiction_does_not_make_the_feed_forward_ring_a_light_load() {
             let mut p = sim_host::applicator::ApplicatorParams::MEMO;
             p.static_friction_nm *= factor;
             cfg.set_applicator(p);
-            cfg.firmware.tracking =
+            cfg.firmware.designed =
                 Some(design::design_for_rig(&cfg).expect("design").design.config);
             for hz in [20.0, 25.0, 30.0, 40.0] {
                 let label = format!("stiction ×{factor}, seed {seed}, ");
@@ -245,12 +245,12 @@ fn the_feedback_leaves_a_right_feed_forward_alone() {
     let mut p = sim_host::applicator::ApplicatorParams::MEMO;
     p.static_friction_nm *= 0.05;
     with.set_applicator(p);
-    let mut t = designed.firmware.tracking.expect("designed");
+    let mut t = designed.firmware.designed.expect("designed");
     t.friction_g = 0.0;
     t.held_friction_g = 0.0;
-    with.firmware.tracking = Some(t);
+    with.firmware.designed = Some(t);
     let mut without = with.clone();
-    without.firmware.tracking = Some(tactile_core::tracking::TrackingConfig {
+    without.firmware.designed = Some(tactile_core::designed::DesignedConfig {
         kp: 0.0,
         ki_per_s: 0.0,
         ..t
@@ -357,7 +357,7 @@ fn a_rest_unloads_the_finger_so_the_next_touch_down_is_prompt() {
     for p in [heavy_motor, light_motor] {
         let mut cfg = rig();
         cfg.set_applicator(p);
-        cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
+        cfg.firmware.designed = Some(design::design_for_rig(&cfg).expect("design").design.config);
         let low = ticks("low-force", &cfg);
         let holds = metrics::hold_quality(&low, 0.3);
         let landed = metrics::step_overshoots_g(&low);
@@ -385,7 +385,7 @@ fn the_touch_down_lands_within_a_gram_from_a_gap_on_every_rig() {
     // accelerated the probe to.
     for (file, mut cfg) in rigs() {
         let a1 = cfg.clone();
-        cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
+        cfg.firmware.designed = Some(design::design_for_rig(&cfg).expect("design").design.config);
         for gap_mm in [0.2, 1.0] {
             for target_g in [2.0, 5.0, 10.0] {
                 let t = metrics::touch_down(cfg.clone(), gap_mm * 1e-3, target_g, 3.0).unwrap();
@@ -443,7 +443,7 @@ fn the_procedure_works_unchanged_on_other_applicators() {
             "{file}: {} g",
             id.stiction_g
         );
-        cfg.firmware.tracking = Some(r.design.config);
+        cfg.firmware.designed = Some(r.design.config);
         // The closed loop within the target's ±1 dB to 40 Hz, 10 g about 50 and 100 g (measured
         // at this seed, 5–40 Hz: memo −0.22…+0.03 dB, heavy −0.06…+0.16, light −0.51…+0.00,
         // slow amplifier −0.13…+0.10 (−0.43…+0.50, −0.37…+0.41, −0.42…+0.01, −0.36…+0.71 at
@@ -525,7 +525,7 @@ fn a_rig_with_light_friction_lands_from_rest_on_the_finger() {
         let mut cfg = rig();
         cfg.set_applicator(sim_host::error::read_applicator(&root.join("memo.toml")).unwrap());
         cfg.applicator.static_friction_nm *= share;
-        cfg.firmware.tracking = Some(design::design_for_rig(&cfg).expect("design").design.config);
+        cfg.firmware.designed = Some(design::design_for_rig(&cfg).expect("design").design.config);
         let steps = ticks("force-steps", &cfg);
         let first = metrics::step_settling_s(&steps).first().and_then(|s| s.1);
         let later = metrics::settling_after_first_s(&steps);
@@ -556,7 +556,7 @@ fn the_steady_state_error_is_within_the_gauges_noise_from_2_to_120_g() {
     let all: Vec<(&str, Vec<(f32, f32)>)> = rigs()
         .into_iter()
         .map(|(file, mut cfg)| {
-            cfg.firmware.tracking =
+            cfg.firmware.designed =
                 Some(design::design_for_rig(&cfg).expect("design").design.config);
             let errors =
                 metrics::steady_errors_g(cfg, &metrics::STEADY_LEVELS_G, metrics::STEADY_HOLD_S)
@@ -584,7 +584,7 @@ fn the_committed_controller_table_is_what_tactile_design_writes() {
     let (_, d) = designed();
     assert_eq!(d.config.encode().unwrap().to_vec(), committed);
     assert_eq!(
-        tactile_core::tracking::TrackingConfig::decode(&committed),
+        tactile_core::designed::DesignedConfig::decode(&committed),
         Ok(d.config)
     );
 }
@@ -613,7 +613,7 @@ fn a_gauge_twice_as_sensitive_is_identified_within_its_range() {
         other => panic!("{other:?}"),
     }
     assert!((r.identified.gauge_noise_g - 0.07).abs() < 0.01, "{r:?}");
-    cfg.firmware.tracking = Some(r.design.config);
+    cfg.firmware.designed = Some(r.design.config);
     // `force-steps` to 100 g: the steps past 60.75 g hold there, flagged as clamped, and the
     // loop runs on (before the clamp, the 70 g step drove the reading out of the gauge's range
     // and the supervisor stopped the drive for the rest of the run).
@@ -667,7 +667,7 @@ fn tactile_experiment_runs_the_designed_loop_from_a_table_and_refuses_a_damaged_
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let table = root.join("boards/controller/table.bin");
     let mut cfg = rig();
-    cfg.firmware.tracking = Some(sim_host::error::read_controller(&table).unwrap());
+    cfg.firmware.designed = Some(sim_host::error::read_controller(&table).unwrap());
     let out = crate::common::scratch("controller_experiment");
     let o = sim_host::cli::experiment(
         "force-steps",
@@ -745,7 +745,7 @@ fn a_drive_stronger_than_the_firmwares_scale_is_identified_and_designed() {
     );
     assert_eq!(loads, design::DESIGN_LOADS_G, "{:?}", r.identified.left_out);
     assert!((r.identified.static_gain - 1.5).abs() < 0.05, "{r:?}");
-    cfg.firmware.tracking = Some(r.design.config);
+    cfg.firmware.designed = Some(r.design.config);
     let steps = ticks("force-steps", &cfg);
     let settle = metrics::settling_after_first_s(&steps);
     let over = metrics::step_overshoots_g(&steps);
@@ -757,7 +757,7 @@ fn a_drive_stronger_than_the_firmwares_scale_is_identified_and_designed() {
     p.gauge_noise_g = 0.058;
     p.amplifier_pole_hz = 400.0;
     cfg.set_applicator(p);
-    cfg.firmware.tracking = None;
+    cfg.firmware.designed = None;
     let r = design::design_for_rig(&cfg).expect("design");
     let poles: Vec<f64> = r
         .identified

@@ -415,9 +415,9 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         .find(|r| r.designed)
         .expect("a designed run");
     assert!(
-        spec.rig().firmware.tracking.is_some(),
+        spec.rig().firmware.designed.is_some(),
         "the controller table was refused: {:?}",
-        tactile_core::tracking::TrackingConfig::decode(&tactile_firmware::CONTROLLER_TABLE)
+        tactile_core::designed::DesignedConfig::decode(&tactile_firmware::CONTROLLER_TABLE)
     );
     let run = session.run(spec.name).expect("run decoded");
     is_the_rigs_to_the_bit(run, spec);
@@ -785,7 +785,7 @@ fn the_controller_is_designed_from_the_firmwares_excitation() {
     use sim_host::design::{
         design_identified, excited_of_record, excited_of_run, identified_from, Excited,
     };
-    use tactile_core::tracking::TrackingConfig;
+    use tactile_core::designed::DesignedConfig;
     use tactile_firmware::EXCITATION_SESSION;
     let Some((elf, dir)) = firmware_for("identification test") else {
         return;
@@ -833,9 +833,9 @@ fn the_controller_is_designed_from_the_firmwares_excitation() {
     );
     let (csv, build) = (
         design(&from_csv),
-        TrackingConfig::decode(&committed).expect("the build's table"),
+        DesignedConfig::decode(&committed).expect("the build's table"),
     );
-    let fields = |c: &TrackingConfig| -> Vec<f32> {
+    let fields = |c: &DesignedConfig| -> Vec<f32> {
         let mut v = vec![c.kp, c.ki_per_s, c.friction_g, c.reference_hz];
         v.extend([c.approach_hold_g, c.approach_push_g, c.approach_brake_g]);
         v.extend(c.feedback_filter);

@@ -100,13 +100,13 @@ pub fn run(args: DesignArgs) -> Result<(), Error> {
     );
     outln!(
         "touch-down: pulses of {} ms on {:.2} g of stiction, pushing to +{:.2} g and braking to {:.2} g; on the finger at {:.2} g, then the command ramps at {} g/s plus the force over {} s",
-        tactile_core::tracking::APPROACH_TICKS,
+        tactile_core::designed::APPROACH_TICKS,
         d.config.approach_hold_g,
         d.config.approach_push_g,
         d.config.approach_brake_g,
         d.config.contact_g,
-        tactile_core::tracking::TOUCH_RATE_G_PER_S,
-        tactile_core::tracking::TOUCH_TAU_S
+        tactile_core::designed::TOUCH_RATE_G_PER_S,
+        tactile_core::designed::TOUCH_TAU_S
     );
     if let Some(json) = json {
         let path = json.write_json(&r)?;

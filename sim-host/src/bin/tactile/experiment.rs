@@ -96,7 +96,7 @@ pub fn run(args: ExperimentArgs) -> Result<(), Error> {
         config.set_applicator(sim_host::error::read_applicator(path)?);
     }
     if let Some(path) = &controller {
-        config.firmware.tracking = Some(sim_host::error::read_controller(path)?);
+        config.firmware.designed = Some(sim_host::error::read_controller(path)?);
     }
     for effect in effects {
         effect.apply(&mut config.effects);

@@ -41,9 +41,9 @@
 //!   supervisor's contact limit latches.
 //!
 //! ```
-//! use tactile_core::tracking::{Tracking, TrackingConfig};
+//! use tactile_core::designed::{DesignedController, DesignedConfig};
 //! // A plant that is a unit gain: c = (1, 0, 0, 0) at every load.
-//! let mut loop_ = Tracking::new(TrackingConfig::UNIT_PLANT).unwrap();
+//! let mut loop_ = DesignedController::new(DesignedConfig::UNIT_PLANT).unwrap();
 //! let mut drive = 0.0;
 //! for _ in 0..1000 {
 //!     drive = loop_.update(10.0, drive, true).force_g;
@@ -57,13 +57,13 @@ mod config;
 mod friction;
 
 pub use config::{
-    InverseSeries, TrackingConfig, TrackingError, FEEDBACK_PASS, SLOPE_SPAN, TABLE_BYTES,
+    DesignedConfig, DesignedError, InverseSeries, FEEDBACK_PASS, SLOPE_SPAN, TABLE_BYTES,
     TABLE_MAGIC, TABLE_VERSION,
 };
 use friction::FrictionAdapt;
 
 /// Loads in the feed-forward's schedule.
-pub const TRACKING_POINTS: usize = 9;
+pub const DESIGNED_POINTS: usize = 9;
 /// The reference's rate at which the friction compensation is whole, g/s (below it, in
 /// proportion: a hold gets none, and the compensation does not chatter about it).
 pub const FRICTION_RATE_G_PER_S: f32 = 20.0;
@@ -162,8 +162,8 @@ impl Reference {
 
 /// The controller's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Tracking {
-    config: TrackingConfig,
+pub struct DesignedController {
+    config: DesignedConfig,
     reference: Reference,
     /// (y, y', y'') of the reference model.
     x: [f32; 3],
@@ -214,14 +214,14 @@ struct Contact {
 
 /// What one tick of the controller decided, besides the drive.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrackingOutput {
+pub struct DesignedOutput {
     pub drive: Adjusted,
     /// The reference force this tick, g.
     pub reference_g: f32,
 }
 
-impl Tracking {
-    pub fn new(config: TrackingConfig) -> Result<Self, TrackingError> {
+impl DesignedController {
+    pub fn new(config: DesignedConfig) -> Result<Self, DesignedError> {
         config.check()?;
         // f32 throughout: an f64 exp is 2 KB of soft float on the Cortex-M4F.
         let w = 2.0 * core::f32::consts::PI * config.reference_hz;
@@ -253,7 +253,7 @@ impl Tracking {
         Ok(t)
     }
 
-    pub fn config(&self) -> &TrackingConfig {
+    pub fn config(&self) -> &DesignedConfig {
         &self.config
     }
 
@@ -313,9 +313,9 @@ impl Tracking {
     }
 
     /// [`Self::update`] with the reference force.
-    pub fn tick(&mut self, command_g: f32, sensed_g: f32, integrate: bool) -> TrackingOutput {
+    pub fn tick(&mut self, command_g: f32, sensed_g: f32, integrate: bool) -> DesignedOutput {
         if !command_g.is_finite() || !sensed_g.is_finite() {
-            return TrackingOutput {
+            return DesignedOutput {
                 drive: Adjusted {
                     force_g: 0.0,
                     saturated: false,
@@ -510,7 +510,7 @@ impl Tracking {
         sensed_g: f32,
         integrate: bool,
         resting: bool,
-    ) -> TrackingOutput {
+    ) -> DesignedOutput {
         let c = &self.config;
         let (k, share) = (point.c, point.feedback);
         let (kp, ki) = (share * c.kp, share * c.ki_per_s);
@@ -543,7 +543,7 @@ impl Tracking {
             feed_forward + kp * error_g + self.integral_g
         };
         let force_g = crate::limit(raw, c.drive_min_g, c.drive_max_g);
-        TrackingOutput {
+        DesignedOutput {
             drive: Adjusted {
                 force_g,
                 saturated: force_g != raw,
@@ -555,7 +555,7 @@ impl Tracking {
 
     /// A tick off the finger: at rest for a command at or below zero, else the next step of
     /// the pulse train. The reference waits at the reading.
-    fn touch_down(&mut self, command_g: f32, sensed_g: f32) -> TrackingOutput {
+    fn touch_down(&mut self, command_g: f32, sensed_g: f32) -> DesignedOutput {
         let c = &self.config;
         let force_g = if command_g > 0.0 {
             let phase = self.approach_tick;
@@ -577,7 +577,7 @@ impl Tracking {
         self.past_y2 = [0.0; 2];
         self.last_command_g = sensed_g;
         let force_g = crate::limit(force_g, c.drive_min_g, c.drive_max_g);
-        TrackingOutput {
+        DesignedOutput {
             drive: Adjusted {
                 force_g,
                 saturated: false,
@@ -596,8 +596,8 @@ mod tests {
     fn the_reference_model_is_a_triple_pole_with_unit_gain() {
         // A ramp vt through 1/(1 + s/ω)³: v(t − 3/ω + e^(−ωt)(3/ω + 2t + ωt²/2)), its slope
         // v(1 − e^(−ωt)(1 + ωt + (ωt)²/2)); the commands are the ramp's samples.
-        let cfg = TrackingConfig::UNIT_PLANT;
-        let mut t = Tracking::new(cfg).unwrap();
+        let cfg = DesignedConfig::UNIT_PLANT;
+        let mut t = DesignedController::new(cfg).unwrap();
         let w = 2.0 * std::f64::consts::PI * f64::from(cfg.reference_hz);
         let v = 100.0;
         for k in 1..=30 {
@@ -624,7 +624,7 @@ mod tests {
     fn the_reference_model_differentiates_a_sine_without_aliasing() {
         // In steady state y'' = −ω²y for a sine: at 40 Hz within 2 %, the feed-forward's
         // second-order term depends on it (with a held input it came out 15 % low).
-        let mut t = Tracking::new(TrackingConfig::UNIT_PLANT).unwrap();
+        let mut t = DesignedController::new(DesignedConfig::UNIT_PLANT).unwrap();
         let w = 2.0 * std::f64::consts::PI * 40.0;
         let (mut y_amp, mut y2_amp) = (0.0f64, 0.0f64);
         for k in 0..2000 {
@@ -645,13 +645,13 @@ mod tests {
         // y''' at the tick's end was +7.5 dB, 73° off at 10 Hz and −1.3 dB, 37° at 40 Hz).
         for hz in [10.0f64, 20.0, 40.0] {
             let c3 = 1e-8f32;
-            let mut cfg = TrackingConfig::UNIT_PLANT;
+            let mut cfg = DesignedConfig::UNIT_PLANT;
             for p in cfg.schedule.iter_mut() {
                 p.c = [1.0, 0.0, 0.0, c3];
             }
             cfg.kp = 0.0;
             cfg.ki_per_s = 0.0;
-            let mut t = Tracking::new(cfg).unwrap();
+            let mut t = DesignedController::new(cfg).unwrap();
             let w = 2.0 * std::f64::consts::PI * hz;
             let (mut third, mut second) = ((0.0f64, 0.0f64), (0.0f64, 0.0f64));
             for k in 0..3000 {
@@ -680,10 +680,10 @@ mod tests {
     fn the_feed_forward_is_the_series_on_the_references_derivatives() {
         // c = (2, 0.01, 0, 0): on a ramp the reference's slope is the ramp's, so the drive is
         // 2·y + 0.01·slope once the model has caught up (integral off).
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.schedule[0].c = [2.0, 0.01, 0.0, 0.0];
         cfg.ki_per_s = 0.0;
-        let mut t = Tracking::new(cfg).unwrap();
+        let mut t = DesignedController::new(cfg).unwrap();
         let mut last = None;
         for k in 0..100 {
             let r = 0.1 * k as f32; // 100 g/s
@@ -699,7 +699,7 @@ mod tests {
 
     #[test]
     fn the_schedule_interpolates_between_loads_and_holds_its_ends() {
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.points = 2;
         cfg.schedule[0] = InverseSeries {
             load_g: 10.0,
@@ -733,31 +733,31 @@ mod tests {
 
     #[test]
     fn a_bad_configuration_names_its_parameter() {
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.ki_per_s = f32::NAN;
         assert_eq!(
-            Tracking::new(cfg).unwrap_err(),
-            TrackingError::Invalid("ki_per_s")
+            DesignedController::new(cfg).unwrap_err(),
+            DesignedError::Invalid("ki_per_s")
         );
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.points = 2;
         cfg.schedule[1].load_g = -1.0;
         assert_eq!(
-            Tracking::new(cfg).unwrap_err(),
-            TrackingError::ScheduleOrder
+            DesignedController::new(cfg).unwrap_err(),
+            DesignedError::ScheduleOrder
         );
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.schedule[0].gauge_s2 = f32::INFINITY;
         assert_eq!(
-            Tracking::new(cfg).unwrap_err(),
-            TrackingError::Invalid("schedule")
+            DesignedController::new(cfg).unwrap_err(),
+            DesignedError::Invalid("schedule")
         );
     }
 
     #[test]
     fn the_integral_removes_a_plant_gain_error_and_holds_when_told() {
         // The plant gives 0.8 of its drive; the feed-forward assumes 1.
-        let mut t = Tracking::new(TrackingConfig::UNIT_PLANT).unwrap();
+        let mut t = DesignedController::new(DesignedConfig::UNIT_PLANT).unwrap();
         let mut sensed = 0.0;
         for _ in 0..1000 {
             sensed = 0.8 * t.update(20.0, sensed, true).force_g;
@@ -780,12 +780,12 @@ mod tests {
 
     #[test]
     fn off_the_finger_it_pulses_lands_on_contact_and_ramps_up_from_the_cycles_mean() {
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.approach_hold_g = 1.0;
         cfg.approach_push_g = 0.8;
         cfg.approach_brake_g = -0.4;
         cfg.contact_g = 0.4;
-        let mut t = Tracking::new(cfg).unwrap();
+        let mut t = DesignedController::new(cfg).unwrap();
         assert!(!t.landed() && t.touching_down());
         // At rest (no command) there is no drive.
         assert_eq!(t.update(0.0, 0.0, true).force_g, 0.0);
@@ -843,7 +843,7 @@ mod tests {
 
     #[test]
     fn a_pulse_cycles_mean_reading_lands_a_probe_the_brake_pulls_back() {
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.approach_push_g = 0.8;
         cfg.approach_brake_g = -0.4;
         cfg.contact_g = 0.4;
@@ -852,14 +852,14 @@ mod tests {
         let reading = |k: usize, mean_g: f32| {
             mean_g + 0.2 * (2.0 * core::f32::consts::PI * k as f32 / CYCLE_TICKS as f32).sin()
         };
-        let mut t = Tracking::new(cfg).unwrap();
+        let mut t = DesignedController::new(cfg).unwrap();
         for k in 0..200 {
             t.update(5.0, reading(k, 0.15), true);
             assert!(!t.landed(), "0.15 g landed at tick {k}");
         }
         // 0.25 g ± 0.2 g (the quarter-stiction memo rig's 0.16–0.30 g): six of eight never
         // reach 0.4 g, the cycle's mean does, from the first whole cycle on.
-        let mut t = Tracking::new(cfg).unwrap();
+        let mut t = DesignedController::new(cfg).unwrap();
         let landed_at = (0..200).find(|&k| {
             t.update(5.0, reading(k, 0.25), true);
             t.landed()
@@ -877,9 +877,9 @@ mod tests {
     /// tick from 12 g (a sine's turn, straightened) and a reading `reading(k)`; the friction
     /// after it (the identified 1 g; the window of a 35 Hz mode, 14 ticks).
     fn adapted_after_one_reversal(reading: impl Fn(f32) -> f32) -> f32 {
-        let config = TrackingConfig {
+        let config = DesignedConfig {
             friction_g: 1.0,
-            ..TrackingConfig::UNIT_PLANT
+            ..DesignedConfig::UNIT_PLANT
         };
         let mut a = FrictionAdapt::new(1.0);
         // c₀ = 1, c₂ = 1/ω² of a 35.7 Hz mode: a half period of 14 ms.
@@ -913,9 +913,9 @@ mod tests {
         let ahead = adapted_after_one_reversal(|k| 12.0 - 0.24 * k);
         assert!((0.95..1.0).contains(&ahead), "{ahead}");
         // A swing since the last reversal of more than six stictions opens no window.
-        let config = TrackingConfig {
+        let config = DesignedConfig {
             friction_g: 1.0,
-            ..TrackingConfig::UNIT_PLANT
+            ..DesignedConfig::UNIT_PLANT
         };
         let mut a = FrictionAdapt::new(1.0);
         a.since_reversal = 100;
@@ -938,13 +938,13 @@ mod tests {
     fn the_friction_is_held_in_the_direction_the_reference_last_moved() {
         // A unit plant, no feedback: the drive is the feed-forward, the reference plus the
         // friction terms.
-        let cfg = TrackingConfig {
+        let cfg = DesignedConfig {
             ki_per_s: 0.0,
             held_friction_g: 0.5,
-            ..TrackingConfig::UNIT_PLANT
+            ..DesignedConfig::UNIT_PLANT
         };
-        let mut t = Tracking::new(cfg).unwrap();
-        let hold = |t: &mut Tracking, command_g: f32| {
+        let mut t = DesignedController::new(cfg).unwrap();
+        let hold = |t: &mut DesignedController, command_g: f32| {
             let mut drive = 0.0;
             for _ in 0..200 {
                 drive = t.update(command_g, drive, true).force_g;
@@ -956,7 +956,7 @@ mod tests {
         assert!((hold(&mut t, 5.0) - 4.5).abs() < 1e-3);
         // A sine never rests: 5 g at 20 Hz about 10 g gets none of it (the reference's rate
         // passes half of FRICTION_RATE_G_PER_S only near its turns, and briefly).
-        let mut plain = Tracking::new(TrackingConfig {
+        let mut plain = DesignedController::new(DesignedConfig {
             held_friction_g: 0.0,
             ..cfg
         })
@@ -981,18 +981,18 @@ mod tests {
         // drive differs from τ = 0 only on the tick the compensation turns through zero, by
         // τ/dt times its change (from +1 g to −1 g: −4 g). A move from rest and a stop get
         // nothing of it: there the motor sticks anyway and the held share carries the friction.
-        let cfg = TrackingConfig {
+        let cfg = DesignedConfig {
             ki_per_s: 0.0,
             friction_g: 1.0,
-            ..TrackingConfig::UNIT_PLANT
+            ..DesignedConfig::UNIT_PLANT
         };
         let (mut with, mut without) = (
-            Tracking::new(TrackingConfig {
+            DesignedController::new(DesignedConfig {
                 amplifier_tau_s: 2e-3,
                 ..cfg
             })
             .unwrap(),
-            Tracking::new(cfg).unwrap(),
+            DesignedController::new(cfg).unwrap(),
         );
         // Rest at 10 g, up 500 g/s for 20 ticks, straight down as fast, then rest at 10 g.
         let command = |k: i32| match k {
@@ -1027,12 +1027,12 @@ mod tests {
         // a free probe away from the finger), and the integral keeps what it has. What it
         // learned at 8 g (0.3 g) fades with the ramp: nothing of it is left where the ramp
         // ends (F·0.99 − 0.05 g ≤ 0 from 5 g down; the integral then learns afresh).
-        let cfg = TrackingConfig {
+        let cfg = DesignedConfig {
             held_friction_g: 0.5,
             contact_g: 0.4,
-            ..TrackingConfig::UNIT_PLANT
+            ..DesignedConfig::UNIT_PLANT
         };
-        let mut t = Tracking::new(cfg).unwrap();
+        let mut t = DesignedController::new(cfg).unwrap();
         let mut drive = 0.0f32;
         for k in 0..5000 {
             // Touched down: the first readings on the finger.
@@ -1085,11 +1085,11 @@ mod tests {
     fn a_reversal_drops_what_the_integral_carried_against_the_friction() {
         // A unit plant whose friction takes 0.8 g while it holds after moving up: the held
         // share gives 0.5 of it, the integral learns the other 0.3.
-        let cfg = TrackingConfig {
+        let cfg = DesignedConfig {
             held_friction_g: 0.5,
-            ..TrackingConfig::UNIT_PLANT
+            ..DesignedConfig::UNIT_PLANT
         };
-        let mut t = Tracking::new(cfg).unwrap();
+        let mut t = DesignedController::new(cfg).unwrap();
         let mut drive = 0.0;
         for _ in 0..5000 {
             drive = t.update(10.0, drive - 0.8, true).force_g;
@@ -1111,7 +1111,7 @@ mod tests {
         assert!(t.integral_g.abs() < 0.05, "{}", t.integral_g);
         // Without the held share the integral carried nothing the rule may take: a plant
         // without friction keeps its integral (here a gain error of 2 %) through reversals.
-        let mut t = Tracking::new(TrackingConfig::UNIT_PLANT).unwrap();
+        let mut t = DesignedController::new(DesignedConfig::UNIT_PLANT).unwrap();
         let mut drive = 0.0;
         for _ in 0..5000 {
             drive = t.update(10.0, 0.98 * drive, true).force_g;
@@ -1129,13 +1129,13 @@ mod tests {
         // A unit plant that stood 0.3 g above its drive after moving up to 10 g (a step that
         // stopped past its target, held there by the friction): the integral learned
         // 10 − 0.3 − 10 − 0.5 (held) = −0.8 g, pushing down.
-        let cfg = TrackingConfig {
+        let cfg = DesignedConfig {
             friction_g: 1.0,
             held_friction_g: 0.5,
-            ..TrackingConfig::UNIT_PLANT
+            ..DesignedConfig::UNIT_PLANT
         };
         let settled_at = |over_g: f32| {
-            let mut t = Tracking::new(cfg).unwrap();
+            let mut t = DesignedController::new(cfg).unwrap();
             let mut drive = 0.0;
             for k in 0..5000 {
                 let stuck = if k > 100 { over_g } else { 0.0 };
@@ -1201,7 +1201,7 @@ mod tests {
 
     #[test]
     fn the_table_round_trips_and_a_damaged_one_is_refused_with_the_reason() {
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.points = 2;
         cfg.schedule[1] = InverseSeries {
             load_g: 50.0,
@@ -1212,30 +1212,30 @@ mod tests {
         cfg.held_friction_g = 0.3;
         cfg.amplifier_tau_s = 2.2e-3;
         let bytes = cfg.encode().unwrap();
-        assert_eq!(TrackingConfig::decode(&bytes), Ok(cfg));
+        assert_eq!(DesignedConfig::decode(&bytes), Ok(cfg));
         // 8 + 4·(19 + 9·7) + 4 bytes.
         assert_eq!(bytes.len(), 340);
-        let behind = TrackingConfig {
+        let behind = DesignedConfig {
             amplifier_tau_s: -1e-3,
             ..cfg
         };
         assert_eq!(
             behind.encode(),
-            Err(TrackingError::Invalid("amplifier_tau_s"))
+            Err(DesignedError::Invalid("amplifier_tau_s"))
         );
         let mut bad = bytes;
         bad[20] ^= 1;
         assert!(matches!(
-            TrackingConfig::decode(&bad),
-            Err(TrackingError::Checksum { .. })
+            DesignedConfig::decode(&bad),
+            Err(DesignedError::Checksum { .. })
         ));
         assert_eq!(
-            TrackingConfig::decode(&[0xFF; TABLE_BYTES]),
-            Err(TrackingError::BadMagic)
+            DesignedConfig::decode(&[0xFF; TABLE_BYTES]),
+            Err(DesignedError::BadMagic)
         );
         assert_eq!(
-            TrackingConfig::decode(&bytes[..100]),
-            Err(TrackingError::TooShort {
+            DesignedConfig::decode(&bytes[..100]),
+            Err(DesignedError::TooShort {
                 bytes: 100,
                 needed: TABLE_BYTES
             })
@@ -1243,14 +1243,14 @@ mod tests {
         let mut old = bytes;
         old[4] = 0;
         assert_eq!(
-            TrackingConfig::decode(&old),
-            Err(TrackingError::UnsupportedVersion { found: 0 })
+            DesignedConfig::decode(&old),
+            Err(DesignedError::UnsupportedVersion { found: 0 })
         );
     }
 
     #[test]
     fn non_finite_input_gives_the_safe_output() {
-        let mut t = Tracking::new(TrackingConfig::UNIT_PLANT).unwrap();
+        let mut t = DesignedController::new(DesignedConfig::UNIT_PLANT).unwrap();
         let a = t.update(f32::NAN, 0.0, true);
         assert!(a.invalid_input && a.force_g == 0.0);
     }
@@ -1260,14 +1260,14 @@ mod tests {
         // b = (0, 1, 0), a = 0: the error one tick late. With kp 1 and no integral on a unit
         // plant from rest, a step of the command reaches the proportional term a tick after
         // it would unfiltered.
-        let mut cfg = TrackingConfig::UNIT_PLANT;
+        let mut cfg = DesignedConfig::UNIT_PLANT;
         cfg.kp = 1.0;
         cfg.ki_per_s = 0.0;
         cfg.schedule[0].c = [1e-6, 0.0, 0.0, 0.0];
         let run = |filter: [f32; 5]| {
             let mut c = cfg;
             c.feedback_filter = filter;
-            let mut t = Tracking::new(c).unwrap();
+            let mut t = DesignedController::new(c).unwrap();
             (0..6)
                 .map(|_| t.update(10.0, 0.0, true).force_g)
                 .collect::<Vec<f32>>()
@@ -1285,8 +1285,8 @@ mod tests {
         ] {
             cfg.feedback_filter = filter;
             assert_eq!(
-                Tracking::new(cfg).err(),
-                Some(TrackingError::Invalid("feedback_filter"))
+                DesignedController::new(cfg).err(),
+                Some(DesignedError::Invalid("feedback_filter"))
             );
         }
     }

@@ -1,7 +1,7 @@
 //! The friction compensation's adaptation at the reference's reversals.
 
 use super::{
-    TrackingConfig, ADAPT_GAIN, ADAPT_MOTION_SHARE, ADAPT_RANGE, ADAPT_STEP_SHARE,
+    DesignedConfig, ADAPT_GAIN, ADAPT_MOTION_SHARE, ADAPT_RANGE, ADAPT_STEP_SHARE,
     ADAPT_SWING_SHARE,
 };
 
@@ -70,7 +70,7 @@ impl FrictionAdapt {
         direction: f32,
         reference_g: f32,
         c: &[f32; 4],
-        config: &TrackingConfig,
+        config: &DesignedConfig,
     ) {
         let [c0, _, c2, _] = *c;
         let half_period_s = if c0 > 0.0 && c2 > 0.0 {
@@ -99,7 +99,7 @@ impl FrictionAdapt {
         &mut self,
         error_g: f32,
         reference_g: f32,
-        config: &TrackingConfig,
+        config: &DesignedConfig,
         c0: f32,
     ) {
         self.since_reversal = self.since_reversal.saturating_add(1);
@@ -124,7 +124,7 @@ impl FrictionAdapt {
     /// The window's estimate taken: where the reference moved by at least
     /// [`ADAPT_MOTION_SHARE`] of the stiction over it (the weighted mean); a slow sine's
     /// reversal is the integral's.
-    pub(super) fn finish(&mut self, config: &TrackingConfig, c0: f32) {
+    pub(super) fn finish(&mut self, config: &DesignedConfig, c0: f32) {
         let moved = self.weighted_motion >= ADAPT_MOTION_SHARE * config.friction_g * self.weights;
         if self.weights > 0.0 && moved {
             let most = ADAPT_STEP_SHARE * config.friction_g;

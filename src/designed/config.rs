@@ -1,7 +1,7 @@
 //! The designed controller's configuration: the schedule of the plant's inverse, the
 //! feedback, the touch-down, and the table the firmware checks at start-up (`TCTL`).
 
-use super::TRACKING_POINTS;
+use super::DESIGNED_POINTS;
 
 /// The controller at one load: the plant's inverse as a series in s, drive grams per gram of
 /// force and of its first three derivatives (c₀ in g/g, c₁ in s, c₂ in s², c₃ in s³), and the
@@ -21,13 +21,13 @@ pub struct InverseSeries {
 
 /// Everything the designed controller is configured by (what its table carries).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrackingConfig {
+pub struct DesignedConfig {
     pub dt_s: f32,
     /// The reference model's triple pole, Hz.
     pub reference_hz: f32,
     /// The inverse at increasing loads (`points` of them used); linear in between, the end
     /// values beyond.
-    pub schedule: [InverseSeries; TRACKING_POINTS],
+    pub schedule: [InverseSeries; DESIGNED_POINTS],
     pub points: u8,
     /// The motor's Coulomb friction at the probe, g: added in the direction the force is
     /// moving (the motor moves with it), reached at [`FRICTION_RATE_G_PER_S`].
@@ -68,15 +68,15 @@ pub struct TrackingConfig {
     pub drive_max_g: f32,
 }
 
-impl From<crate::seal::SealError> for TrackingError {
+impl From<crate::seal::SealError> for DesignedError {
     fn from(e: crate::seal::SealError) -> Self {
         use crate::seal::SealError;
         match e {
-            SealError::TooShort { bytes, needed } => TrackingError::TooShort { bytes, needed },
-            SealError::BadMagic => TrackingError::BadMagic,
-            SealError::UnsupportedVersion { found } => TrackingError::UnsupportedVersion { found },
+            SealError::TooShort { bytes, needed } => DesignedError::TooShort { bytes, needed },
+            SealError::BadMagic => DesignedError::BadMagic,
+            SealError::UnsupportedVersion { found } => DesignedError::UnsupportedVersion { found },
             SealError::Checksum { stored, computed } => {
-                TrackingError::Checksum { stored, computed }
+                DesignedError::Checksum { stored, computed }
             }
         }
     }
@@ -85,8 +85,8 @@ impl From<crate::seal::SealError> for TrackingError {
 /// Why a configuration is refused, naming the parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum TrackingError {
-    #[error("tracking parameter {0} is not finite, or out of its range")]
+pub enum DesignedError {
+    #[error("the designed controller's parameter {0} is not finite, or out of its range")]
     Invalid(&'static str),
     #[error("the schedule's loads must increase")]
     ScheduleOrder,
@@ -103,9 +103,9 @@ pub enum TrackingError {
     Checksum { stored: u32, computed: u32 },
 }
 
-impl TrackingConfig {
+impl DesignedConfig {
     /// A plant with unit gain and no dynamics (for tests and the doc example).
-    pub const UNIT_PLANT: TrackingConfig = TrackingConfig {
+    pub const UNIT_PLANT: DesignedConfig = DesignedConfig {
         dt_s: crate::CONTROL_PERIOD_S as f32,
         reference_hz: 200.0,
         schedule: [InverseSeries {
@@ -113,7 +113,7 @@ impl TrackingConfig {
             c: [1.0, 0.0, 0.0, 0.0],
             feedback: 1.0,
             gauge_s2: 0.0,
-        }; TRACKING_POINTS],
+        }; DESIGNED_POINTS],
         points: 1,
         friction_g: 0.0,
         amplifier_tau_s: 0.0,
@@ -130,19 +130,19 @@ impl TrackingConfig {
         drive_max_g: 192.0,
     };
 
-    pub(super) fn check(&self) -> Result<(), TrackingError> {
+    pub(super) fn check(&self) -> Result<(), DesignedError> {
         let positive = |v: f32, name| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(TrackingError::Invalid(name))
+                Err(DesignedError::Invalid(name))
             }
         };
         let non_negative = |v: f32, name| {
             if v.is_finite() && v >= 0.0 {
                 Ok(())
             } else {
-                Err(TrackingError::Invalid(name))
+                Err(DesignedError::Invalid(name))
             }
         };
         positive(self.dt_s, "dt_s")?;
@@ -161,20 +161,20 @@ impl TrackingConfig {
         let [b0, b1, b2, a1, a2] = self.feedback_filter;
         if ![b0, b1, b2, a1, a2].iter().all(|v| v.is_finite()) || a2 >= 1.0 || a1.abs() >= 1.0 + a2
         {
-            return Err(TrackingError::Invalid("feedback_filter"));
+            return Err(DesignedError::Invalid("feedback_filter"));
         }
         if !(self.drive_min_g.is_finite()
             && self.drive_max_g.is_finite()
             && self.drive_min_g < self.drive_max_g)
         {
-            return Err(TrackingError::Invalid("drive range"));
+            return Err(DesignedError::Invalid("drive range"));
         }
         let n = usize::from(self.points);
         let used = self
             .schedule
             .get(..n)
             .filter(|s| !s.is_empty())
-            .ok_or(TrackingError::Invalid("points"))?;
+            .ok_or(DesignedError::Invalid("points"))?;
         for p in used {
             if !(p.load_g.is_finite()
                 && p.c.iter().all(|c| c.is_finite())
@@ -182,14 +182,14 @@ impl TrackingConfig {
                 && (0.0..=1.0).contains(&p.feedback)
                 && p.gauge_s2.is_finite())
             {
-                return Err(TrackingError::Invalid("schedule"));
+                return Err(DesignedError::Invalid("schedule"));
             }
         }
         if used
             .windows(2)
             .any(|w| matches!(w, [a, b] if a.load_g >= b.load_g))
         {
-            return Err(TrackingError::ScheduleOrder);
+            return Err(DesignedError::ScheduleOrder);
         }
         Ok(())
     }
@@ -199,7 +199,7 @@ impl TrackingConfig {
     /// (zero at no load, where the contact has no stiffness to speak of).
     #[inline]
     pub fn point_at(&self, load_g: f32) -> InverseSeries {
-        let n = usize::from(self.points).clamp(1, TRACKING_POINTS);
+        let n = usize::from(self.points).clamp(1, DESIGNED_POINTS);
         let used = self.schedule.get(..n).unwrap_or(&[]);
         let Some((a, b, t)) = crate::bracket(used, |p| p.load_g, load_g) else {
             return InverseSeries {
@@ -271,11 +271,11 @@ pub const FEEDBACK_PASS: [f32; 5] = [1.0, 0.0, 0.0, 0.0, 0.0];
 const POINT_FLOATS: usize = 7;
 /// The encoded table's length, bytes (the whole schedule, used points or not, and a CRC-32).
 pub const TABLE_BYTES: usize =
-    TABLE_HEADER_BYTES + 4 * (TABLE_SCALARS + TRACKING_POINTS * POINT_FLOATS) + 4;
+    TABLE_HEADER_BYTES + 4 * (TABLE_SCALARS + DESIGNED_POINTS * POINT_FLOATS) + 4;
 
-impl TrackingConfig {
+impl DesignedConfig {
     /// The table's bytes, little-endian, checksummed; `check`ed first.
-    pub fn encode(&self) -> Result<[u8; TABLE_BYTES], TrackingError> {
+    pub fn encode(&self) -> Result<[u8; TABLE_BYTES], DesignedError> {
         self.check()?;
         let mut out = [0u8; TABLE_BYTES];
         let scalars = [
@@ -318,8 +318,8 @@ impl TrackingConfig {
 
     /// Reads a table, checking the header, the length, the checksum and every parameter
     /// before trusting any of it. Bytes after the table are ignored.
-    pub fn decode(bytes: &[u8]) -> Result<TrackingConfig, TrackingError> {
-        let all = bytes.get(..TABLE_BYTES).ok_or(TrackingError::TooShort {
+    pub fn decode(bytes: &[u8]) -> Result<DesignedConfig, DesignedError> {
+        let all = bytes.get(..TABLE_BYTES).ok_or(DesignedError::TooShort {
             bytes: bytes.len(),
             needed: TABLE_BYTES,
         })?;
@@ -336,7 +336,7 @@ impl TrackingConfig {
                 gauge_s2: f(at + 6),
             }
         };
-        let config = TrackingConfig {
+        let config = DesignedConfig {
             dt_s: f(0),
             reference_hz: f(1),
             kp: f(2),
@@ -360,5 +360,5 @@ impl TrackingConfig {
     }
 }
 
-/// The span of [`TrackingConfig::c2_slope_at`]'s difference either side, a share of the load.
+/// The span of [`DesignedConfig::c2_slope_at`]'s difference either side, a share of the load.
 pub const SLOPE_SPAN: f32 = 0.25;
