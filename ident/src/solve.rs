@@ -139,6 +139,11 @@ impl Pool {
             .collect()
     }
 
+    /// The folds the pool scores on.
+    pub fn folds(&self) -> &Folds {
+        &self.folds
+    }
+
     /// The strain the pool models.
     pub fn y(&self) -> &[f64] {
         &self.y

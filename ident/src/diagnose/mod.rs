@@ -53,6 +53,10 @@ pub struct Settings {
     /// The range of eq. 14's N₁/α the baseline tries for its creep, s (the memo's element:
     /// N₁ of 5 000–8 250 and α of a few g/%); beside them eq. 11's permanent creep.
     pub alpha_tau_s: (f64, f64),
+    /// Longest delay of the strain behind the force tried, s, and at most a quarter of the
+    /// shortest fold (a held-out block must mostly see its own force): a fluid-filled skin
+    /// lags by tenths of a second.
+    pub delay_max_s: f64,
 }
 
 impl Default for Settings {
@@ -67,6 +71,7 @@ impl Default for Settings {
             base_tau_max_s: 20.0,
             per_decade: 6.0,
             alpha_tau_s: (300.0, 3000.0),
+            delay_max_s: 1.0,
         }
     }
 }
@@ -409,11 +414,18 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     };
 
     // Then the candidates, and rounds of selection until no effect passes.
+    let unsupported: Vec<f64> = prep
+        .taus
+        .iter()
+        .copied()
+        .filter(|t| !taus.contains(t))
+        .collect();
     let columns = CandidateColumns::new(
         &mut work,
         settings,
         (prep.force_range, floors.force_noise),
         creep,
+        &unsupported,
     );
     let selection = Selection {
         settings,

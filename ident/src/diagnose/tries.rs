@@ -27,16 +27,21 @@ pub(super) struct CandidateColumns {
     /// Half-cosines 1 to `drift_max`.
     pub(super) drift: Vec<usize>,
     pub(super) drift_max: usize,
+    /// The grid's Kelvin branches the baseline's support left out, for the delay: the first
+    /// fit, undelayed, bent its branches to stand in for the lag.
+    pub(super) unsupported: Vec<usize>,
 }
 
 impl CandidateColumns {
     /// Adds the candidate columns to `work`; `force_range` is the force's, g, and
-    /// `force_noise` the variance of its noise; `creep` the baseline's.
+    /// `force_noise` the variance of its noise; `creep` the baseline's; `unsupported` the
+    /// grid's time constants outside the baseline's support.
     pub(super) fn new(
         work: &mut Work,
         settings: &Settings,
         (force_range, force_noise): (f64, f64),
         creep: Creep,
+        unsupported: &[f64],
     ) -> CandidateColumns {
         let s = work.s;
         let (dt, t_s) = (s.dt_s, s.duration_s());
@@ -47,6 +52,14 @@ impl CandidateColumns {
             Creep::Permanent => t_s / 2.0,
             Creep::Alpha(tau) => (t_s / 2.0).min(tau / 2.0),
         };
+        // Stored: each delay tried reads them through a view.
+        let unsupported: Vec<usize> = unsupported
+            .iter()
+            .map(|&tau| {
+                let v = terms::lowpass(&force, tau, dt);
+                work.add(Term::Relaxation(tau), &v, Sign::NonNegative)
+            })
+            .collect();
         // Kelvin branches of the time constants `taus`, each a `term`.
         let mut branches = |taus: Vec<f64>, term: fn(f64) -> Term| -> Vec<usize> {
             taus.into_iter()
@@ -125,6 +138,7 @@ impl CandidateColumns {
             duhems,
             drift,
             drift_max,
+            unsupported,
         }
     }
 
@@ -137,6 +151,7 @@ impl CandidateColumns {
             .chain(self.plays.iter().flatten())
             .chain(&self.drift)
             .chain(&self.duhems)
+            .chain(&self.unsupported)
             .filter(|c| chip.is_none_or(|sc| !sc.columns.contains(c)))
         {
             if !state.cols.contains(c) {
@@ -190,7 +205,7 @@ pub(super) fn tries(
         built.extend(interference(work, state));
     }
     if !state.taken(Effect::TimeDelay) {
-        built.extend(delay(work, state));
+        built.extend(delay(work, state, columns, settings));
     }
     if !state.taken(Effect::SensitivityDrift) {
         built.extend(sensitivity_drift(work, state, round));
@@ -320,9 +335,14 @@ fn interference(work: &mut Work, state: &State) -> Option<Try> {
 }
 
 /// The force shifted later by d, through every force-driven term of the model (a play or a
-/// stiffening of the delayed force is the term delayed: each is causal and time-invariant): a
-/// delay of whole or half samples up to 0.1 s.
-fn delay(work: &mut Work, state: &State) -> Option<Try> {
+/// stiffening of the delayed force is the term delayed: each is causal and time-invariant), up
+/// to [`Settings::delay_max_s`] or a quarter of the shortest fold.
+fn delay(
+    work: &mut Work,
+    state: &State,
+    columns: &CandidateColumns,
+    settings: &Settings,
+) -> Option<Try> {
     let driven_now: Vec<usize> = state
         .cols
         .iter()
@@ -335,8 +355,25 @@ fn delay(work: &mut Work, state: &State) -> Option<Try> {
         .copied()
         .filter(|c| !driven_now.contains(c))
         .collect();
-    // The force-driven terms in use, delayed (views of their columns, no copies).
-    let active_driven: Vec<usize> = driven_now
+    let dt = work.s.dt_s;
+    let shortest = work
+        .pool
+        .folds()
+        .ranges
+        .iter()
+        .map(|(a, b)| b - a)
+        .min()
+        .unwrap_or(0);
+    let longest = settings
+        .delay_max_s
+        .min(shortest as f64 * dt / 4.0)
+        .max(2.5 * dt);
+    // The force-driven terms in use, delayed (views of their columns, no copies); then every
+    // force-driven term and the grid's branches the support left out, and the set that holds
+    // out better. A lag of tenths of a second bends the undelayed fit's branches: it leaves at
+    // zero, or outside its support, the finger's fast modes the delayed model needs. But
+    // branches faster than a short delay trade against it (a 14 ms delay named 12.3 ms).
+    let active: Vec<usize> = driven_now
         .iter()
         .copied()
         .filter(|c| {
@@ -347,7 +384,24 @@ fn delay(work: &mut Work, state: &State) -> Option<Try> {
                 .any(|(k, b)| k == c && (*b != 0.0 || work.terms[*c] == Term::Elastic))
         })
         .collect();
-    let (d, _, cols) = best_delay(work, &others, &active_driven)?;
+    let mut best = best_delay(work, &others, &active, longest)?;
+    let all: Vec<usize> = driven_now
+        .iter()
+        .chain(&columns.unsupported)
+        .copied()
+        .collect();
+    if all.len() > active.len() {
+        if let Some(other) = best_delay(work, &others, &all, longest) {
+            let (worse, better) = if other.1 < best.1 {
+                (best, other)
+            } else {
+                (other, best)
+            };
+            worse.2.iter().for_each(|c| work.pool.drop_column(*c));
+            best = better;
+        }
+    }
+    let (d, _, cols) = best;
     Some(Try {
         effect: Effect::TimeDelay,
         variant: format!("force delayed {:.1} ms", 1e3 * d),
@@ -357,21 +411,19 @@ fn delay(work: &mut Work, state: &State) -> Option<Try> {
     })
 }
 
-/// The delay of the columns `active_driven` beside `others` that holds out best, its held-out
-/// error and its delayed columns. Doubling delays from one sample to 0.1 s, then the best
-/// refined between its neighbours; only the best variant's columns are kept (a 1 kHz record's
-/// columns are 2.4 MB each).
+/// The delay of the columns `sources` beside `others` that holds out best, its held-out
+/// error and its delayed columns. Doubling delays from one sample to `longest` s, then the best
+/// refined between its neighbours; only the best variant's columns are kept (views of the
+/// undelayed ones: each variant costs a score, not a copy).
 fn best_delay(
     work: &mut Work,
     others: &[usize],
-    active_driven: &[usize],
+    sources: &[usize],
+    longest: f64,
 ) -> Option<(f64, f64, Vec<usize>)> {
     let dt = work.s.dt_s;
     let delayed_cols = |work: &mut Work, d: f64| -> Vec<usize> {
-        active_driven
-            .iter()
-            .map(|&c| work.add_delayed(c, d))
-            .collect()
+        sources.iter().map(|&c| work.add_delayed(c, d)).collect()
     };
     let mut best: Option<(f64, f64, Vec<usize>)> = None;
     let consider = |work: &mut Work, d: f64, best: &mut Option<(f64, f64, Vec<usize>)>| {
@@ -388,7 +440,7 @@ fn best_delay(
         }
     };
     let mut d = dt;
-    while d <= 0.1_f64.max(2.5 * dt) {
+    while d <= longest {
         consider(work, d, &mut best);
         d *= 2.0;
     }
@@ -400,7 +452,7 @@ fn best_delay(
             break;
         };
         for factor in factors {
-            consider(work, (centre * factor).max(dt), &mut best);
+            consider(work, (centre * factor).clamp(dt, longest), &mut best);
         }
     }
     if let Some(centre) = best.as_ref().map(|b| b.0) {
@@ -408,6 +460,19 @@ fn best_delay(
         if (whole - centre).abs() > 1e-9 * dt {
             consider(work, whole, &mut best);
         }
+    }
+    // A twenty-fourth of an octave is ten samples at 250: then whole samples, steps halved
+    // from a fiftieth of the delay down to one.
+    let mut step = 0.02 * best.as_ref().map_or(0.0, |b| b.0) / dt;
+    while step >= 1.0 {
+        let Some(centre) = best.as_ref().map(|b| b.0) else {
+            break;
+        };
+        for sign in [-1.0, 1.0] {
+            let d = ((centre / dt).round() + sign * step.round()) * dt;
+            consider(work, d.clamp(dt, longest), &mut best);
+        }
+        step /= 2.0;
     }
     best
 }
