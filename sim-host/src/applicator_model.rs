@@ -676,7 +676,9 @@ impl<'a> ModelProblem<'a> {
         errors: &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync),
         start: &[f64],
     ) -> Vec<f64> {
-        crate::least_squares::minimize(ModelProblem { errors }, start, 50).theta
+        // A start the model cannot be computed at stays where it is.
+        crate::least_squares::minimize(ModelProblem { errors }, start, 50)
+            .map_or_else(|| start.to_vec(), |s| s.theta)
     }
 }
 

@@ -491,15 +491,19 @@ struct StrainMiss<'a> {
     fit_index: Vec<usize>,
 }
 
+impl StrainMiss<'_> {
+    /// The misses of the prediction `pred` (every sample's strain) at the fitted samples.
+    fn of_prediction(&self, pred: &[f64]) -> Vec<f64> {
+        self.fit_index
+            .iter()
+            .map(|&i| pred[i] - self.data.series.strain_pct[i])
+            .collect()
+    }
+}
+
 impl Residuals for StrainMiss<'_> {
     fn residuals(&self, theta: &[f64]) -> Option<Vec<f64>> {
-        let pred = self.spec.simulate(theta, self.data)?;
-        Some(
-            self.fit_index
-                .iter()
-                .map(|&i| pred[i] - self.data.series.strain_pct[i])
-                .collect(),
-        )
+        Some(self.of_prediction(&self.spec.simulate(theta, self.data)?))
     }
     fn step(&self, theta: &[f64], c: usize) -> f64 {
         1e-6 * theta[c].abs().max(1e-2)
@@ -543,10 +547,12 @@ pub fn fit_from(spec: &ModelSpec, data: &Split, starts: &[Vec<f64>]) -> Option<F
     let mut best: Option<(f64, Vec<f64>)> = None;
     let mut evaluations = 0;
     for start in starts {
-        if start.len() != spec.len() || spec.simulate(start, data).is_none() {
+        if start.len() != spec.len() {
             continue;
         }
-        let solved = minimize(&miss, start, 25);
+        let Some(solved) = minimize(&miss, start, 25) else {
+            continue;
+        };
         evaluations += solved.evaluations;
         if !solved.objective.is_finite() {
             continue;
@@ -583,7 +589,7 @@ fn summarize_fit(miss: &StrainMiss, theta: Vec<f64>, evaluations: usize) -> Opti
     let g1 = spec.g1(&theta);
     // Uncertainty: s² (JᵀJ)⁻¹, with s² inflated by the residual's lag-1 correlation (the
     // effective number of independent samples is smaller than N when it is correlated).
-    let problem = Problem::new(miss, &theta);
+    let problem = Problem::with_residuals(miss, &theta, Some(miss.of_prediction(&pred)));
     let r = DVector::from_column_slice(problem.residuals_here()?);
     let n = r.len() as f64;
     let p = theta.len() as f64;

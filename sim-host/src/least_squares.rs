@@ -36,6 +36,10 @@ impl<R: Residuals> Problem<R> {
     /// `model` set at `theta`.
     pub fn new(model: R, theta: &[f64]) -> Self {
         let residuals = model.residuals(theta);
+        Self::with_residuals(model, theta, residuals)
+    }
+    /// `model` set at `theta`, where its residuals there are already known.
+    pub fn with_residuals(model: R, theta: &[f64], residuals: Option<Vec<f64>>) -> Self {
         Problem {
             model,
             theta: DVector::from_column_slice(theta),
@@ -103,16 +107,19 @@ pub struct Solution {
     pub evaluations: usize,
 }
 
-/// Levenberg–Marquardt on `model` from `start`, with `patience` evaluations per parameter.
-pub fn minimize<R: Residuals>(model: R, start: &[f64], patience: usize) -> Solution {
+/// Levenberg–Marquardt on `model` from `start`, with `patience` evaluations per parameter;
+/// `None` where the model cannot be computed at `start`.
+pub fn minimize<R: Residuals>(model: R, start: &[f64], patience: usize) -> Option<Solution> {
+    let problem = Problem::new(model, start);
+    problem.residuals_here()?;
     let (solved, report) = LevenbergMarquardt::new()
         .with_patience(patience)
-        .minimize(Problem::new(model, start));
-    Solution {
+        .minimize(problem);
+    Some(Solution {
         theta: solved.theta.as_slice().to_vec(),
         objective: report.objective_function,
         evaluations: report.number_of_evaluations,
-    }
+    })
 }
 
 #[cfg(test)]
@@ -142,7 +149,7 @@ mod tests {
     fn an_exact_decay_is_found_from_a_distant_start() {
         let x: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.1).collect();
         let y = x.iter().map(|x| 3.0 * (-0.7 * x).exp()).collect();
-        let s = minimize(Decay { x, y }, &[1.0, 2.0], 100);
+        let s = minimize(Decay { x, y }, &[1.0, 2.0], 100).unwrap();
         assert!((s.theta[0] - 3.0).abs() < 1e-6, "{:?}", s.theta);
         assert!((s.theta[1] - 0.7).abs() < 1e-6, "{:?}", s.theta);
         assert!(s.objective < 1e-12);
@@ -171,5 +178,6 @@ mod tests {
         let p = Problem::new(one_point(), &[1.0]);
         assert!(p.residuals_here().is_none());
         assert!(p.jacobian_here().is_none());
+        assert!(minimize(one_point(), &[1.0], 10).is_none());
     }
 }

@@ -159,10 +159,8 @@ pub(super) fn fit_element(
         None => nominal_starts(frames, knots),
     };
     let problem = element_problem(frames, in_fit, knots);
-    let solve = |theta: Vec<f64>| {
-        let solved = minimize(&problem, &theta, PATIENCE);
-        (solved.objective, solved.theta)
-    };
+    let solve =
+        |theta: Vec<f64>| minimize(&problem, &theta, PATIENCE).map(|s| (s.objective, s.theta));
     // The starts on threads (each a whole Levenberg–Marquardt run).
     let best = std::thread::scope(|scope| {
         let runs: Vec<_> = starts
@@ -170,7 +168,7 @@ pub(super) fn fit_element(
             .map(|theta| scope.spawn(move || solve(theta)))
             .collect();
         runs.into_iter()
-            .filter_map(|r| r.join().ok())
+            .filter_map(|r| r.join().ok().flatten())
             .filter(|(objective, _)| objective.is_finite())
             .min_by(|a, b| a.0.total_cmp(&b.0))
     });
