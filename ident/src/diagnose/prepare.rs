@@ -214,19 +214,28 @@ fn creep_of(work: &mut Work, cols: &[usize], permanent_mse: f64, settings: &Sett
         taus[(k + 1).min(taus.len() - 1)].ln(),
     );
     let mut best = (scores[k], taus[k]);
-    let phi = (5f64.sqrt() - 1.0) / 2.0;
-    for _ in 0..8 {
-        let (x1, x2) = (b - phi * (b - a), a + phi * (b - a));
-        let (m1, m2) = (mse_at(x1.exp()), mse_at(x2.exp()));
-        for (m, x) in [(m1, x1), (m2, x2)] {
-            if m < best.0 {
-                best = (m, x.exp());
-            }
+    let mut keep = |m: f64, x: f64| {
+        if m < best.0 {
+            best = (m, x.exp());
         }
+    };
+    // Golden section: each step keeps one inner point and its score, and scores one new one.
+    let phi = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut x1, mut x2) = (b - phi * (b - a), a + phi * (b - a));
+    let (mut m1, mut m2) = (mse_at(x1.exp()), mse_at(x2.exp()));
+    keep(m1, x1);
+    keep(m2, x2);
+    for _ in 0..8 {
         if m1 < m2 {
-            b = x2;
+            (b, x2, m2) = (x2, x1, m1);
+            x1 = b - phi * (b - a);
+            m1 = mse_at(x1.exp());
+            keep(m1, x1);
         } else {
-            a = x1;
+            (a, x1, m1) = (x1, x2, m2);
+            x2 = a + phi * (b - a);
+            m2 = mse_at(x2.exp());
+            keep(m2, x2);
         }
     }
     if best.0 < permanent_mse {

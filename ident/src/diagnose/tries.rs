@@ -8,7 +8,7 @@ use crate::solve::{Scored, Sign};
 use crate::{stats, terms};
 
 use super::report::seconds;
-use super::work::{grid, Creep, Work};
+use super::work::{grid, relaxation_columns, Creep, Work};
 use super::{stiffening_load, Effect, Settings, State, Term, Try, MIN_CYCLES_SETTLED, PLAY_SHARES};
 
 /// Candidate columns that do not depend on the current model: one pass over the force each,
@@ -53,13 +53,7 @@ impl CandidateColumns {
             Creep::Alpha(tau) => (t_s / 2.0).min(tau / 2.0),
         };
         // Stored: each delay tried reads them through a view.
-        let unsupported: Vec<usize> = unsupported
-            .iter()
-            .map(|&tau| {
-                let v = terms::lowpass(&force, tau, dt);
-                work.add(Term::Relaxation(tau), &v, Sign::NonNegative)
-            })
-            .collect();
+        let unsupported = relaxation_columns(work, &force, unsupported);
         // Kelvin branches of the time constants `taus`, each a `term`.
         let mut branches = |taus: Vec<f64>, term: fn(f64) -> Term| -> Vec<usize> {
             taus.into_iter()

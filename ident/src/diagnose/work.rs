@@ -123,17 +123,24 @@ pub(super) enum Creep {
 /// the creep last); returns them.
 pub(super) fn baseline_columns(work: &mut Work, taus: &[f64], creep: Creep) -> Vec<usize> {
     let f = work.s.force_g.clone();
-    let dt = work.s.dt_s;
     let mut cols = vec![
         work.add(Term::Offset, &vec![1.0; f.len()], Sign::Free),
         work.add(Term::Elastic, &f, Sign::NonNegative),
     ];
-    for &tau in taus {
-        let v = terms::lowpass(&f, tau, dt);
-        cols.push(work.add(Term::Relaxation(tau), &v, Sign::NonNegative));
-    }
+    cols.extend(relaxation_columns(work, &f, taus));
     cols.push(creep_column(work, creep));
     cols
+}
+
+/// Kelvin branches of force `f` at the time constants `taus`, stored.
+pub(super) fn relaxation_columns(work: &mut Work, f: &[f64], taus: &[f64]) -> Vec<usize> {
+    let dt = work.s.dt_s;
+    taus.iter()
+        .map(|&tau| {
+            let v = terms::lowpass(f, tau, dt);
+            work.add(Term::Relaxation(tau), &v, Sign::NonNegative)
+        })
+        .collect()
 }
 
 /// The baseline's creep column.
