@@ -66,7 +66,12 @@ fn grid_offsets(t: &[f64], (t0, step): (f64, f64)) -> impl Iterator<Item = f64> 
 
 /// Spread of the time stamps about the even grid that fits them, as a share of its step.
 pub(crate) fn stamp_spread(t: &[f64]) -> Option<f64> {
-    let (lo, hi) = grid_offsets(t, grid(t)?).fold((f64::INFINITY, f64::NEG_INFINITY), |m, d| {
+    spread_about(t, grid(t)?)
+}
+
+/// Spread of the time stamps about the grid `g`, as a share of its step.
+fn spread_about(t: &[f64], g: (f64, f64)) -> Option<f64> {
+    let (lo, hi) = grid_offsets(t, g).fold((f64::INFINITY, f64::NEG_INFINITY), |m, d| {
         (m.0.min(d), m.1.max(d))
     });
     let spread = hi - lo;
@@ -94,7 +99,7 @@ pub(crate) fn mend_time(rec: &mut Record, merged: usize) -> Result<(), (usize, S
         check_gaps(t, step)?;
         let fitted = grid(t).filter(|g| g.1.is_finite() && g.1 > 0.0);
         let spread = fitted
-            .and_then(|_| stamp_spread(t))
+            .and_then(|g| spread_about(t, g))
             .unwrap_or(f64::INFINITY);
         if spread > JITTER_SHARE {
             let fitted = fitted.unwrap_or((t[0], step));
