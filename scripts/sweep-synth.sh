@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Confusion sweep of the diagnosis on the second record generator (tactile_ident::synth): four
 # seeds (or SEEDS="…": try seeds the design was not tuned on) × clean records at three rates and
-# each effect at two strengths and rates (PAIRS=1: seven pairs of effects in one record
+# each effect at two strengths and rates (PAIRS=1: fourteen pairs of effects in one record
 # instead, right when both are named). Prints one line per record (OK or XX, expected <-
 # verdict) and the count of right verdicts.
 set -euo pipefail
@@ -37,6 +37,13 @@ for seed in ${SEEDS:-21 22 23 24}; do
         run_pair periodic_interference load_dependent_stiffness $seed 1000 120 interference=0.01@123 stiffening=0.5
         run_pair slow_relaxation hysteresis $seed 200 300 slow=0.3@60 hysteresis=0.05
         run_pair sensitivity_drift periodic_interference $seed 100 240 sag=0.1 interference=0.01@17.3
+        run_pair time_delay load_dependent_stiffness $seed 100 180 delay=3 stiffening=0.5
+        run_pair time_delay load_dependent_stiffness $seed 200 240 delay=8 stiffening=0.3
+        run_pair sensitivity_drift baseline_drift $seed 40 600 sag=0.1 drift=0.03
+        run_pair sensitivity_drift baseline_drift $seed 100 300 sag=0.15 drift=0.05
+        run_pair sensitivity_drift baseline_drift $seed 40 1140 gaincycle=0.03@600 zerocycle=0.005@600
+        run_pair time_delay hysteresis $seed 100 240 delay=5 hysteresis=0.08
+        run_pair periodic_interference load_dependent_stiffness $seed 200 180 interference=0.005@17.3 stiffening=0.8
         continue
     fi
     for rate in 50 200 1000; do run none $seed $rate 180; done

@@ -1,39 +1,10 @@
 //! Writes a record of the second generator in the project's record format.
 //!
 //! cargo run --release -p tactile-ident --example synth_record -- OUT.csv SEED RATE_HZ DURATION_S [EFFECT=VALUE[@X]]...
-//! Effects: stiffening=S, hysteresis=W, drift=A, interference=A@HZ, delay=SAMPLES,
-//! slow=SHARE@TAU_S, sag=FRACTION (see `tactile_ident::synth::SynthEffect`).
+//! Effects as `SynthEffect`'s `FromStr` reads them (stiffening=S, drift=A, interference=A@HZ, …).
 use std::io::Write;
 
 use tactile_ident::synth::{generate, Spec, SynthEffect};
-
-fn effect(arg: &str) -> Result<SynthEffect, String> {
-    let (name, value) = arg
-        .split_once('=')
-        .ok_or(format!("{arg}: expected NAME=VALUE"))?;
-    let (v, at) = match value.split_once('@') {
-        Some((v, at)) => (v, Some(at)),
-        None => (value, None),
-    };
-    let num = |s: &str| s.parse::<f64>().map_err(|e| format!("{arg}: {e}"));
-    let at = || at.ok_or(format!("{arg}: expected VALUE@X")).and_then(num);
-    Ok(match name {
-        "stiffening" => SynthEffect::Stiffening(num(v)?),
-        "hysteresis" => SynthEffect::Hysteresis(num(v)?),
-        "drift" => SynthEffect::Drift(num(v)?),
-        "interference" => SynthEffect::Interference {
-            amplitude: num(v)?,
-            hz: at()?,
-        },
-        "delay" => SynthEffect::Delay(num(v)? as usize),
-        "slow" => SynthEffect::SlowRelaxation {
-            share: num(v)?,
-            tau_s: at()?,
-        },
-        "sag" => SynthEffect::SensitivityDrift(num(v)?),
-        _ => return Err(format!("{arg}: unknown effect")),
-    })
-}
 
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -47,7 +18,7 @@ fn main() -> Result<(), String> {
         duration_s: parse(&args[3])?,
         effects: args[4..]
             .iter()
-            .map(|a| effect(a))
+            .map(|a| a.parse::<SynthEffect>())
             .collect::<Result<_, _>>()?,
     };
     let g = generate(&spec);

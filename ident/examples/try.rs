@@ -10,31 +10,7 @@ fn main() {
     let (dt, f, e) = if args[0] == "synth" {
         let effects = args[4..]
             .iter()
-            .map(|a| {
-                let (k, v) = a.split_once('=').unwrap();
-                let v: f64 = v.split('@').next().unwrap().parse().unwrap();
-                let at = a.split('@').nth(1).map(|x| x.parse::<f64>().unwrap());
-                match k {
-                    "stiffening" => SynthEffect::Stiffening(v),
-                    "hysteresis" => SynthEffect::Hysteresis(v),
-                    "drift" => SynthEffect::Drift(v),
-                    "interference" => SynthEffect::Interference {
-                        amplitude: v,
-                        hz: at.unwrap(),
-                    },
-                    "delay" => SynthEffect::Delay(v as usize),
-                    "slow" => SynthEffect::SlowRelaxation {
-                        share: v,
-                        tau_s: at.unwrap(),
-                    },
-                    "sag" => SynthEffect::SensitivityDrift(v),
-                    "eq14" => SynthEffect::Eq14Creep {
-                        rate_per_s: v,
-                        tau_s: at.unwrap(),
-                    },
-                    _ => panic!("{k}"),
-                }
-            })
+            .map(|a| a.parse::<SynthEffect>().unwrap())
             .collect();
         let g = generate(&Spec {
             seed: args[1].parse().unwrap(),

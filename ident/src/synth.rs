@@ -3,7 +3,7 @@
 //! excitation (indentations to random depths, sine bursts, rests), and effects written in other
 //! forms than the diagnosis's regressors (each mode stiffening by its own law, a Duhem-type
 //! hysteresis, a drift that wanders, interference off the mains frequency, delays of whole
-//! samples, an extra slow mode, a sensitivity that sags). For tests and benchmarks.
+//! samples, an extra slow mode, a sensitivity that sags or cycles). For tests and benchmarks.
 
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -29,6 +29,58 @@ pub enum SynthEffect {
     /// Not an effect but the memo's own finger (eq. 14): the creep levels off with time
     /// constant `tau_s` = N₁/α, its rate `rate_per_s` × the elastic compliance per second.
     Eq14Creep { tau_s: f64, rate_per_s: f64 },
+    /// The sensitivity swings by ± `amplitude` (a share) with period `period_s`, as a
+    /// temperature cycle moves it.
+    GainCycle { amplitude: f64, period_s: f64 },
+    /// The zero swings by ± `amplitude` × peak strain with period `period_s`.
+    ZeroCycle { amplitude: f64, period_s: f64 },
+}
+
+impl core::str::FromStr for SynthEffect {
+    type Err = String;
+
+    /// `NAME=VALUE` or `NAME=VALUE@X`: stiffening=S, hysteresis=W, drift=A, interference=A@HZ,
+    /// delay=SAMPLES, slow=SHARE@TAU_S, sag=FRACTION, eq14=RATE_PER_S@TAU_S,
+    /// gaincycle=AMPLITUDE@PERIOD_S, zerocycle=AMPLITUDE@PERIOD_S.
+    fn from_str(arg: &str) -> Result<Self, String> {
+        let (name, value) = arg
+            .split_once('=')
+            .ok_or(format!("{arg}: expected NAME=VALUE"))?;
+        let (v, at) = match value.split_once('@') {
+            Some((v, at)) => (v, Some(at)),
+            None => (value, None),
+        };
+        let num = |s: &str| s.parse::<f64>().map_err(|e| format!("{arg}: {e}"));
+        let at = || at.ok_or(format!("{arg}: expected VALUE@X")).and_then(num);
+        Ok(match name {
+            "stiffening" => SynthEffect::Stiffening(num(v)?),
+            "hysteresis" => SynthEffect::Hysteresis(num(v)?),
+            "drift" => SynthEffect::Drift(num(v)?),
+            "interference" => SynthEffect::Interference {
+                amplitude: num(v)?,
+                hz: at()?,
+            },
+            "delay" => SynthEffect::Delay(num(v)?.max(0.0) as usize),
+            "slow" => SynthEffect::SlowRelaxation {
+                share: num(v)?,
+                tau_s: at()?,
+            },
+            "sag" => SynthEffect::SensitivityDrift(num(v)?),
+            "eq14" => SynthEffect::Eq14Creep {
+                rate_per_s: num(v)?,
+                tau_s: at()?,
+            },
+            "gaincycle" => SynthEffect::GainCycle {
+                amplitude: num(v)?,
+                period_s: at()?,
+            },
+            "zerocycle" => SynthEffect::ZeroCycle {
+                amplitude: num(v)?,
+                period_s: at()?,
+            },
+            _ => return Err(format!("{arg}: unknown effect")),
+        })
+    }
 }
 
 /// What to generate.
@@ -141,6 +193,8 @@ pub fn generate(spec: &Spec) -> Generated {
     let mut tone = (0.0, 0.0);
     let mut delay = 0usize;
     let mut sag = 0.0;
+    let mut cycle = (0.0, f64::INFINITY);
+    let mut zero_cycle = (0.0, f64::INFINITY);
     for e in &spec.effects {
         match *e {
             SynthEffect::Stiffening(s) => stiff = s,
@@ -152,6 +206,14 @@ pub fn generate(spec: &Spec) -> Generated {
                 modes.push((tau_s, j0 * share, 1.0, 0.0));
             }
             SynthEffect::SensitivityDrift(g) => sag = g,
+            SynthEffect::GainCycle {
+                amplitude,
+                period_s,
+            } => cycle = (amplitude, period_s),
+            SynthEffect::ZeroCycle {
+                amplitude,
+                period_s,
+            } => zero_cycle = (amplitude, period_s),
             SynthEffect::Eq14Creep { tau_s, rate_per_s } => {
                 creep = j0 * rate_per_s;
                 creep_tau_s = tau_s;
@@ -195,7 +257,8 @@ pub fn generate(spec: &Spec) -> Generated {
             + modes.iter().map(|m| m.3).sum::<f64>()
             + creep_state
             + z;
-        let gain = 1.0 - sag * t / spec.duration_s;
+        let gain = 1.0 - sag * t / spec.duration_s
+            + cycle.0 * (2.0 * std::f64::consts::PI * t / cycle.1).sin();
         true_force.push(f);
         clean.push(gain * e);
     }
@@ -214,6 +277,7 @@ pub fn generate(spec: &Spec) -> Generated {
             * peak_strain
             * (0.6 * (1.0 - (-t / tau_settle).exp())
                 + 0.4 * (2.0 * std::f64::consts::PI * t / period + phase).sin());
+        e += zero_cycle.0 * peak_strain * (2.0 * std::f64::consts::PI * t / zero_cycle.1).sin();
         e += tone.0
             * peak_strain
             * (1.0 + 0.2 * (0.05 * t).sin())

@@ -443,8 +443,7 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
 }
 
 /// Two effects in one record: both are named, whichever comes first (the pairs the sweep's
-/// `PAIRS=1` runs name right on these seeds; it lists the pairs that are not yet: a slow
-/// relaxation with hysteresis, a drift beside a stiffening, on some seeds).
+/// `PAIRS=1` runs name right on these seeds; it lists the pairs that are not yet).
 #[test]
 fn two_effects_at_once_are_both_named() {
     let interference = |amplitude, hz| SynthEffect::Interference { amplitude, hz };
@@ -460,7 +459,42 @@ fn two_effects_at_once_are_both_named() {
         [SynthEffect; 2],
         [&'static str; 2],
     );
-    let cases: [Case; 8] = [
+    let cases: [Case; 11] = [
+        // The stiffening found first leaves its basis's misfit beside the delay's part; the
+        // delay is tried with the stiffening rebuilt through the delayed fit's branches (the
+        // undelayed fit had put its weight on branches of about the lag).
+        (
+            &[31, 32, 33],
+            100.0,
+            180.0,
+            [SynthEffect::Delay(3), SynthEffect::Stiffening(0.5)],
+            ["time_delay", "load_dependent_stiffness"],
+        ),
+        (
+            &[33, 34],
+            200.0,
+            180.0,
+            [SynthEffect::Delay(3), SynthEffect::Hysteresis(0.05)],
+            ["time_delay", "hysteresis"],
+        ),
+        // A temperature cycle: the gain ±3 % and the zero ±½ % of the peak strain with a 10 min
+        // period, over 19 min at 40 Hz.
+        (
+            &[31, 32, 33],
+            40.0,
+            1140.0,
+            [
+                SynthEffect::GainCycle {
+                    amplitude: 0.03,
+                    period_s: 600.0,
+                },
+                SynthEffect::ZeroCycle {
+                    amplitude: 0.005,
+                    period_s: 600.0,
+                },
+            ],
+            ["sensitivity_drift", "baseline_drift"],
+        ),
         // A delay under a loop: the delayed model passes twice the force's noise of the
         // undelayed one, and its error was judged above the undelayed one's floor (the delay
         // took 43 % of an excess half of which was that noise).
@@ -546,6 +580,48 @@ fn two_effects_at_once_are_both_named() {
                 d.summary
             );
         }
+    }
+}
+
+/// What a stiffening's basis leaves of each mode's own law is no second effect: rebuilt
+/// through other branches, undelayed, it held out as well as delayed by a sample, and a delay
+/// is judged against that basis.
+#[test]
+fn a_stiffening_alone_gets_no_delay_beside_it() {
+    for (seed, rate, length, strength) in [
+        (22, 100.0, 240.0, 0.8),
+        (41, 100.0, 240.0, 0.8),
+        (45, 200.0, 180.0, 0.3),
+        (88, 200.0, 180.0, 0.3),
+    ] {
+        let d = diag(seed, rate, length, &[SynthEffect::Stiffening(strength)]);
+        assert_eq!(
+            d.effects,
+            [Effect::LoadDependentStiffness],
+            "seed {seed}: {}",
+            d.summary
+        );
+    }
+}
+
+/// A gain that swings with the temperature over minutes is named with its size, and a sag
+/// over the record still by a polynomial.
+#[test]
+fn a_gain_that_cycles_is_named_with_its_swing() {
+    for seed in [51, 52] {
+        let d = diag(
+            seed,
+            40.0,
+            900.0,
+            &[SynthEffect::GainCycle {
+                amplitude: 0.04,
+                period_s: 400.0,
+            }],
+        );
+        assert_eq!(d.effects, [Effect::SensitivityDrift], "{}", d.summary);
+        // ±4 %: a swing of 8 % peak to peak, read from the fitted gain within a fifth.
+        let swing = size(&d, "gain_change_pct");
+        assert!((swing - 8.0).abs() < 1.6, "seed {seed}: {swing} %");
     }
 }
 

@@ -153,6 +153,8 @@ pub enum Term {
     Line(f64, bool),
     /// Force-driven prediction × the Legendre polynomial of degree k over the record.
     Gain(usize),
+    /// Force-driven prediction × cos(πkt/T).
+    GainCosine(usize),
 }
 
 impl Term {
@@ -323,6 +325,12 @@ struct Try {
     add: Vec<usize>,
     remove: Vec<usize>,
     delay_s: f64,
+    /// Accepted effects whose columns this try builds anew rather than delays (a stiffening
+    /// through the delayed fit's branches).
+    regroup: Vec<(Effect, Vec<usize>)>,
+    /// The model the try is judged against where it is not the model as it stands (the
+    /// rebuilt basis without the delay).
+    reference: Option<Scored>,
 }
 
 impl Try {
@@ -333,6 +341,8 @@ impl Try {
             add,
             remove: Vec::new(),
             delay_s: 0.0,
+            regroup: Vec::new(),
+            reference: None,
         }
     }
 }

@@ -560,6 +560,7 @@ fn delay_size(d: f64, dt_s: f64) -> Described {
 fn sensitivity_size(terms: &[(Term, f64)], n: usize) -> Described {
     let range = swing(terms, n, |t| match t {
         Term::Gain(k) => Some(terms::legendre(n, k)),
+        Term::GainCosine(k) => Some(terms::cosine(n, k)),
         _ => None,
     });
     (

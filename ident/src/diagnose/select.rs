@@ -105,15 +105,16 @@ impl<'a> Judge<'a> {
         }
     }
 
-    /// A try against the model as it stands.
-    fn judge(&self, work: &Work, sc: &Scored) -> Judged {
-        let (floors, current) = (self.sel.floors, &self.state.scored);
-        let fold_gains = fold_gains(
-            &current.fold_mse,
-            &floors.noise_matched(work, sc, self.energy),
-        );
+    /// A try against the model as it stands (or the try's own reference).
+    fn judge(&self, work: &Work, reference: Option<&Scored>, sc: &Scored) -> Judged {
+        let floors = self.sel.floors;
+        let (current, energy) = match reference {
+            Some(r) => (r, Floors::energy_of(work, r)),
+            None => (&self.state.scored, self.energy),
+        };
+        let fold_gains = fold_gains(&current.fold_mse, &floors.noise_matched(work, sc, energy));
         let (ljung_box_ratio, colored) = work.whiteness(&sc.columns, &sc.beta);
-        let floor = floors.floor_at(Floors::energy_of(work, sc).max(self.energy));
+        let floor = floors.floor_at(Floors::energy_of(work, sc).max(energy));
         Judged {
             p_value: stats::paired_p_value(&fold_gains),
             fold_gains,
@@ -160,12 +161,21 @@ impl<'a> Judge<'a> {
         let settings = self.sel.settings;
         let (p, gain, excess, colored) =
             (judged.p_value, judged.gain, judged.excess, judged.colored);
-        // A further effect must clear a stricter bar: each round is another look.
+        // A further effect must clear a stricter test: each round is another look. A second
+        // effect of another kind takes the share a first takes (what the first leaves holds
+        // its basis's misfit: a delay beside a stiffening took all of its own part and a fifth
+        // of the excess); one that could stand in for the first's slow misfit, or a third,
+        // half of it.
         let strict = if self.round > 1 { 5.0 } else { 1.0 };
+        let stands_in = confusable(t.effect) && self.state.groups.iter().any(|g| confusable(g.0));
+        let share = if self.round > 2 || stands_in {
+            0.5
+        } else {
+            settings.min_excess_share
+        };
         p < settings.alpha / strict
-            && gain >= (settings.min_excess_share * strict).min(0.5) * excess
+            && gain >= share * excess
             && gain > 0.0
-            && gain >= settings.min_excess_share * excess
             && gain >= settings.min_floor_share * judged.floor
             && (colored < self.colored || gain >= settings.coloured_excess_share * excess)
             && !(t.effect == Effect::SensitivityDrift && self.drift_does_as_well(work, best, sc))
@@ -182,7 +192,7 @@ impl<'a> Judge<'a> {
         let mut round_candidates = Vec::new();
         let mut passed = Vec::new();
         for (i, (t, sc)) in best.iter().enumerate() {
-            let judged = self.judge(work, sc);
+            let judged = self.judge(work, t.reference.as_ref(), sc);
             let pass = self.passes(work, best, (t, sc), &judged);
             passed.push(pass);
             if pass && winner.is_none_or(|w| judged.gain > w.1) {
@@ -253,7 +263,7 @@ impl<'a> Judge<'a> {
     pub(super) fn drift_by_block(&self, work: &mut Work) -> Option<(Candidate, Option<Passed>)> {
         let (settings, columns) = (self.sel.settings, self.sel.columns);
         work.pool.set_local_nuisance(true);
-        let by_block = [1usize, 2, 4, 8, 16]
+        let by_block = super::tries::DRIFT_COSINES
             .into_iter()
             .filter(|k| *k <= columns.drift_max)
             .map(|k| {
@@ -269,7 +279,7 @@ impl<'a> Judge<'a> {
             .min_by(|a, b| a.1.cv_mse.total_cmp(&b.1.cv_mse));
         work.pool.set_local_nuisance(false);
         let (k, sc) = by_block?;
-        let mut judged = self.judge(work, &sc);
+        let mut judged = self.judge(work, None, &sc);
         // The t-test or the signed-rank test, as effects are compared head to head.
         judged.p_value = paired(&judged.fold_gains);
         let (gain, excess) = (judged.gain, judged.excess);
@@ -334,6 +344,10 @@ pub(super) fn accept(
         // An effect's columns are now its delayed ones (taken out later, it leaves with
         // them; a column the fit left at zero is gone).
         for g in state.groups.iter_mut() {
+            if let Some((_, rebuilt)) = t.regroup.iter().find(|r| r.0 == g.0) {
+                g.1.clone_from(rebuilt);
+                continue;
+            }
             g.1 =
                 g.1.iter()
                     .filter_map(|&c| {

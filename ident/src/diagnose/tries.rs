@@ -2,6 +2,7 @@
 //! operators, half-cosines), and a round's tries against the model as it stands, one function
 //! an effect.
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use crate::solve::{Scored, Sign};
@@ -116,7 +117,7 @@ impl CandidateColumns {
                 work.add_computed(Term::Duhem { radius_g: r }, recipe, Sign::Free)
             })
             .collect();
-        let drift_max = ((t_s / 15.0) as usize).clamp(1, 16);
+        let drift_max = ((t_s / 15.0) as usize).clamp(1, DRIFT_COSINES[DRIFT_COSINES.len() - 1]);
         let drift: Vec<usize> = (1..=drift_max)
             .map(|k| {
                 let term = Term::Drift(k);
@@ -251,9 +252,12 @@ fn hysteresis(columns: &CandidateColumns) -> Vec<Try> {
     tries
 }
 
+/// Numbers of half-cosines a drift is tried with.
+pub(super) const DRIFT_COSINES: [usize; 5] = [1, 2, 4, 8, 16];
+
 /// Half-cosines, 1 to 16 of them.
 fn drift(columns: &CandidateColumns) -> Vec<Try> {
-    [1usize, 2, 4, 8, 16]
+    DRIFT_COSINES
         .into_iter()
         .filter(|k| *k <= columns.drift_max)
         .map(|k| {
@@ -268,26 +272,44 @@ fn drift(columns: &CandidateColumns) -> Vec<Try> {
 
 /// Load basis through the instantaneous spring and the two heaviest branches.
 fn stiffening(work: &mut Work, state: &State) -> Try {
-    let s = work.s;
-    let mut branches: Vec<(f64, f64)> = state
-        .cols
+    let taus = heaviest_branches(work, &state.cols, &state.scored.beta);
+    Try::adding(
+        Effect::LoadDependentStiffness,
+        "load basis σ·|σ/σs|^½, σ·|σ/σs| through the spring and two branches".into(),
+        stiffening_columns(work, &taus, 0.0),
+    )
+}
+
+/// The time constants of the two heaviest Kelvin branches of a fit of `cols` to `beta`.
+fn heaviest_branches(work: &Work, cols: &[usize], beta: &[f64]) -> Vec<f64> {
+    let mut branches: Vec<(f64, f64)> = cols
         .iter()
-        .zip(&state.scored.beta)
+        .zip(beta)
         .filter_map(|(c, b)| match work.terms[*c] {
             Term::Relaxation(tau) | Term::SlowRelaxation(tau) if *b > 0.0 => Some((tau, *b)),
             _ => None,
         })
         .collect();
     branches.sort_by(|a, b| b.1.total_cmp(&a.1));
+    branches.into_iter().take(2).map(|b| b.0).collect()
+}
+
+/// The load basis of the force delayed by `delay_s`, through the spring and branches `taus`.
+fn stiffening_columns(work: &mut Work, taus: &[f64], delay_s: f64) -> Vec<usize> {
+    let s = work.s;
+    let force: Cow<[f64]> = if delay_s > 0.0 {
+        Cow::Owned(terms::delayed(&s.force_g, delay_s / s.dt_s))
+    } else {
+        Cow::Borrowed(&s.force_g)
+    };
     let mut cols = Vec::new();
     for power in [0.5, 1.0] {
-        let g: Vec<f64> = s
-            .force_g
+        let g: Vec<f64> = force
             .iter()
             .map(|f| stiffening_load(*f, work.force_origin, work.force_scale, power))
             .collect();
         cols.push(work.add(Term::Stiffening { power, tau_s: None }, &g, Sign::Free));
-        for &(tau, _) in branches.iter().take(2) {
+        for &tau in taus {
             let v = terms::lowpass(&g, tau, s.dt_s);
             cols.push(work.add(
                 Term::Stiffening {
@@ -299,11 +321,7 @@ fn stiffening(work: &mut Work, state: &State) -> Try {
             ));
         }
     }
-    Try::adding(
-        Effect::LoadDependentStiffness,
-        "load basis σ·|σ/σs|^½, σ·|σ/σs| through the spring and two branches".into(),
-        cols,
-    )
+    cols
 }
 
 /// Lines the model's residual has and the measured force has not (none: no try).
@@ -378,50 +396,115 @@ fn delay(
                 .any(|(k, b)| k == c && (*b != 0.0 || work.terms[*c] == Term::Elastic))
         })
         .collect();
-    let mut best = best_delay(work, &others, &active, longest)?;
+    let views = |sources: Vec<usize>| {
+        move |work: &mut Work, d: f64| -> Vec<usize> {
+            sources.iter().map(|&c| work.add_delayed(c, d)).collect()
+        }
+    };
+    let mut best = best_delay(work, &others, longest, views(active.clone()))?;
     let all: Vec<usize> = driven_now
         .iter()
         .chain(&columns.unsupported)
         .copied()
         .collect();
+    let mut variants = Vec::new();
     if all.len() > active.len() {
-        if let Some(other) = best_delay(work, &others, &all, longest) {
-            let (worse, better) = if other.1 < best.1 {
-                (best, other)
-            } else {
-                (other, best)
-            };
-            worse.2.iter().for_each(|c| work.pool.drop_column(*c));
-            best = better;
-        }
+        variants.extend(best_delay(work, &others, longest, views(all.clone())));
+    }
+    // A stiffening's basis runs through the heaviest branches of the fit it was built on; an
+    // undelayed fit of a lagging strain puts its weight on branches of about the lag (a 30 ms
+    // delay: 20–30 ms, no spring), so the basis is rebuilt through the delayed fit's branches.
+    let stiffening = state
+        .groups
+        .iter()
+        .find(|g| g.0 == Effect::LoadDependentStiffness);
+    if let Some((_, stiff)) = stiffening {
+        let base: Vec<usize> = all.iter().copied().filter(|c| !stiff.contains(c)).collect();
+        let rebuilt = |work: &mut Work, d: f64| -> Vec<usize> {
+            let delayed: Vec<usize> = base.iter().map(|&c| work.add_delayed(c, d)).collect();
+            let fit: Vec<usize> = others.iter().chain(&delayed).copied().collect();
+            let sc = work.pool.score(&fit);
+            let taus = heaviest_branches(work, &sc.columns, &sc.beta);
+            let basis = stiffening_columns(work, &taus, d);
+            delayed.into_iter().chain(basis).collect()
+        };
+        variants.extend(best_delay(work, &others, longest, rebuilt));
+    }
+    for other in variants {
+        let (worse, better) = if other.1 < best.1 {
+            (best, other)
+        } else {
+            (other, best)
+        };
+        worse.2.iter().for_each(|c| work.pool.drop_column(*c));
+        best = better;
     }
     let (d, _, cols) = best;
+    let regroup = stiffening
+        .map(|_| {
+            let rebuilt: Vec<usize> = cols
+                .iter()
+                .copied()
+                .filter(|c| {
+                    work.pool.delayed_source(*c).is_none()
+                        && matches!(work.terms[*c], Term::Stiffening { .. })
+                })
+                .collect();
+            (Effect::LoadDependentStiffness, rebuilt)
+        })
+        .filter(|(_, rebuilt)| !rebuilt.is_empty());
+    // A basis rebuilt through other branches may fit better at no delay at all: the delay is
+    // judged against that basis undelayed where it holds out better than the model.
+    let reference = regroup.as_ref().and_then(|(_, rebuilt)| {
+        let taus: Vec<f64> = rebuilt
+            .iter()
+            .filter_map(|c| match work.terms[*c] {
+                Term::Stiffening {
+                    power: 0.5,
+                    tau_s: Some(tau),
+                } => Some(tau),
+                _ => None,
+            })
+            .collect();
+        let basis = stiffening_columns(work, &taus, 0.0);
+        let undelayed: Vec<usize> = others
+            .iter()
+            .chain(
+                all.iter()
+                    .filter(|c| !stiffening.is_some_and(|g| g.1.contains(c))),
+            )
+            .chain(&basis)
+            .copied()
+            .collect();
+        let sc = work.pool.score(&undelayed);
+        basis.iter().for_each(|c| work.pool.drop_column(*c));
+        (sc.cv_mse < state.scored.cv_mse).then_some(sc)
+    });
     Some(Try {
         effect: Effect::TimeDelay,
         variant: format!("force delayed {:.1} ms", 1e3 * d),
         add: cols,
         remove: driven_now,
         delay_s: d,
+        regroup: regroup.into_iter().collect(),
+        reference,
     })
 }
 
-/// The delay of the columns `sources` beside `others` that holds out best, its held-out
-/// error and its delayed columns. Doubling delays from one sample to `longest` s, then the best
-/// refined between its neighbours; only the best variant's columns are kept (views of the
-/// undelayed ones: each variant costs a score, not a copy).
+/// The delay beside `others` that holds out best, its held-out error and the columns `build`
+/// made for it. Doubling delays from one sample to `longest` s, then the best refined between
+/// its neighbours; only the best delay's columns are kept (a delayed column is a view of its
+/// source: each variant costs a score, not a copy).
 fn best_delay(
     work: &mut Work,
     others: &[usize],
-    sources: &[usize],
     longest: f64,
+    mut build: impl FnMut(&mut Work, f64) -> Vec<usize>,
 ) -> Option<(f64, f64, Vec<usize>)> {
     let dt = work.s.dt_s;
-    let delayed_cols = |work: &mut Work, d: f64| -> Vec<usize> {
-        sources.iter().map(|&c| work.add_delayed(c, d)).collect()
-    };
     let mut best: Option<(f64, f64, Vec<usize>)> = None;
-    let consider = |work: &mut Work, d: f64, best: &mut Option<(f64, f64, Vec<usize>)>| {
-        let cols = delayed_cols(work, d);
+    let mut consider = |work: &mut Work, d: f64, best: &mut Option<(f64, f64, Vec<usize>)>| {
+        let cols = build(work, d);
         let all: Vec<usize> = others.iter().chain(&cols).copied().collect();
         let mse = work.pool.score(&all).cv_mse;
         if best.as_ref().is_none_or(|b| mse < b.1) {
@@ -471,23 +554,50 @@ fn best_delay(
     best
 }
 
-/// Columns of the force-driven strain `part` × the Legendre polynomials of degree 1 to `top`
-/// over the record.
-fn gain_columns(work: &mut Work, part: &[f64], top: usize) -> Vec<usize> {
-    let n = work.s.len();
-    (1..=top)
-        .map(|k| {
-            let v: Vec<f64> = terms::legendre(n, k)
-                .iter()
-                .zip(part)
-                .map(|(c, p)| c * p)
-                .collect();
-            work.add(Term::Gain(k), &v, Sign::Free)
-        })
-        .collect()
+/// A gain's shape in time over the record: Legendre polynomials of degree 1 to `top`, or
+/// half-cosines 1 to `k`.
+#[derive(Clone, Copy)]
+enum GainShape {
+    Polynomial(usize),
+    Cosines(usize),
 }
 
-/// A gain that changes with time: the force-driven strain × a polynomial in time.
+/// Columns of the force-driven strain `part` × each function of `shape`.
+fn gain_columns(work: &mut Work, part: &[f64], shape: GainShape) -> Vec<usize> {
+    let n = work.s.len();
+    let (top, term): (usize, fn(usize) -> Term) = match shape {
+        GainShape::Polynomial(top) => (top, Term::Gain),
+        GainShape::Cosines(k) => (k, Term::GainCosine),
+    };
+    let mut cols: Vec<usize> = (1..=top)
+        .map(|k| {
+            let basis = match shape {
+                GainShape::Polynomial(_) => terms::legendre(n, k),
+                GainShape::Cosines(_) => terms::cosine(n, k),
+            };
+            let v: Vec<f64> = basis.iter().zip(part).map(|(c, p)| c * p).collect();
+            work.add(term(k), &v, Sign::Free)
+        })
+        .collect();
+    // Half-cosines all start and end level; a line beside them lets the gain move at the
+    // record's ends (a cycle caught mid-swing).
+    if matches!(shape, GainShape::Cosines(_)) {
+        let v: Vec<f64> = terms::legendre(n, 1)
+            .iter()
+            .zip(part)
+            .map(|(c, p)| c * p)
+            .collect();
+        cols.push(work.add(Term::Gain(1), &v, Sign::Free));
+    }
+    cols
+}
+
+/// Shortest half-period of a gain's swing, s: a temperature moves a sensor's gain over
+/// minutes, and a faster swing of the force-driven strain is another effect's misfit.
+const GAIN_HALF_PERIOD_MIN_S: f64 = 120.0;
+
+/// A gain that changes with time: the force-driven strain × a polynomial in time, or on a
+/// record of several minutes × half-cosines (a temperature cycle).
 fn sensitivity_drift(work: &mut Work, state: &State, round: usize) -> Option<Try> {
     let force_part = work.force_part(&state.cols, &state.scored.beta);
     // A gain × (the force-driven strain) is bilinear; the strain that multiplies the
@@ -497,18 +607,34 @@ fn sensitivity_drift(work: &mut Work, state: &State, round: usize) -> Option<Try
     // parabola, and what a parabola leaves was taken by the drift. The cubic in the first
     // round only: after another effect, what that effect's basis leaves of a varied load
     // (a stiffening by each branch's own law) was taken by the cubic (seed 62).
-    let shapes: &[(usize, &str)] = if round == 1 {
-        &[
-            (2, "a line and a parabola"),
-            (3, "Legendre polynomials to the cubic"),
-            (4, "Legendre polynomials to the quartic"),
-        ]
-    } else {
-        &[(2, "a line and a parabola")]
-    };
+    let mut shapes: Vec<(GainShape, String)> = vec![(
+        GainShape::Polynomial(2),
+        "a line and a parabola".to_string(),
+    )];
+    if round == 1 {
+        shapes.push((
+            GainShape::Polynomial(3),
+            "Legendre polynomials to the cubic".into(),
+        ));
+        shapes.push((
+            GainShape::Polynomial(4),
+            "Legendre polynomials to the quartic".into(),
+        ));
+    }
+    // On a record of several such half-periods, a line and half-cosines to them, and to half
+    // of them: a swing between two of the basis's frequencies needs the next ones too.
+    let most = (work.s.duration_s() / GAIN_HALF_PERIOD_MIN_S) as usize;
+    if most >= 4 {
+        for k in [most, (2 * most).min(16)] {
+            shapes.push((
+                GainShape::Cosines(k),
+                format!("a line and {k} half-cosines"),
+            ));
+        }
+    }
     // Only the best degree's columns are kept (a 1 kHz record's are 4.8 MB each).
-    let mut kept: Option<(f64, &str, Vec<usize>)> = None;
-    for &(top, shape) in shapes {
+    let mut kept: Option<(f64, String, Vec<usize>)> = None;
+    for (top, shape) in shapes {
         let mut cols = gain_columns(work, &force_part, top);
         for _ in 0..2 {
             let all: Vec<usize> = state.cols.iter().chain(&cols).copied().collect();
