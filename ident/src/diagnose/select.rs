@@ -164,10 +164,9 @@ impl<'a> Judge<'a> {
         // A further effect must clear a stricter test: each round is another look. A second
         // effect of another kind takes the share a first takes (what the first leaves holds
         // its basis's misfit: a delay beside a stiffening took all of its own part and a fifth
-        // of the excess); one that could stand in for the first's slow misfit, or a third,
-        // half of it.
+        // of the excess); one whose basis could take the first's misfit, or a third, half.
         let strict = if self.round > 1 { 5.0 } else { 1.0 };
-        let stands_in = confusable(t.effect) && self.state.groups.iter().any(|g| confusable(g.0));
+        let stands_in = self.state.groups.iter().any(|g| kin(t.effect, g.0));
         let share = if self.round > 2 || stands_in {
             0.5
         } else {
@@ -309,6 +308,14 @@ impl<'a> Judge<'a> {
         });
         Some((candidate, accepted))
     }
+}
+
+/// Effects whose bases can take each other's misfit: both slow (see [`confusable`]), or both
+/// functions of the load's history (a play basis leaves a loop's curved backbone, a load basis
+/// a loop's width).
+fn kin(a: Effect, b: Effect) -> bool {
+    let load = |e| matches!(e, Effect::LoadDependentStiffness | Effect::Hysteresis);
+    (confusable(a) && confusable(b)) || (load(a) && load(b))
 }
 
 /// Effects that can explain the same slow residual.
