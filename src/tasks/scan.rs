@@ -1,11 +1,13 @@
 //! The tactile scan: one multiplexer step per dwell, strain per taxel through its calibration,
-//! the inverse model per taxel at the frame rate, and the array's total force and centroid.
+//! the inverse model per taxel at the frame rate, and once a frame where the contact is and how
+//! hard it presses (the locator on the per-taxel estimates), beside the array's centroid.
 //!
 //! Frame rate: the envelope detector's τ is 25 µs and each taxel dwells 10 τ = 250 µs, leaving
 //! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
 use crate::calibration::{TableError, TableView, MAX_LOOP_TAXELS};
+use crate::contact::{ContactKind, Locator};
 use crate::estimator::{CalibrationFlags, TaxelModel};
 use crate::estimator::{EstimatorKind, StrainConditioner, TaxelEstimator, TaxelEstimators};
 use crate::gauge::AdcScale;
@@ -27,11 +29,20 @@ pub const CONTACT_THRESHOLD_G: f32 = 0.5;
 pub struct ArrayEstimate {
     /// Board tick of the frame it belongs to (same as its `TaxelFrame`).
     pub tick: u32,
-    /// Sum of the per-taxel inverse-model forces over the good taxels, grams.
+    /// The contact's force: the point the locator fits to the good taxels' estimates (a press
+    /// loads its neighbours too, so their sum reads well above it); their sum when the frame
+    /// holds nothing, grams.
     pub total_force_g: f32,
-    /// Force-weighted row and column (0..7); NaN below [`CONTACT_THRESHOLD_G`].
+    /// Force-weighted row and column of the good taxels (0..7); NaN when their sum is below
+    /// [`CONTACT_THRESHOLD_G`].
     pub centroid_row: f32,
     pub centroid_col: f32,
+    /// Where the contact is, mm: x along the columns, y along the rows, from the centre of
+    /// taxel r0c0 (0 when the frame holds nothing).
+    pub contact_x_mm: f32,
+    pub contact_y_mm: f32,
+    /// Whether the frame is one point contact, two, a load no point explains, or nothing.
+    pub contact: ContactKind,
     /// The probed element's force from the scan (frame rate), grams.
     pub probe_force_g: f32,
     /// The probed element's force by every estimator, side by side (elastic, second-order
@@ -85,6 +96,7 @@ pub struct Scanner {
     /// The load each taxel's calibration covered, grams (infinite without a calibration).
     range_g: [f32; TAXELS],
     extrapolated_taxels: u64,
+    locator: Locator,
 }
 
 impl Scanner {
@@ -124,6 +136,7 @@ impl Scanner {
             bad_taxels: 0,
             range_g: [f32::INFINITY; TAXELS],
             extrapolated_taxels: 0,
+            locator: Locator::new(config.locator),
         }
     }
 
@@ -235,6 +248,7 @@ impl Scanner {
         self.status = status;
         self.bad_taxels = 0;
         self.extrapolated_taxels = 0;
+        self.locator = Locator::new(config.locator);
         Ok(())
     }
 
@@ -275,6 +289,37 @@ impl Scanner {
         let strain = self.calibration.get(taxel.index()).map_or(f32::NAN, |cal| {
             cal.strain_pct(self.adc.volts(code), StrainForm::Exact)
         });
+        self.take_strain(taxel, strain);
+        step.frame_complete.then(|| self.report(board_tick))
+    }
+
+    /// A whole frame of strains (percent, a record's row) through each taxel's path as
+    /// [`Self::step`] takes a converted code: the chip's code over a record. A non-finite
+    /// strain marks its taxel bad, as a converter rail does.
+    pub fn step_strains(
+        &mut self,
+        strain_pct: &[[f32; COLS]; ROWS],
+        board_tick: u32,
+    ) -> ScanReport {
+        for (i, &strain) in strain_pct.iter().flatten().enumerate() {
+            let taxel = TaxelId::from_index(i);
+            let bit = 1u64 << i;
+            if strain.is_finite() {
+                self.bad_taxels &= !bit;
+                self.take_strain(taxel, strain);
+            } else {
+                // Left out, its estimator's state kept for when it reads again.
+                self.bad_taxels |= bit;
+                self.strain_pct.set(taxel, f32::NAN);
+                self.force_g.set(taxel, f32::NAN);
+            }
+        }
+        self.report(board_tick)
+    }
+
+    /// One taxel's strain through its conditioner, loop compensator and estimator.
+    fn take_strain(&mut self, taxel: TaxelId, strain: f32) {
+        let bit = 1u64 << taxel.index();
         self.strain_pct.set(taxel, strain);
         let conditioned = self
             .conditioners
@@ -298,7 +343,6 @@ impl Scanner {
                 self.probe_estimates_g = bench.update(strain);
             }
         }
-        step.frame_complete.then(|| self.report(board_tick))
     }
 
     fn report(&self, board_tick: u32) -> ScanReport {
@@ -309,6 +353,8 @@ impl Scanner {
             ..Default::default()
         };
         let (mut total, mut row_moment, mut col_moment) = (0.0f32, 0.0f32, 0.0f32);
+        // The locator's input: the good taxels' estimates, a bad one left out (NaN).
+        let mut good_g = [f32::NAN; TAXELS];
         for (r, (cells, (strains, forces))) in frame
             .strain_centi_pct
             .iter_mut()
@@ -322,6 +368,9 @@ impl Scanner {
             {
                 *cell = TaxelFrame::quantize(strain);
                 if self.bad_taxels & (1u64 << (r * COLS + c)) == 0 && force.is_finite() {
+                    if let Some(g) = good_g.get_mut(r * COLS + c) {
+                        *g = force;
+                    }
                     total += force;
                     row_moment += force * r as f32;
                     col_moment += force * c as f32;
@@ -333,13 +382,17 @@ impl Scanner {
         } else {
             (f32::NAN, f32::NAN)
         };
+        let contact = self.locator.locate(&good_g);
         ScanReport {
             frame,
             estimate: ArrayEstimate {
                 tick: board_tick,
-                total_force_g: total,
+                total_force_g: contact.force_g,
                 centroid_row,
                 centroid_col,
+                contact_x_mm: contact.x_mm,
+                contact_y_mm: contact.y_mm,
+                contact: contact.kind,
                 probe_force_g: self.force_g.get(self.probe).unwrap_or(0.0),
                 probe_estimates_g: self.probe_estimates_g,
                 extrapolated_taxels: self.extrapolated_taxels,
@@ -446,6 +499,49 @@ mod tests {
             .find_map(|k| quiet.step(&mut panel, k as u32))
             .unwrap();
         assert!(r.estimate.centroid_row.is_nan() && r.estimate.total_force_g.abs() < 0.5);
+    }
+
+    /// A press between taxels loads its neighbours too (their estimates sum to about 2.7 times
+    /// the press by the memo geometry's spread): the frame's force is the contact's, and its
+    /// location the press's. Every taxel on the elastic model (G = 3.23 g/%), so a strain of
+    /// F·share/G is a force of F·share by hand.
+    #[test]
+    fn a_press_spread_over_neighbours_reads_its_own_force_where_it_is() {
+        let config = FirmwareConfig {
+            calibration: &[],
+            array_estimator: Some(EstimatorKind::Elastic),
+            ..BOARD
+        };
+        let mut scanner = Scanner::new(&config, calibration(4.0)).unwrap();
+        let g = TaxelModel::nominal(config.probe).elastic_g_per_pct as f32;
+        let r = config.locator.response;
+        let (x, y, force) = (10.6f32, 13.1f32, 40.0f32);
+        let mut strain = [[0.0f32; COLS]; ROWS];
+        let mut sum_g = 0.0;
+        for (i, s) in strain.iter_mut().flatten().enumerate() {
+            let (cx, cy) = r.centre_mm(TaxelId::from_index(i));
+            let share = r.share(cx - x, cy - y).weight;
+            *s = force * share / g;
+            sum_g += force * share;
+        }
+        assert!(sum_g > 2.0 * force, "{sum_g}");
+        let mut last = None;
+        for k in 0..50 {
+            last = Some(scanner.step_strains(&strain, k).estimate);
+        }
+        let e = last.unwrap();
+        assert_eq!(e.contact, ContactKind::Point, "{e:?}");
+        assert!((e.total_force_g - force).abs() < 0.01 * force, "{e:?}");
+        assert!(
+            (e.contact_x_mm - x).abs() < 0.02 && (e.contact_y_mm - y).abs() < 0.02,
+            "{e:?}"
+        );
+        // A taxel gone bad (NaN) beside the press is left out, the contact still found.
+        strain[3][2] = f32::NAN;
+        let e = scanner.step_strains(&strain, 50).estimate;
+        assert_eq!(e.contact, ContactKind::Point, "{e:?}");
+        assert_eq!(scanner.bad_taxels(), 1 << (3 * COLS + 2));
+        assert!((e.contact_x_mm - x).abs() < 0.05, "{e:?}");
     }
 
     #[test]

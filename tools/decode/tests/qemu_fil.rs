@@ -270,12 +270,58 @@ fn is_this_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun, rig: RigCon
     }
     let truth = rms_between(&records, &host.ticks, |r| f64::from(r.true_force_g));
     let sensed = rms_between(&records, &host.ticks, |r| f64::from(r.sensed_g));
+    // An injected overrun delays the firmware's scan against the plant (the rig counts it
+    // without delaying anything): its frames are the rig's up to the injection.
+    let before_tick = match spec.fault {
+        Some(f) if f.fault == InjectedFault::DeadlineOverrun => {
+            (f.at_s / tactile_core::CONTROL_PERIOD_S) as u32
+        }
+        _ => u32::MAX,
+    };
+    let contacts = estimates_are_the_rigs(run, &host.estimates, name, before_tick);
     eprintln!(
         "{name}: firmware vs host rig over {} ticks: command, control output, DAC code and \
-         fault bits identical; RMS true force {truth:.2e} g, gauge force {sensed:.2e} g",
-        ticks.len()
+         fault bits identical; {} frames' contact (kind, x, y, force) and centroid identical \
+         ({contacts} found a point); RMS true force {truth:.2e} g, gauge force {sensed:.2e} g",
+        ticks.len(),
+        host.estimates.len()
     );
     assert!(truth == 0.0 && sensed == 0.0, "{name}: traces differ");
+}
+
+/// Every frame's array estimate of the firmware completed before the run's tick `before_tick`
+/// is the host rig's to the bit (the locator's contact, its force and the centroid); the
+/// frames where the contact was one point.
+fn estimates_are_the_rigs(
+    run: &tactile_decode::Run,
+    host: &[tactile_firmware::ArrayEstimate],
+    name: &str,
+    before_tick: u32,
+) -> usize {
+    assert_eq!(run.frames.len(), host.len(), "{name}: frames");
+    let bits = |e: &tactile_firmware::ArrayEstimate| {
+        (
+            e.contact,
+            e.contact_x_mm.to_bits(),
+            e.contact_y_mm.to_bits(),
+            e.total_force_g.to_bits(),
+            e.centroid_row.to_bits(),
+            e.centroid_col.to_bits(),
+        )
+    };
+    let compared = run
+        .frames
+        .iter()
+        .zip(host)
+        .take_while(|(_, rig)| rig.tick < before_tick);
+    for (k, ((_, fw), rig)) in compared.enumerate() {
+        let fw = fw.unwrap_or_else(|| panic!("{name}: frame {k} without its estimate"));
+        assert_eq!(bits(&fw), bits(rig), "{name}: frame {k}: {fw:?} vs {rig:?}");
+    }
+    host.iter()
+        .take_while(|e| e.tick < before_tick)
+        .filter(|e| e.contact == tactile_core::contact::ContactKind::Point)
+        .count()
 }
 
 /// The plant of an applicator file, read by the QEMU firmware as by the simulator
@@ -454,6 +500,26 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
         .expect("the firmware reported its instruction counts");
     eprintln!("control tick: at most {control_tick_max} instructions");
     assert!(control_tick_max <= 2000, "{control_tick_max}");
+    // The scan step that completes a frame runs the contact locator: it must leave the scan
+    // task its millisecond (four dwells) on the F407's 168 MHz core, with the control tick and
+    // the three other steps beside it: under 100 000 instructions.
+    let frame_step = session
+        .notes
+        .iter()
+        .flat_map(|n| tactile_decode::text::parse_structs(n))
+        .find(|s| s.name == "InstructionCounts")
+        .and_then(|c| {
+            let f = c.fields();
+            let span = tactile_decode::text::parse_structs(f.text("scan_frame_step").ok()?);
+            let f = span.first()?.fields();
+            Some((f.num::<u32>("min").ok()?, f.num::<u32>("max").ok()?))
+        })
+        .expect("the firmware reported its frame step's instructions");
+    eprintln!(
+        "scan step completing a frame (locator included): {}–{} instructions",
+        frame_step.0, frame_step.1
+    );
+    assert!(frame_step.1 < 100_000, "{frame_step:?}");
 
     for (name, duration_s) in [("force-steps", 10.5f32), ("pseudo-random", 10.0)] {
         let run = session.run(name).expect("run decoded");
@@ -486,6 +552,13 @@ fn firmware_in_the_loop_tracks_like_the_simulator() {
             })
             .fold(0.0f32, f32::max);
         eprintln!("{name}: worst taxel strain difference {worst_cell:.4} %");
+        // The session's own rig (the build's calibration table) to the bit, the array's
+        // estimates with it.
+        let spec = FIL_SESSION
+            .iter()
+            .find(|r| r.name == name)
+            .expect("a session run");
+        is_the_rigs_to_the_bit(run, spec);
         assert!(
             worst_cell <= 0.011,
             "{name}: taxel frames disagree by {worst_cell} %"
