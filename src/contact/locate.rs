@@ -84,9 +84,28 @@ struct Window {
 }
 
 impl Window {
+    /// The taxels within `radius` rows and columns of `t`, clipped to the array.
+    fn about(t: TaxelId, radius: usize) -> Window {
+        Window {
+            rows: (
+                t.row().saturating_sub(radius),
+                (t.row() + radius).min(ROWS - 1),
+            ),
+            cols: (
+                t.col().saturating_sub(radius),
+                (t.col() + radius).min(COLS - 1),
+            ),
+        }
+    }
+
     fn taxels(self) -> impl Iterator<Item = TaxelId> {
-        (self.rows.0..=self.rows.1)
-            .flat_map(move |r| (self.cols.0..=self.cols.1).filter_map(move |c| TaxelId::new(r, c)))
+        // One flat count rather than nested iterators: the locator runs on the F407, whose
+        // flash the nested form's code took a share of.
+        let width = self.cols.1.saturating_sub(self.cols.0) + 1;
+        let n = (self.rows.1.saturating_sub(self.rows.0) + 1) * width;
+        (0..n).map(move |k| {
+            TaxelId::from_index((self.rows.0 + k / width) * COLS + self.cols.0 + k % width)
+        })
     }
 }
 
@@ -115,7 +134,8 @@ impl Locator {
             centroid_x_mm: 0.0,
             centroid_y_mm: 0.0,
         };
-        let (mut total, mut sx, mut sy, mut peak) = (0.0f32, 0.0f32, 0.0f32, None);
+        let (mut total, mut positive, mut sx, mut sy) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        let mut peak = None;
         for i in 0..TAXELS {
             let t = TaxelId::from_index(i);
             let Some(f) = value(forces_g, t) else {
@@ -124,6 +144,7 @@ impl Locator {
             total += f;
             let (x, y) = cfg.response.centre_mm(t);
             let w = f.max(0.0);
+            positive += w;
             sx += w * x;
             sy += w * y;
             if peak.is_none_or(|(_, p)| f > p) {
@@ -131,10 +152,6 @@ impl Locator {
             }
         }
         nothing.force_g = if total.is_finite() { total } else { 0.0 };
-        let positive: f32 = (0..TAXELS)
-            .filter_map(|i| value(forces_g, TaxelId::from_index(i)))
-            .map(|f| f.max(0.0))
-            .sum();
         let Some((peak, peak_g)) = peak else {
             return nothing;
         };
@@ -190,11 +207,7 @@ impl Locator {
     }
 
     fn window_about(&self, peak: TaxelId) -> Window {
-        let w = self.config.window;
-        Window {
-            rows: (peak.row().saturating_sub(w), (peak.row() + w).min(ROWS - 1)),
-            cols: (peak.col().saturating_sub(w), (peak.col() + w).min(COLS - 1)),
-        }
+        Window::about(peak, self.config.window)
     }
 
     /// A local maximum (no neighbour larger) at least two taxels from the peak, above the
@@ -211,20 +224,13 @@ impl Locator {
                 return false;
             };
             far && f >= floor && {
-                let around = self.window_about_radius(t, 1);
+                let around = Window::about(t, 1);
                 around
                     .taxels()
                     .filter(|&n| n != t)
                     .all(|n| value(forces_g, n).is_none_or(|g| g <= f))
             }
         })
-    }
-
-    fn window_about_radius(&self, t: TaxelId, w: usize) -> Window {
-        Window {
-            rows: (t.row().saturating_sub(w), (t.row() + w).min(ROWS - 1)),
-            cols: (t.col().saturating_sub(w), (t.col() + w).min(COLS - 1)),
-        }
     }
 }
 

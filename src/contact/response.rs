@@ -128,7 +128,7 @@ fn corner_terms(a: f32, b: f32, z: f32) -> (f32, f32, f32, f32) {
     let inv_r = 1.0 / libm::sqrtf(a2z + b * b);
     let (inv_a2z, inv_b2z) = (1.0 / a2z, 1.0 / b2z);
     let ab_r = a * b * inv_r;
-    let value = (libm::atanf(ab_r / z) + ab_r * z * (inv_a2z + inv_b2z)) / TWO_PI;
+    let value = (crate::trig::atanf(ab_r / z) + ab_r * z * (inv_a2z + inv_b2z)) / TWO_PI;
     (value, inv_r, inv_a2z, inv_b2z)
 }
 
