@@ -406,6 +406,11 @@ impl Scanner {
         self.bad_taxels
     }
 
+    /// The latest force estimate of every taxel, grams.
+    pub fn forces_g(&self) -> &[[f32; COLS]; ROWS] {
+        &self.force_g.cells
+    }
+
     /// The latest strain of every taxel, percent.
     pub fn strain_pct(&self) -> &[[f32; COLS]; ROWS] {
         &self.strain_pct.cells
