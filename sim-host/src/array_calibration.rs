@@ -349,6 +349,99 @@ pub fn locator_of(response: SpatialResponse) -> Locator {
     })
 }
 
+/// `tactile calibrate --array FRAMES.csv… --out A.bin`: the presses of every record (the
+/// chip's nominal estimators per taxel), the fitted response sealed into `out`; the summary.
+pub fn calibrate_command(records: &[std::path::PathBuf], out: &Path) -> Result<String, Error> {
+    let inputs: Vec<&Path> = records.iter().map(|p| p.as_path()).collect();
+    let table_out = crate::output::Output::claim(out, &inputs)?;
+    let mut presses = Vec::new();
+    for path in records {
+        let rec = tactile_record::read_frames(path)?;
+        let found = presses_from_record(&rec, path, &FirmwareConfig::MEMO)?;
+        if found.is_empty() {
+            return Err(Error::Failed(format!(
+                "{}: no press held for two frames at one position",
+                path.display()
+            )));
+        }
+        presses.extend(found);
+    }
+    let fit = fit_response(&presses)?;
+    let r = fit.response;
+    let (lo, hi) = r.gain.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), g| {
+        (lo.min(*g), hi.max(*g))
+    });
+    let written = table_out.write(r.encode())?;
+    Ok(format!(
+        "{} presses from {} record(s): pitch {:.3} mm, depth {:.3} mm, plate {:.3} mm, taxel \
+         gains {lo:.3}–{hi:.3}; the taxels' estimates about it {:.3} g RMS\nwrote {}",
+        fit.presses,
+        records.len(),
+        r.pitch_mm,
+        r.depth_mm,
+        r.plate_mm,
+        fit.rms_g,
+        written.display()
+    ))
+}
+
+/// `tactile locate FRAMES.csv --table A.bin [--out OUT.csv]`: the chip's scan (each taxel's
+/// nominal estimator, then the locator on the table's response) over a frames record; the
+/// errors against the truth where the record has it, the centroid's beside them.
+pub fn locate_command(file: &Path, table: &Path, out: Option<&Path>) -> Result<String, Error> {
+    let out = crate::output::Output::claim_some(out, &[file, table])?;
+    let bytes = std::fs::read(table).map_err(Error::io(table))?;
+    let response = SpatialResponse::decode(&bytes)
+        .map_err(|e| Error::Failed(format!("{}: {e}", table.display())))?;
+    let rec = tactile_record::read_frames(file)?;
+    let config = FirmwareConfig {
+        locator: LocatorConfig {
+            response,
+            ..LocatorConfig::MEMO
+        },
+        ..FirmwareConfig::MEMO
+    };
+    let estimates = chip_estimates(&rec, &config)?;
+    let mut text = format!(
+        "{}: {} frames; pitch {:.3} mm, depth {:.3} mm from {}\n",
+        file.display(),
+        estimates.len(),
+        response.pitch_mm,
+        response.depth_mm,
+        table.display()
+    );
+    let (n, fit_mm, centroid_mm, force_g, points) =
+        scored(&estimates, &rec.truth, response.pitch_mm);
+    if n == 0 {
+        text += "no frame carries the truth (x_mm,y_mm,force_g with a force): nothing to score\n";
+    } else {
+        text += &format!(
+            "{n} frames pressed, the truth beside them:\n\
+             | | location RMS (mm) | force RMS (g) | said one point |\n\
+             | --- | --- | --- | --- |\n\
+             | the chip's locator | {fit_mm:.3} | {force_g:.2} | {points} of {n} |\n\
+             | the centroid | {centroid_mm:.3} | | |\n"
+        );
+    }
+    if let Some(out) = out {
+        let mut csv = String::from("t_s,contact,x_mm,y_mm,force_g,centroid_x_mm,centroid_y_mm\n");
+        for (k, e) in estimates.iter().enumerate() {
+            let t = rec.t_s.get(k).copied().unwrap_or(f64::NAN);
+            csv += &format!(
+                "{t:.4},{},{:.4},{:.4},{:.3},{:.4},{:.4}\n",
+                e.contact.name(),
+                e.contact_x_mm,
+                e.contact_y_mm,
+                e.total_force_g,
+                e.centroid_col * response.pitch_mm,
+                e.centroid_row * response.pitch_mm
+            );
+        }
+        text += &format!("wrote {}\n", out.write(csv)?.display());
+    }
+    Ok(text)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -449,6 +542,49 @@ mod tests {
             "{fit_mm} {centroid_mm}"
         );
         assert!(points * 10 >= n * 9, "{points} of {n}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The two commands end to end on the memo finger's presses: a table written and read
+    /// back, the record located against its truth; malformed input named by file and line.
+    #[test]
+    fn calibrate_and_locate_commands_run_the_chips_code_and_name_bad_input() {
+        let law = SpatialLaw::MEMO_HALF_SPACE;
+        let dir = std::env::temp_dir().join(format!("array-cmd-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (frames, truth) = simulated_presses(law, &press_grid(4.0, 8), 40.0, 0.0, 3);
+        let presses = dir.join("presses.csv");
+        tactile_record::write_frames_with_truth(&presses, &[], &frames, &truth).unwrap();
+        let table = dir.join("array.bin");
+        let text = calibrate_command(std::slice::from_ref(&presses), &table).unwrap();
+        assert!(text.contains("64 presses"), "{text}");
+        let r = SpatialResponse::decode(&std::fs::read(&table).unwrap()).unwrap();
+        assert!(
+            (r.pitch_mm - 4.0).abs() < 0.04 && (r.depth_mm - 4.0).abs() < 0.12,
+            "{r:?}"
+        );
+        let out = dir.join("located.csv");
+        let text = locate_command(&presses, &table, Some(&out)).unwrap();
+        assert!(text.contains("| the centroid |"), "{text}");
+        let rows = std::fs::read_to_string(&out).unwrap();
+        assert_eq!(rows.lines().count(), frames.len() + 1);
+        // A cell that is no number: the file and line, no panic.
+        let text = std::fs::read_to_string(&presses).unwrap();
+        let bad = dir.join("bad.csv");
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        lines[3] = lines[3].replacen(',', ",oops,", 1);
+        std::fs::write(&bad, lines.join("\n")).unwrap();
+        let e = locate_command(&bad, &table, None).unwrap_err().to_string();
+        assert!(e.contains("bad.csv:4"), "{e}");
+        let e = locate_command(&presses, &presses, None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("presses.csv") && e.contains("spatial table"),
+            "{e}"
+        );
+        let e = calibrate_command(std::slice::from_ref(&bad), &dir.join("b.bin")).unwrap_err();
+        assert!(e.to_string().contains("bad.csv:4"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
 }

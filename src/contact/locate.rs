@@ -52,6 +52,18 @@ pub enum ContactKind {
     Spread,
 }
 
+impl ContactKind {
+    /// The kind's name in records and reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ContactKind::Nothing => "nothing",
+            ContactKind::Point => "point",
+            ContactKind::TwoPeaks => "two_peaks",
+            ContactKind::Spread => "spread",
+        }
+    }
+}
+
 /// The locator's answer for one frame. Location and force are always finite.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -40,6 +40,10 @@ pub struct FirmwareConfig {
     /// Where a contact is, from each frame's per-taxel estimates: the spatial response and the
     /// locator's thresholds.
     pub locator: LocatorConfig,
+    /// The array's spatial calibration (`tactile calibrate --array`), checked at start-up: its
+    /// response replaces `locator`'s; empty, `locator`'s stands; refused, it stands and the
+    /// scanner says why.
+    pub array_table: &'static [u8],
 }
 
 impl FirmwareConfig {
@@ -61,6 +65,7 @@ impl FirmwareConfig {
         calibration: &[],
         array_estimator: None,
         locator: LocatorConfig::MEMO,
+        array_table: &[],
     };
 }
 

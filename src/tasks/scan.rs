@@ -7,7 +7,7 @@
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
 use crate::calibration::{TableError, TableView, MAX_LOOP_TAXELS};
-use crate::contact::{ContactKind, Locator};
+use crate::contact::{ContactKind, Locator, LocatorConfig, SpatialResponse, SpatialTableError};
 use crate::estimator::{CalibrationFlags, TaxelModel};
 use crate::estimator::{EstimatorKind, StrainConditioner, TaxelEstimator, TaxelEstimators};
 use crate::gauge::AdcScale;
@@ -64,6 +64,9 @@ pub struct CalibrationStatus {
     pub flagged_taxels: u64,
     /// Why the table was refused, if it was.
     pub refused: Option<TableError>,
+    /// Why the array's spatial table was refused, if one was given and was (the locator then
+    /// runs the configuration's response).
+    pub array_refused: Option<SpatialTableError>,
 }
 
 /// A completed frame.
@@ -132,11 +135,30 @@ impl Scanner {
                 calibrated_taxels: 0,
                 flagged_taxels: 0,
                 refused: None,
+                array_refused: None,
             },
             bad_taxels: 0,
             range_g: [f32::INFINITY; TAXELS],
             extrapolated_taxels: 0,
             locator: Locator::new(config.locator),
+        }
+    }
+
+    /// The locator's configuration: the array table's response over `config.locator`'s when
+    /// the table is given and passes its check; with why it was refused if it was not.
+    fn locator_of(config: &FirmwareConfig) -> (LocatorConfig, Option<SpatialTableError>) {
+        if config.array_table.is_empty() {
+            return (config.locator, None);
+        }
+        match SpatialResponse::decode(config.array_table) {
+            Ok(response) => (
+                LocatorConfig {
+                    response,
+                    ..config.locator
+                },
+                None,
+            ),
+            Err(e) => (config.locator, Some(e)),
         }
     }
 
@@ -183,6 +205,7 @@ impl Scanner {
                     // Filled in below, as each record is read.
                     flagged_taxels: 0,
                     refused: None,
+                    array_refused: None,
                 },
             ),
             Err(e) => (
@@ -191,6 +214,7 @@ impl Scanner {
                     calibrated_taxels: 0,
                     flagged_taxels: 0,
                     refused: Some(e),
+                    array_refused: None,
                 },
             ),
         };
@@ -248,7 +272,9 @@ impl Scanner {
         self.status = status;
         self.bad_taxels = 0;
         self.extrapolated_taxels = 0;
-        self.locator = Locator::new(config.locator);
+        let (locator, array_refused) = Self::locator_of(config);
+        self.locator = Locator::new(locator);
+        self.status.array_refused = array_refused;
         Ok(())
     }
 
@@ -549,6 +575,59 @@ mod tests {
         assert!((e.contact_x_mm - x).abs() < 0.05, "{e:?}");
     }
 
+    /// The array's table is checked at start-up: a good one's geometry locates the press, a
+    /// damaged one is refused with the reason and the configuration's response stands.
+    #[test]
+    fn the_array_table_is_read_and_checked_at_start_up() {
+        let wide = SpatialResponse {
+            pitch_mm: 5.0,
+            depth_mm: 3.0,
+            ..SpatialResponse::MEMO
+        };
+        let good: &'static [u8] = Box::leak(Box::new(wide.encode()));
+        let mut bad = wide.encode();
+        bad[20] ^= 4;
+        let bad: &'static [u8] = Box::leak(Box::new(bad));
+        let base = FirmwareConfig {
+            calibration: &[],
+            array_estimator: Some(EstimatorKind::Elastic),
+            ..BOARD
+        };
+        let g = TaxelModel::nominal(base.probe).elastic_g_per_pct as f32;
+        // A 30 g press at (13, 17) mm on the 5 mm finger, every taxel elastic.
+        let mut strain = [[0.0f32; COLS]; ROWS];
+        for (i, s) in strain.iter_mut().flatten().enumerate() {
+            let (cx, cy) = wide.centre_mm(TaxelId::from_index(i));
+            *s = 30.0 * wide.share(cx - 13.0, cy - 17.0).weight / g;
+        }
+        let run = |array_table: &'static [u8]| {
+            let config = FirmwareConfig {
+                array_table,
+                ..base
+            };
+            let mut scanner = Scanner::new(&config, calibration(4.0)).unwrap();
+            let e = (0..30)
+                .map(|k| scanner.step_strains(&strain, k).estimate)
+                .last()
+                .unwrap();
+            (scanner.calibration_status().array_refused, e)
+        };
+        let (refused, e) = run(good);
+        assert_eq!(refused, None);
+        assert!(
+            (e.contact_x_mm - 13.0).abs() < 0.02 && (e.contact_y_mm - 17.0).abs() < 0.02,
+            "{e:?}"
+        );
+        assert!((e.total_force_g - 30.0).abs() < 0.3, "{e:?}");
+        let (refused, e) = run(bad);
+        assert!(
+            matches!(refused, Some(SpatialTableError::Checksum { .. })),
+            "{refused:?}"
+        );
+        // The memo geometry's 4 mm pitch puts the press elsewhere.
+        assert!((e.contact_x_mm - 13.0).abs() > 1.0, "{e:?}");
+    }
+
     #[test]
     fn the_build_carries_a_table_of_four_calibrated_taxels_and_a_damaged_one_is_refused() {
         let rest = [TaxelCalibration {
@@ -562,7 +641,8 @@ mod tests {
             CalibrationStatus {
                 calibrated_taxels: 4,
                 flagged_taxels: 0,
-                refused: None
+                refused: None,
+                array_refused: None,
             }
         );
         let mut damaged = CALIBRATION_TABLE.to_vec();

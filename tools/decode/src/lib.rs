@@ -578,16 +578,6 @@ fn contact_kind(text: &str) -> Result<ContactKind, String> {
     })
 }
 
-/// A contact kind's name in a record (the firmware's, lower case).
-pub fn contact_name(kind: ContactKind) -> &'static str {
-    match kind {
-        ContactKind::Nothing => "nothing",
-        ContactKind::Point => "point",
-        ContactKind::TwoPeaks => "two_peaks",
-        ContactKind::Spread => "spread",
-    }
-}
-
 impl Run {
     /// RMS of each estimator of the probed taxel against the simulator's true force at the
     /// instant the scan sampled it (the truth riding with the next control tick), over the
@@ -724,7 +714,7 @@ pub fn write_run(
                 e.centroid_col,
                 e.contact_x_mm,
                 e.contact_y_mm,
-                contact_name(e.contact),
+                e.contact.name(),
                 e.probe_force_g,
                 e.probe_estimates_g.map(|v| format!("{v:.3}")).join(","),
                 e.extrapolated_taxels
