@@ -1301,8 +1301,9 @@ fn a_calibration_table_loaded_by_command_estimates_as_the_built_in_one() {
         gaps.iter().sum::<f64>() / gaps.len() as f64,
         gaps.len()
     );
-    // The calibrated taxels are off the probe's: the table moves the array's total, by 30
-    // times what it moved the probe's own estimate (0.01 g: no record for it in the table).
+    // The calibrated taxels are off the probe's: the table moves the located contact's force
+    // (0.38 g at most), by far more than it moved the probe's own estimate (0.01 g: no record
+    // for it in the table).
     assert!(
         worst > 0.3,
         "the table changed the estimates by {worst} g at most"
