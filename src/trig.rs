@@ -84,6 +84,33 @@ pub fn atanf(x: f32) -> f32 {
     }
 }
 
+/// √x, correctly rounded as libm's is (so the two agree bit for bit). On the Cortex-M4F the
+/// FPU's own instruction: one cycle-cheap `vsqrt` instead of libm's 220 B routine and table.
+#[inline]
+pub fn sqrtf(x: f32) -> f32 {
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        let root: u32;
+        // SAFETY: vsqrt.f32 reads and writes one FPU register (s0, clobbered); the FPU is on in
+        // eabihf code. Through a core register: the `sreg` class wants the double-precision FPU.
+        unsafe {
+            core::arch::asm!(
+                "vmov s0, {0}",
+                "vsqrt.f32 s0, s0",
+                "vmov {0}, s0",
+                inout(reg) x.to_bits() => root,
+                out("s0") _,
+                options(pure, nomem, nostack),
+            );
+        }
+        f32::from_bits(root)
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        libm::sqrtf(x)
+    }
+}
+
 /// sin r on [−π/4, π/4] (fdlibm's `__kernel_sin`, error under one unit in the last place).
 fn kernel_sin(r: f64) -> f64 {
     const S: [f64; 6] = [

@@ -113,8 +113,11 @@ impl Window {
     fn taxels(self) -> impl Iterator<Item = TaxelId> {
         // One flat count rather than nested iterators: the locator runs on the F407, whose
         // flash the nested form's code took a share of.
-        let width = self.cols.1.saturating_sub(self.cols.0) + 1;
-        let n = (self.rows.1.saturating_sub(self.rows.0) + 1) * width;
+        // A width that cannot be zero: its division carries no panic path (nor core's
+        // formatting behind it) onto the firmware.
+        let width =
+            core::num::NonZeroUsize::MIN.saturating_add(self.cols.1.saturating_sub(self.cols.0));
+        let n = (self.rows.1.saturating_sub(self.rows.0) + 1) * width.get();
         (0..n).map(move |k| {
             TaxelId::from_index((self.rows.0 + k / width) * COLS + self.cols.0 + k % width)
         })

@@ -125,7 +125,7 @@ fn corner(a: f32, b: f32, z: f32) -> f32 {
 /// [`corner`] with the reciprocals its gradient reuses: 1/r, 1/(a² + z²), 1/(b² + z²).
 fn corner_terms(a: f32, b: f32, z: f32) -> (f32, f32, f32, f32) {
     let (a2z, b2z) = (a * a + z * z, b * b + z * z);
-    let inv_r = 1.0 / libm::sqrtf(a2z + b * b);
+    let inv_r = 1.0 / crate::trig::sqrtf(a2z + b * b);
     let (inv_a2z, inv_b2z) = (1.0 / a2z, 1.0 / b2z);
     let ab_r = a * b * inv_r;
     let value = (crate::trig::atanf(ab_r / z) + ab_r * z * (inv_a2z + inv_b2z)) / TWO_PI;
