@@ -16,4 +16,6 @@ pub mod scan;
 
 pub use config::{ConfigError, FirmwareConfig};
 pub use control::{ControlLoop, Controller, Reading};
-pub use scan::{ArrayEstimate, CalibrationStatus, ScanReport, Scanner, CONTACT_THRESHOLD_G};
+pub use scan::{
+    ArrayEstimate, CalibrationStatus, ScanReport, Scanner, UnlocatedFrame, CONTACT_THRESHOLD_G,
+};

@@ -76,6 +76,35 @@ pub struct ScanReport {
     pub estimate: ArrayEstimate,
 }
 
+/// A completed frame whose contact is not located yet: the frame, its estimate without the
+/// locator's fields, and the locator's input. A board locates it outside the scan's interrupt
+/// (the fit outlasts a dwell); the answer depends on this alone, so where it runs cannot
+/// change it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UnlocatedFrame {
+    pub frame: TaxelFrame,
+    pub estimate: ArrayEstimate,
+    /// The good taxels' estimates, grams (a bad taxel NaN, left out by the locator).
+    pub good_g: [f32; TAXELS],
+}
+
+impl UnlocatedFrame {
+    /// The frame with its contact located by `locator` (the scanner's: [`Scanner::locator`]).
+    pub fn locate(&self, locator: &Locator) -> ScanReport {
+        let contact = locator.locate(&self.good_g);
+        ScanReport {
+            frame: self.frame,
+            estimate: ArrayEstimate {
+                total_force_g: contact.force_g,
+                contact_x_mm: contact.x_mm,
+                contact_y_mm: contact.y_mm,
+                contact: contact.kind,
+                ..self.estimate
+            },
+        }
+    }
+}
+
 /// The scan task's state.
 #[derive(Clone, Debug)]
 pub struct Scanner {
@@ -299,8 +328,26 @@ impl Scanner {
     }
 
     /// One scan step, after the dwell: converts the selected taxel, moves the multiplexer on,
-    /// and returns the frame when the last taxel of the array was sampled.
+    /// and returns the frame, its contact located, when the last taxel of the array was
+    /// sampled.
     pub fn step(&mut self, io: &mut impl ScanIo, board_tick: u32) -> Option<ScanReport> {
+        self.step_unlocated(io, board_tick)
+            .map(|frame| frame.locate(&self.locator))
+    }
+
+    /// The locator the frames are located with (its configuration is the scanner's, set at
+    /// each reset).
+    pub fn locator(&self) -> &Locator {
+        &self.locator
+    }
+
+    /// [`Self::step`] without the locator, for an interrupt that must stay within its dwell:
+    /// the completed frame is located later by [`UnlocatedFrame::locate`].
+    pub fn step_unlocated(
+        &mut self,
+        io: &mut impl ScanIo,
+        board_tick: u32,
+    ) -> Option<UnlocatedFrame> {
         let code = io.read_taxel();
         let step = self.sequencer.advance();
         io.select_taxel(step.next);
@@ -316,7 +363,7 @@ impl Scanner {
             cal.strain_pct(self.adc.volts(code), StrainForm::Exact)
         });
         self.take_strain(taxel, strain);
-        step.frame_complete.then(|| self.report(board_tick))
+        step.frame_complete.then(|| self.unlocated(board_tick))
     }
 
     /// A whole frame of strains (percent, a record's row) through each taxel's path as
@@ -340,7 +387,7 @@ impl Scanner {
                 self.force_g.set(taxel, f32::NAN);
             }
         }
-        self.report(board_tick)
+        self.unlocated(board_tick).locate(&self.locator)
     }
 
     /// One taxel's strain through its conditioner, loop compensator and estimator.
@@ -371,7 +418,7 @@ impl Scanner {
         }
     }
 
-    fn report(&self, board_tick: u32) -> ScanReport {
+    fn unlocated(&self, board_tick: u32) -> UnlocatedFrame {
         let mut frame = TaxelFrame {
             seq: 0,
             tick: board_tick,
@@ -408,21 +455,22 @@ impl Scanner {
         } else {
             (f32::NAN, f32::NAN)
         };
-        let contact = self.locator.locate(&good_g);
-        ScanReport {
+        UnlocatedFrame {
             frame,
+            // The locator's fields are [`UnlocatedFrame::locate`]'s.
             estimate: ArrayEstimate {
                 tick: board_tick,
-                total_force_g: contact.force_g,
+                total_force_g: total,
                 centroid_row,
                 centroid_col,
-                contact_x_mm: contact.x_mm,
-                contact_y_mm: contact.y_mm,
-                contact: contact.kind,
+                contact_x_mm: 0.0,
+                contact_y_mm: 0.0,
+                contact: ContactKind::Nothing,
                 probe_force_g: self.force_g.get(self.probe).unwrap_or(0.0),
                 probe_estimates_g: self.probe_estimates_g,
                 extrapolated_taxels: self.extrapolated_taxels,
             },
+            good_g,
         }
     }
 
