@@ -13,6 +13,7 @@
 pub mod config;
 pub mod control;
 pub mod scan;
+pub mod unlocated;
 
 pub use config::{ConfigError, FirmwareConfig};
 pub use control::{ControlLoop, Controller, Reading};

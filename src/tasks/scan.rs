@@ -19,6 +19,7 @@ use crate::tactile::{
 use crate::telemetry::TaxelFrame;
 
 use super::config::{ConfigError, FirmwareConfig};
+pub use super::unlocated::UnlocatedFrame;
 
 /// Array force below which the centroid is not defined (no contact), grams.
 pub const CONTACT_THRESHOLD_G: f32 = 0.5;
@@ -74,35 +75,6 @@ pub struct CalibrationStatus {
 pub struct ScanReport {
     pub frame: TaxelFrame,
     pub estimate: ArrayEstimate,
-}
-
-/// A completed frame whose contact is not located yet: the frame, its estimate without the
-/// locator's fields, and the locator's input. A board locates it outside the scan's interrupt
-/// (the fit outlasts a dwell); the answer depends on this alone, so where it runs cannot
-/// change it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct UnlocatedFrame {
-    pub frame: TaxelFrame,
-    pub estimate: ArrayEstimate,
-    /// The good taxels' estimates, grams (a bad taxel NaN, left out by the locator).
-    pub good_g: [f32; TAXELS],
-}
-
-impl UnlocatedFrame {
-    /// The frame with its contact located by `locator` (the scanner's: [`Scanner::locator`]).
-    pub fn locate(&self, locator: &Locator) -> ScanReport {
-        let contact = locator.locate(&self.good_g);
-        ScanReport {
-            frame: self.frame,
-            estimate: ArrayEstimate {
-                total_force_g: contact.force_g,
-                contact_x_mm: contact.x_mm,
-                contact_y_mm: contact.y_mm,
-                contact: contact.kind,
-                ..self.estimate
-            },
-        }
-    }
 }
 
 /// The scan task's state.
