@@ -633,7 +633,15 @@ impl Decoder {
     /// Drops the first `n` pending bytes.
     fn skip(&mut self, n: usize) {
         let n = n.min(self.len);
-        self.buf.copy_within(n..self.len, 0);
+        // Byte by byte rather than `copy_within`, whose bounds check pulls core's formatting
+        // of a slice index onto the firmware.
+        for i in 0..self.len - n {
+            if let Some(&b) = self.buf.get(i + n) {
+                if let Some(d) = self.buf.get_mut(i) {
+                    *d = b;
+                }
+            }
+        }
         self.len -= n;
     }
 }

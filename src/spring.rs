@@ -165,7 +165,7 @@ impl SpringCurve {
         let (s0, e0, t, a) = self.segment(e, true);
         // a d² + t d = r, in the form that does not cancel.
         let r = e - e0;
-        let root = libm::sqrtf((t * t + 4.0 * a * r).max(0.0));
+        let root = crate::trig::sqrtf((t * t + 4.0 * a * r).max(0.0));
         let d = 2.0 * r / (t + root);
         (s0 + d, 1.0 / (t + 2.0 * a * d))
     }

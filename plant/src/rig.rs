@@ -9,7 +9,7 @@
 //! them.
 
 use tactile_core::tactile::TAXELS;
-use tactile_core::tasks::{ConfigError, ControlLoop, Scanner};
+use tactile_core::tasks::{ArrayEstimate, ConfigError, ControlLoop, Scanner};
 use tactile_core::telemetry::FaultFlags;
 use tactile_core::CONTROL_PERIOD_S;
 
@@ -52,6 +52,8 @@ pub struct Rig {
     tick: u64,
     /// Scan steps per control tick (dwell 250 µs → 4).
     scan_steps_per_tick: usize,
+    /// The scan's estimate of its latest frame (what a board streams beside the frame).
+    last_estimate: ArrayEstimate,
 }
 
 impl Rig {
@@ -99,8 +101,14 @@ impl Rig {
             scanner,
             tick: 0,
             scan_steps_per_tick,
+            last_estimate: ArrayEstimate::default(),
             config,
         })
+    }
+
+    /// The array estimate of the latest completed frame (the default before the first).
+    pub fn last_array_estimate(&self) -> ArrayEstimate {
+        self.last_estimate
     }
 
     pub fn time_s(&self) -> f64 {
@@ -140,7 +148,8 @@ impl Rig {
         let mut faults = out.faults;
         if let Some(scanner) = &mut self.scanner {
             for _ in 0..self.scan_steps_per_tick {
-                if scanner.step(&mut self.hardware, self.tick as u32).is_some() {
+                if let Some(report) = scanner.step(&mut self.hardware, self.tick as u32) {
+                    self.last_estimate = report.estimate;
                     let mut grid = *scanner.strain_pct();
                     for (i, cell) in grid.iter_mut().flatten().enumerate() {
                         if scanner.bad_taxels() & (1 << i) != 0 {

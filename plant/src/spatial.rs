@@ -14,17 +14,38 @@ pub enum SpatialLaw {
     Kernel,
     /// Boussinesq's half-space: each taxel reads σ_zz under a point contact averaged over its
     /// plate at `depth_mm` (the core's [`SpatialResponse`], so the simulator and the chip share
-    /// one copy of the formula), relative to a contact over its centre. The pitch and plate are
-    /// the memo geometry's (4.0 mm, 3.57 mm squares); 4.0 mm deep reproduces the kernel at
-    /// taxel-centre presses within 0.015.
-    HalfSpace { depth_mm: f64 },
+    /// one copy of the formula), relative to a contact over its centre, on a square array of
+    /// `pitch_mm` (plates the memo's 3.57 mm squares); the memo geometry, 4.0 mm deep on a
+    /// 4.0 mm pitch, reproduces the kernel at taxel-centre presses within 0.015.
+    HalfSpace { depth_mm: f64, pitch_mm: f64 },
 }
 
 impl SpatialLaw {
     /// The half-space at the memo geometry's depth.
     pub const MEMO_HALF_SPACE: SpatialLaw = SpatialLaw::HalfSpace {
         depth_mm: SpatialResponse::MEMO.depth_mm as f64,
+        pitch_mm: SpatialResponse::MEMO.pitch_mm as f64,
     };
+
+    /// The half-space `depth_mm` deep on the memo geometry's pitch.
+    pub const fn half_space(depth_mm: f64) -> SpatialLaw {
+        SpatialLaw::HalfSpace {
+            depth_mm,
+            pitch_mm: SpatialResponse::MEMO.pitch_mm as f64,
+        }
+    }
+
+    /// The spatial response this law is (the kernel: the memo geometry, which reproduces it).
+    pub fn response(self) -> SpatialResponse {
+        match self {
+            SpatialLaw::Kernel => SpatialResponse::MEMO,
+            SpatialLaw::HalfSpace { depth_mm, pitch_mm } => SpatialResponse {
+                depth_mm: depth_mm as f32,
+                pitch_mm: pitch_mm as f32,
+                ..SpatialResponse::MEMO
+            },
+        }
+    }
 
     /// Every taxel's share of the load with the contact at (`x_mm`, `y_mm`) (the kernel: about
     /// `probe`'s centre).
@@ -36,11 +57,8 @@ impl SpatialLaw {
                     t.row() as i32 - probe.row() as i32,
                     t.col() as i32 - probe.col() as i32,
                 ),
-                SpatialLaw::HalfSpace { depth_mm } => {
-                    let r = SpatialResponse {
-                        depth_mm: depth_mm as f32,
-                        ..SpatialResponse::MEMO
-                    };
+                SpatialLaw::HalfSpace { .. } => {
+                    let r = self.response();
                     let (cx, cy) = r.centre_mm(t);
                     let w = r.share(cx - x_mm as f32, cy - y_mm as f32).weight;
                     // Below a millionth the share is nothing a taxel can read: left unloaded

@@ -151,7 +151,7 @@ fn a_point_anywhere_is_located_to_a_fraction_of_the_pitch() {
 #[test]
 fn another_layer_depth_is_located_within_a_millimetre() {
     for depth_mm in [3.0, 5.0] {
-        let e = single_points(SpatialLaw::HalfSpace { depth_mm }, 0.02, 13);
+        let e = single_points(SpatialLaw::half_space(depth_mm), 0.02, 13);
         assert!(e.fit_mm < 1.0, "{depth_mm} mm: {e:?}");
     }
 }

@@ -13,10 +13,12 @@ use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
 mod figures;
+mod frames;
 mod logger;
 mod write;
 
 pub use figures::FirmwareFigures;
+pub use frames::{parse_frames, read_frames, write_frames_with_truth, FramesRecord, Truth};
 pub use logger::{
     bridge_held, held_values, runs_of, Resampling, GAP_STEPS, JITTER_SHARE, MAX_HELD_RUN,
     MIN_HELD_RUN,

@@ -34,6 +34,8 @@ pub fn demo(out: &Path, seed: u64) -> Result<PathBuf, crate::Error> {
     report.push_str("\n# Force estimators (`tactile estimators`)\n\n");
     report.push_str("The calibrated columns use the table the firmware builds carry (`boards/calibration/table.bin`, what `tactile calibrate` writes for this finger).\n\n");
     report.push_str(&crate::estimator_comparison::render(&estimators??));
+    report.push_str("\n# Where the contact is: a press that moves\n\n");
+    report.push_str(&crate::array_calibration::moving_press_demo(out)?);
     report.push('\n');
     report.push_str(&details);
     report.push_str(&plots);

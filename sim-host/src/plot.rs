@@ -120,3 +120,95 @@ pub fn plot_run(
     root.present()?;
     Ok(())
 }
+
+/// One frame of the array for the heat map: each taxel's force estimate, where the probe was,
+/// where the chip located it and the centroid, mm from the centre of taxel r0c0.
+pub struct ArraySnapshot {
+    pub t_s: f64,
+    pub forces_g: [[f32; 8]; 8],
+    pub truth_mm: (f64, f64),
+    pub located_mm: Option<(f64, f64)>,
+    pub centroid_mm: Option<(f64, f64)>,
+}
+
+/// The array as heat maps at a few instants of a moving press (each taxel's estimate, the true
+/// contact a black ring, the located one a blue cross, the centroid a grey square), over the
+/// track's x and y against time: truth, located, centroid (`track`: t, then those six).
+pub fn plot_array_track(
+    path: &Path,
+    pitch_mm: f64,
+    snapshots: &[ArraySnapshot],
+    track: &[(f64, [f64; 6])],
+) -> Result<(), Box<dyn std::error::Error>> {
+    register_font_once();
+    let root = BitMapBackend::new(path, (1400, 1000)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (top, bottom) = root.split_vertically(420);
+    let peak = snapshots
+        .iter()
+        .flat_map(|s| s.forces_g.iter().flatten())
+        .fold(1e-3f32, |m, f| if f.is_finite() { m.max(*f) } else { m });
+    let cells = top.split_evenly((1, snapshots.len().max(1)));
+    let half = 0.5 * pitch_mm;
+    let edge = 7.0 * pitch_mm + half;
+    for (area, s) in cells.iter().zip(snapshots) {
+        let mut chart = ChartBuilder::on(area)
+            .caption(format!("t = {:.2} s", s.t_s), ("sans-serif", 18))
+            .margin(8)
+            .x_label_area_size(25)
+            .y_label_area_size(35)
+            .build_cartesian_2d(-half..edge, edge..-half)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("x (mm)")
+            .y_desc("y (mm)")
+            .label_style(("sans-serif", 12))
+            .draw()?;
+        for (r, row) in s.forces_g.iter().enumerate() {
+            for (c, f) in row.iter().enumerate() {
+                let v = if f.is_finite() {
+                    (f / peak).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let fade = (255.0 * (1.0 - v)) as u8;
+                let (x, y) = (c as f64 * pitch_mm, r as f64 * pitch_mm);
+                chart.draw_series(std::iter::once(Rectangle::new(
+                    [(x - half, y - half), (x + half, y + half)],
+                    RGBColor(255, fade, fade).filled(),
+                )))?;
+            }
+        }
+        chart.draw_series(std::iter::once(Circle::new(
+            s.truth_mm,
+            9,
+            BLACK.stroke_width(2),
+        )))?;
+        if let Some(p) = s.centroid_mm {
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(p.0 - 0.4, p.1 - 0.4), (p.0 + 0.4, p.1 + 0.4)],
+                RGBColor(110, 110, 110).filled(),
+            )))?;
+        }
+        if let Some(p) = s.located_mm {
+            chart.draw_series(std::iter::once(Cross::new(p, 7, BLUE.stroke_width(2))))?;
+        }
+    }
+    let lower = bottom.split_evenly((2, 1));
+    let series = |k: usize| -> Vec<(f64, f64)> { track.iter().map(|(t, v)| (*t, v[k])).collect() };
+    for (area, (axis, k)) in lower.iter().zip([("x", 0usize), ("y", 1)]) {
+        panel(
+            area,
+            &format!("the contact's {axis} over the press's track"),
+            &format!("{axis} (mm)"),
+            &[
+                ("true", BLACK, series(k)),
+                ("located (chip)", BLUE, series(k + 2)),
+                ("centroid", RGBColor(150, 150, 150), series(k + 4)),
+            ],
+        )?;
+    }
+    root.present()?;
+    Ok(())
+}

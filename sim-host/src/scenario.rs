@@ -160,6 +160,8 @@ pub struct Run {
     pub name: String,
     pub ticks: Vec<TickRecord>,
     pub frames: Vec<(f64, StrainGrid)>,
+    /// The scan's estimate of each frame (contact, force, centroid), as a board streams it.
+    pub estimates: Vec<tactile_core::tasks::ArrayEstimate>,
 }
 
 /// Runs `protocol` on a rig built from `config`; `progress` is told the fraction done.
@@ -184,12 +186,16 @@ pub fn run_protocol(
         name: name.to_string(),
         ticks: Vec::with_capacity(n),
         frames: Vec::new(),
+        estimates: Vec::new(),
     };
     for k in 0..n {
         let command = source.command_g(rig.time_s() as f32);
         rig.set_drive_excitation(source.chirp(rig.time_s() as f32));
         let frames = &mut run.frames;
         let rec = rig.tick(command, |t, grid| frames.push((t, *grid)));
+        if run.frames.len() > run.estimates.len() {
+            run.estimates.push(rig.last_array_estimate());
+        }
         run.ticks.push(rec);
         if k % 1000 == 0 {
             progress(k as f64 / n as f64);

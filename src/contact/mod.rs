@@ -8,6 +8,8 @@
 
 pub mod locate;
 pub mod response;
+pub mod table;
 
 pub use locate::{ContactEstimate, ContactKind, Locator, LocatorConfig};
 pub use response::SpatialResponse;
+pub use table::{SpatialTableError, SPATIAL_TABLE_BYTES};

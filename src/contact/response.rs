@@ -60,26 +60,50 @@ impl SpatialResponse {
     /// contact reads, relative to a contact over its centre (1 there); with its gradient with
     /// respect to the contact's x and y. Zero for a non-positive depth or plate.
     pub fn share(&self, dx_mm: f32, dy_mm: f32) -> Share {
+        self.shares()
+            .map_or(Share::default(), |s| s.at(dx_mm, dy_mm))
+    }
+
+    /// The share's evaluator with the centre's load worked out once (a fit evaluates the
+    /// share hundreds of times a frame); `None` for a non-positive depth or plate.
+    pub fn shares(&self) -> Option<Shares> {
         let (z, h) = (self.depth_mm, 0.5 * self.plate_mm);
         if !(z > 0.0 && h > 0.0) {
-            return Share::default();
+            return None;
         }
         let centre = plate_sum(0.0, 0.0, h, z);
-        if centre <= 0.0 {
-            return Share::default();
-        }
+        (centre > 0.0 && centre.is_finite()).then(|| Shares {
+            h,
+            z,
+            inv_centre: 1.0 / centre,
+        })
+    }
+}
+
+/// [`SpatialResponse::share`] for one geometry, its normalization computed once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shares {
+    h: f32,
+    z: f32,
+    inv_centre: f32,
+}
+
+impl Shares {
+    /// The share and its gradient (see [`SpatialResponse::share`]).
+    pub fn at(&self, dx_mm: f32, dy_mm: f32) -> Share {
+        let (h, z) = (self.h, self.z);
         // The contact at (u, v) from the plate's centre: the taxel's offset negated.
-        let (u, v) = (-dx_mm, -dy_mm);
-        let (value, du, dv) = (
-            plate_sum(u, v, h, z),
-            plate_du(u, v, h, z),
-            plate_du(v, u, h, z),
-        );
+        let [value, du, dv] = plate_with_gradient(-dx_mm, -dy_mm, h, z);
         Share {
-            weight: value / centre,
-            d_dx: du / centre,
-            d_dy: dv / centre,
+            weight: value * self.inv_centre,
+            d_dx: du * self.inv_centre,
+            d_dy: dv * self.inv_centre,
         }
+    }
+
+    /// The share alone, without its gradient (half the work).
+    pub fn weight(&self, dx_mm: f32, dy_mm: f32) -> f32 {
+        plate_sum(-dx_mm, -dy_mm, self.h, self.z) * self.inv_centre
     }
 }
 
@@ -95,29 +119,61 @@ pub struct Share {
 /// Fraction of a unit point force's σ_zz integrated over the rectangle [0, a] × [0, b] at depth
 /// `z` below it (Holl's corner formula; odd in `a` and in `b`, so rectangles anywhere superpose).
 fn corner(a: f32, b: f32, z: f32) -> f32 {
-    let r = libm::sqrtf(a * a + b * b + z * z);
-    let (a2z, b2z) = (a * a + z * z, b * b + z * z);
-    (libm::atanf(a * b / (z * r)) + a * b * z / r * (1.0 / a2z + 1.0 / b2z)) / TWO_PI
+    corner_terms(a, b, z).0
 }
 
-/// ∂[`corner`]/∂a: the point force's σ_zz integrated along the side of length `b` at `a`.
-fn corner_da(a: f32, b: f32, z: f32) -> f32 {
-    let c2 = a * a + z * z;
-    let r2 = c2 + b * b;
-    let r3 = r2 * libm::sqrtf(r2);
-    z * z * z * b * (2.0 * b * b + 3.0 * c2) / (TWO_PI * c2 * c2 * r3)
+/// [`corner`] with the reciprocals its gradient reuses: 1/r, 1/(a² + z²), 1/(b² + z²).
+fn corner_terms(a: f32, b: f32, z: f32) -> (f32, f32, f32, f32) {
+    let (a2z, b2z) = (a * a + z * z, b * b + z * z);
+    let inv_r = 1.0 / crate::trig::sqrtf(a2z + b * b);
+    let (inv_a2z, inv_b2z) = (1.0 / a2z, 1.0 / b2z);
+    let ab_r = a * b * inv_r;
+    let value = (crate::trig::atanf(ab_r / z) + ab_r * z * (inv_a2z + inv_b2z)) / TWO_PI;
+    (value, inv_r, inv_a2z, inv_b2z)
+}
+
+/// [`corner`] and its derivatives in `a` and in `b` (the point force's σ_zz integrated along
+/// the side of length `b` at `a`, and along the side of length `a` at `b`), sharing one root.
+// Not inlined: four copies in the locator's inner loop cost the F407's flash 1 KB.
+#[inline(never)]
+fn corner_with_gradient(a: f32, b: f32, z: f32) -> [f32; 3] {
+    let (value, inv_r, inv_a2z, inv_b2z) = corner_terms(a, b, z);
+    // z³ / (2π r³)
+    let k = z * z * z * inv_r * inv_r * inv_r / TWO_PI;
+    let (a2z, b2z) = (a * a + z * z, b * b + z * z);
+    let d_da = k * b * (2.0 * b * b + 3.0 * a2z) * inv_a2z * inv_a2z;
+    let d_db = k * a * (2.0 * a * a + 3.0 * b2z) * inv_b2z * inv_b2z;
+    [value, d_da, d_db]
+}
+
+/// The plate's four corners with the point at (u, v) from its centre: (a, b, sign).
+fn corners(u: f32, v: f32, h: f32) -> [(f32, f32, f32); 4] {
+    [
+        (h - u, h - v, 1.0),
+        (-h - u, h - v, -1.0),
+        (h - u, -h - v, -1.0),
+        (-h - u, -h - v, 1.0),
+    ]
 }
 
 /// The plate [−h, h]² integral with the point at (u, v) from its centre.
 fn plate_sum(u: f32, v: f32, h: f32, z: f32) -> f32 {
-    corner(h - u, h - v, z) - corner(-h - u, h - v, z) - corner(h - u, -h - v, z)
-        + corner(-h - u, -h - v, z)
+    corners(u, v, h)
+        .iter()
+        .map(|&(a, b, sign)| sign * corner(a, b, z))
+        .sum()
 }
 
-/// ∂[`plate_sum`]/∂u; with u and v swapped, ∂/∂v (the plate is square).
-fn plate_du(u: f32, v: f32, h: f32, z: f32) -> f32 {
-    -corner_da(h - u, h - v, z) + corner_da(-h - u, h - v, z) + corner_da(h - u, -h - v, z)
-        - corner_da(-h - u, -h - v, z)
+/// [`plate_sum`] with its derivatives in u and in v (a corner's a and b fall as u and v rise).
+fn plate_with_gradient(u: f32, v: f32, h: f32, z: f32) -> [f32; 3] {
+    let (mut value, mut du, mut dv) = (0.0f32, 0.0f32, 0.0f32);
+    for (a, b, sign) in corners(u, v, h) {
+        let [c, ca, cb] = corner_with_gradient(a, b, z);
+        value += sign * c;
+        du -= sign * ca;
+        dv -= sign * cb;
+    }
+    [value, du, dv]
 }
 
 #[cfg(test)]

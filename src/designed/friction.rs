@@ -74,7 +74,7 @@ impl FrictionAdapt {
     ) {
         let [c0, _, c2, _] = *c;
         let half_period_s = if c0 > 0.0 && c2 > 0.0 {
-            core::f32::consts::PI * libm::sqrtf(c2 / c0)
+            core::f32::consts::PI * crate::trig::sqrtf(c2 / c0)
         } else {
             0.0
         };

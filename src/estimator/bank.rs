@@ -194,7 +194,10 @@ impl ForceBank {
         let (head, rest) = f.split_at_mut(HINGE_TERMS.start);
         let (hinges, rest) = rest.split_at_mut(BANK_KNOTS);
         let (lowpasses, plays) = rest.split_at_mut(BANK_FILTERS);
-        head.copy_from_slice(&[1.0, u]);
+        // The constant and the input (no `copy_from_slice`: its length check is a panic path).
+        if let [one, input] = head {
+            (*one, *input) = (1.0, u);
+        }
         for (h, k) in hinges.iter_mut().zip(&self.model.knots) {
             *h = (u - k).max(0.0);
         }

@@ -1,6 +1,7 @@
 //! What the task bodies run with: one configuration for a board, QEMU's simulated board and
 //! the simulator's rig.
 
+use crate::contact::LocatorConfig;
 use crate::control::{ActuatorConfig, ForceLawConfig};
 use crate::designed::DesignedConfig;
 use crate::estimator::EstimatorKind;
@@ -36,6 +37,13 @@ pub struct FirmwareConfig {
     /// calibration). The probed taxel also runs all four side by side, for the comparison
     /// stream.
     pub array_estimator: Option<EstimatorKind>,
+    /// Where a contact is, from each frame's per-taxel estimates: the spatial response and the
+    /// locator's thresholds.
+    pub locator: LocatorConfig,
+    /// The array's spatial calibration (`tactile calibrate --array`), checked at start-up: its
+    /// response replaces `locator`'s; empty, `locator`'s stands; refused, it stands and the
+    /// scanner says why.
+    pub array_table: &'static [u8],
 }
 
 impl FirmwareConfig {
@@ -56,6 +64,8 @@ impl FirmwareConfig {
         supervisor: SupervisorConfig::DESIGN,
         calibration: &[],
         array_estimator: None,
+        locator: LocatorConfig::MEMO,
+        array_table: &[],
     };
 }
 

@@ -13,7 +13,10 @@
 pub mod config;
 pub mod control;
 pub mod scan;
+pub mod unlocated;
 
 pub use config::{ConfigError, FirmwareConfig};
 pub use control::{ControlLoop, Controller, Reading};
-pub use scan::{ArrayEstimate, CalibrationStatus, ScanReport, Scanner, CONTACT_THRESHOLD_G};
+pub use scan::{
+    ArrayEstimate, CalibrationStatus, ScanReport, Scanner, UnlocatedFrame, CONTACT_THRESHOLD_G,
+};

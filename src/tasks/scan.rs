@@ -1,11 +1,13 @@
 //! The tactile scan: one multiplexer step per dwell, strain per taxel through its calibration,
-//! the inverse model per taxel at the frame rate, and the array's total force and centroid.
+//! the inverse model per taxel at the frame rate, and once a frame where the contact is and how
+//! hard it presses (the locator on the per-taxel estimates), beside the array's centroid.
 //!
 //! Frame rate: the envelope detector's τ is 25 µs and each taxel dwells 10 τ = 250 µs, leaving
 //! e⁻¹⁰ = 4.5·10⁻⁵ of the previous taxel (below one 12-bit code); 64 taxels × 250 µs = 16 ms a
 //! frame, 62.5 frames/s (`ScanConfig::DESIGN`).
 
 use crate::calibration::{TableError, TableView, MAX_LOOP_TAXELS};
+use crate::contact::{ContactKind, Locator, LocatorConfig, SpatialResponse, SpatialTableError};
 use crate::estimator::{CalibrationFlags, TaxelModel};
 use crate::estimator::{EstimatorKind, StrainConditioner, TaxelEstimator, TaxelEstimators};
 use crate::gauge::AdcScale;
@@ -17,6 +19,7 @@ use crate::tactile::{
 use crate::telemetry::TaxelFrame;
 
 use super::config::{ConfigError, FirmwareConfig};
+pub use super::unlocated::UnlocatedFrame;
 
 /// Array force below which the centroid is not defined (no contact), grams.
 pub const CONTACT_THRESHOLD_G: f32 = 0.5;
@@ -27,11 +30,20 @@ pub const CONTACT_THRESHOLD_G: f32 = 0.5;
 pub struct ArrayEstimate {
     /// Board tick of the frame it belongs to (same as its `TaxelFrame`).
     pub tick: u32,
-    /// Sum of the per-taxel inverse-model forces over the good taxels, grams.
+    /// The contact's force: the point the locator fits to the good taxels' estimates (a press
+    /// loads its neighbours too, so their sum reads well above it); their sum when the frame
+    /// holds nothing, grams.
     pub total_force_g: f32,
-    /// Force-weighted row and column (0..7); NaN below [`CONTACT_THRESHOLD_G`].
+    /// Force-weighted row and column of the good taxels (0..7); NaN when their sum is below
+    /// [`CONTACT_THRESHOLD_G`].
     pub centroid_row: f32,
     pub centroid_col: f32,
+    /// Where the contact is, mm: x along the columns, y along the rows, from the centre of
+    /// taxel r0c0 (0 when the frame holds nothing).
+    pub contact_x_mm: f32,
+    pub contact_y_mm: f32,
+    /// Whether the frame is one point contact, two, a load no point explains, or nothing.
+    pub contact: ContactKind,
     /// The probed element's force from the scan (frame rate), grams.
     pub probe_force_g: f32,
     /// The probed element's force by every estimator, side by side (elastic, second-order
@@ -53,6 +65,9 @@ pub struct CalibrationStatus {
     pub flagged_taxels: u64,
     /// Why the table was refused, if it was.
     pub refused: Option<TableError>,
+    /// Why the array's spatial table was refused, if one was given and was (the locator then
+    /// runs the configuration's response).
+    pub array_refused: Option<SpatialTableError>,
 }
 
 /// A completed frame.
@@ -85,6 +100,7 @@ pub struct Scanner {
     /// The load each taxel's calibration covered, grams (infinite without a calibration).
     range_g: [f32; TAXELS],
     extrapolated_taxels: u64,
+    locator: Locator,
 }
 
 impl Scanner {
@@ -120,10 +136,30 @@ impl Scanner {
                 calibrated_taxels: 0,
                 flagged_taxels: 0,
                 refused: None,
+                array_refused: None,
             },
             bad_taxels: 0,
             range_g: [f32::INFINITY; TAXELS],
             extrapolated_taxels: 0,
+            locator: Locator::new(config.locator),
+        }
+    }
+
+    /// The locator's configuration: the array table's response over `config.locator`'s when
+    /// the table is given and passes its check; with why it was refused if it was not.
+    fn locator_of(config: &FirmwareConfig) -> (LocatorConfig, Option<SpatialTableError>) {
+        if config.array_table.is_empty() {
+            return (config.locator, None);
+        }
+        match SpatialResponse::decode(config.array_table) {
+            Ok(response) => (
+                LocatorConfig {
+                    response,
+                    ..config.locator
+                },
+                None,
+            ),
+            Err(e) => (config.locator, Some(e)),
         }
     }
 
@@ -170,6 +206,7 @@ impl Scanner {
                     // Filled in below, as each record is read.
                     flagged_taxels: 0,
                     refused: None,
+                    array_refused: None,
                 },
             ),
             Err(e) => (
@@ -178,6 +215,7 @@ impl Scanner {
                     calibrated_taxels: 0,
                     flagged_taxels: 0,
                     refused: Some(e),
+                    array_refused: None,
                 },
             ),
         };
@@ -235,6 +273,9 @@ impl Scanner {
         self.status = status;
         self.bad_taxels = 0;
         self.extrapolated_taxels = 0;
+        let (locator, array_refused) = Self::locator_of(config);
+        self.locator = Locator::new(locator);
+        self.status.array_refused = array_refused;
         Ok(())
     }
 
@@ -259,8 +300,26 @@ impl Scanner {
     }
 
     /// One scan step, after the dwell: converts the selected taxel, moves the multiplexer on,
-    /// and returns the frame when the last taxel of the array was sampled.
+    /// and returns the frame, its contact located, when the last taxel of the array was
+    /// sampled.
     pub fn step(&mut self, io: &mut impl ScanIo, board_tick: u32) -> Option<ScanReport> {
+        self.step_unlocated(io, board_tick)
+            .map(|frame| frame.locate(&self.locator))
+    }
+
+    /// The locator the frames are located with (its configuration is the scanner's, set at
+    /// each reset).
+    pub fn locator(&self) -> &Locator {
+        &self.locator
+    }
+
+    /// [`Self::step`] without the locator, for an interrupt that must stay within its dwell:
+    /// the completed frame is located later by [`UnlocatedFrame::locate`].
+    pub fn step_unlocated(
+        &mut self,
+        io: &mut impl ScanIo,
+        board_tick: u32,
+    ) -> Option<UnlocatedFrame> {
         let code = io.read_taxel();
         let step = self.sequencer.advance();
         io.select_taxel(step.next);
@@ -275,6 +334,37 @@ impl Scanner {
         let strain = self.calibration.get(taxel.index()).map_or(f32::NAN, |cal| {
             cal.strain_pct(self.adc.volts(code), StrainForm::Exact)
         });
+        self.take_strain(taxel, strain);
+        step.frame_complete.then(|| self.unlocated(board_tick))
+    }
+
+    /// A whole frame of strains (percent, a record's row) through each taxel's path as
+    /// [`Self::step`] takes a converted code: the chip's code over a record. A non-finite
+    /// strain marks its taxel bad, as a converter rail does.
+    pub fn step_strains(
+        &mut self,
+        strain_pct: &[[f32; COLS]; ROWS],
+        board_tick: u32,
+    ) -> ScanReport {
+        for (i, &strain) in strain_pct.iter().flatten().enumerate() {
+            let taxel = TaxelId::from_index(i);
+            let bit = 1u64 << i;
+            if strain.is_finite() {
+                self.bad_taxels &= !bit;
+                self.take_strain(taxel, strain);
+            } else {
+                // Left out, its estimator's state kept for when it reads again.
+                self.bad_taxels |= bit;
+                self.strain_pct.set(taxel, f32::NAN);
+                self.force_g.set(taxel, f32::NAN);
+            }
+        }
+        self.unlocated(board_tick).locate(&self.locator)
+    }
+
+    /// One taxel's strain through its conditioner, loop compensator and estimator.
+    fn take_strain(&mut self, taxel: TaxelId, strain: f32) {
+        let bit = 1u64 << taxel.index();
         self.strain_pct.set(taxel, strain);
         let conditioned = self
             .conditioners
@@ -298,10 +388,9 @@ impl Scanner {
                 self.probe_estimates_g = bench.update(strain);
             }
         }
-        step.frame_complete.then(|| self.report(board_tick))
     }
 
-    fn report(&self, board_tick: u32) -> ScanReport {
+    fn unlocated(&self, board_tick: u32) -> UnlocatedFrame {
         let mut frame = TaxelFrame {
             seq: 0,
             tick: board_tick,
@@ -309,6 +398,8 @@ impl Scanner {
             ..Default::default()
         };
         let (mut total, mut row_moment, mut col_moment) = (0.0f32, 0.0f32, 0.0f32);
+        // The locator's input: the good taxels' estimates, a bad one left out (NaN).
+        let mut good_g = [f32::NAN; TAXELS];
         for (r, (cells, (strains, forces))) in frame
             .strain_centi_pct
             .iter_mut()
@@ -322,6 +413,9 @@ impl Scanner {
             {
                 *cell = TaxelFrame::quantize(strain);
                 if self.bad_taxels & (1u64 << (r * COLS + c)) == 0 && force.is_finite() {
+                    if let Some(g) = good_g.get_mut(r * COLS + c) {
+                        *g = force;
+                    }
                     total += force;
                     row_moment += force * r as f32;
                     col_moment += force * c as f32;
@@ -333,17 +427,22 @@ impl Scanner {
         } else {
             (f32::NAN, f32::NAN)
         };
-        ScanReport {
+        UnlocatedFrame {
             frame,
+            // The locator's fields are [`UnlocatedFrame::locate`]'s.
             estimate: ArrayEstimate {
                 tick: board_tick,
                 total_force_g: total,
                 centroid_row,
                 centroid_col,
+                contact_x_mm: 0.0,
+                contact_y_mm: 0.0,
+                contact: ContactKind::Nothing,
                 probe_force_g: self.force_g.get(self.probe).unwrap_or(0.0),
                 probe_estimates_g: self.probe_estimates_g,
                 extrapolated_taxels: self.extrapolated_taxels,
             },
+            good_g,
         }
     }
 
@@ -351,6 +450,11 @@ impl Scanner {
     /// `TaxelId::index`.
     pub fn bad_taxels(&self) -> u64 {
         self.bad_taxels
+    }
+
+    /// The latest force estimate of every taxel, grams.
+    pub fn forces_g(&self) -> &[[f32; COLS]; ROWS] {
+        &self.force_g.cells
     }
 
     /// The latest strain of every taxel, percent.
@@ -448,6 +552,102 @@ mod tests {
         assert!(r.estimate.centroid_row.is_nan() && r.estimate.total_force_g.abs() < 0.5);
     }
 
+    /// A press between taxels loads its neighbours too (their estimates sum to about 2.7 times
+    /// the press by the memo geometry's spread): the frame's force is the contact's, and its
+    /// location the press's. Every taxel on the elastic model (G = 3.23 g/%), so a strain of
+    /// F·share/G is a force of F·share by hand.
+    #[test]
+    fn a_press_spread_over_neighbours_reads_its_own_force_where_it_is() {
+        let config = FirmwareConfig {
+            calibration: &[],
+            array_estimator: Some(EstimatorKind::Elastic),
+            ..BOARD
+        };
+        let mut scanner = Scanner::new(&config, calibration(4.0)).unwrap();
+        let g = TaxelModel::nominal(config.probe).elastic_g_per_pct as f32;
+        let r = config.locator.response;
+        let (x, y, force) = (10.6f32, 13.1f32, 40.0f32);
+        let mut strain = [[0.0f32; COLS]; ROWS];
+        let mut sum_g = 0.0;
+        for (i, s) in strain.iter_mut().flatten().enumerate() {
+            let (cx, cy) = r.centre_mm(TaxelId::from_index(i));
+            let share = r.share(cx - x, cy - y).weight;
+            *s = force * share / g;
+            sum_g += force * share;
+        }
+        assert!(sum_g > 2.0 * force, "{sum_g}");
+        let mut last = None;
+        for k in 0..50 {
+            last = Some(scanner.step_strains(&strain, k).estimate);
+        }
+        let e = last.unwrap();
+        assert_eq!(e.contact, ContactKind::Point, "{e:?}");
+        assert!((e.total_force_g - force).abs() < 0.01 * force, "{e:?}");
+        assert!(
+            (e.contact_x_mm - x).abs() < 0.02 && (e.contact_y_mm - y).abs() < 0.02,
+            "{e:?}"
+        );
+        // A taxel gone bad (NaN) beside the press is left out, the contact still found.
+        strain[3][2] = f32::NAN;
+        let e = scanner.step_strains(&strain, 50).estimate;
+        assert_eq!(e.contact, ContactKind::Point, "{e:?}");
+        assert_eq!(scanner.bad_taxels(), 1 << (3 * COLS + 2));
+        assert!((e.contact_x_mm - x).abs() < 0.05, "{e:?}");
+    }
+
+    /// The array's table is checked at start-up: a good one's geometry locates the press, a
+    /// damaged one is refused with the reason and the configuration's response stands.
+    #[test]
+    fn the_array_table_is_read_and_checked_at_start_up() {
+        let wide = SpatialResponse {
+            pitch_mm: 5.0,
+            depth_mm: 3.0,
+            ..SpatialResponse::MEMO
+        };
+        let good: &'static [u8] = Box::leak(Box::new(wide.encode()));
+        let mut bad = wide.encode();
+        bad[20] ^= 4;
+        let bad: &'static [u8] = Box::leak(Box::new(bad));
+        let base = FirmwareConfig {
+            calibration: &[],
+            array_estimator: Some(EstimatorKind::Elastic),
+            ..BOARD
+        };
+        let g = TaxelModel::nominal(base.probe).elastic_g_per_pct as f32;
+        // A 30 g press at (13, 17) mm on the 5 mm finger, every taxel elastic.
+        let mut strain = [[0.0f32; COLS]; ROWS];
+        for (i, s) in strain.iter_mut().flatten().enumerate() {
+            let (cx, cy) = wide.centre_mm(TaxelId::from_index(i));
+            *s = 30.0 * wide.share(cx - 13.0, cy - 17.0).weight / g;
+        }
+        let run = |array_table: &'static [u8]| {
+            let config = FirmwareConfig {
+                array_table,
+                ..base
+            };
+            let mut scanner = Scanner::new(&config, calibration(4.0)).unwrap();
+            let e = (0..30)
+                .map(|k| scanner.step_strains(&strain, k).estimate)
+                .last()
+                .unwrap();
+            (scanner.calibration_status().array_refused, e)
+        };
+        let (refused, e) = run(good);
+        assert_eq!(refused, None);
+        assert!(
+            (e.contact_x_mm - 13.0).abs() < 0.02 && (e.contact_y_mm - 17.0).abs() < 0.02,
+            "{e:?}"
+        );
+        assert!((e.total_force_g - 30.0).abs() < 0.3, "{e:?}");
+        let (refused, e) = run(bad);
+        assert!(
+            matches!(refused, Some(SpatialTableError::Checksum { .. })),
+            "{refused:?}"
+        );
+        // The memo geometry's 4 mm pitch puts the press elsewhere.
+        assert!((e.contact_x_mm - 13.0).abs() > 1.0, "{e:?}");
+    }
+
     #[test]
     fn the_build_carries_a_table_of_four_calibrated_taxels_and_a_damaged_one_is_refused() {
         let rest = [TaxelCalibration {
@@ -461,7 +661,8 @@ mod tests {
             CalibrationStatus {
                 calibrated_taxels: 4,
                 flagged_taxels: 0,
-                refused: None
+                refused: None,
+                array_refused: None,
             }
         );
         let mut damaged = CALIBRATION_TABLE.to_vec();

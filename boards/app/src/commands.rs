@@ -139,7 +139,7 @@ impl<const CAL: usize> CommandPort<CAL> {
     pub fn copy_calibration_table(&self, buf: &mut [u8]) -> usize {
         let table = self.calibration_table().unwrap_or(&[]);
         buf.get_mut(..table.len())
-            .map(|dst| dst.copy_from_slice(table))
+            .map(|dst| copy(dst, table))
             .map_or(0, |()| table.len())
     }
 
@@ -205,7 +205,7 @@ impl<const CAL: usize> CommandPort<CAL> {
                     }
                 };
                 match buffer.get_mut(at..at + bytes.len()) {
-                    Some(dst) => dst.copy_from_slice(bytes),
+                    Some(dst) => copy(dst, bytes),
                     None => return (Err(room(table)), Action::None),
                 }
                 Action::None
@@ -310,6 +310,14 @@ fn room(table: TableKind) -> Refusal {
         TableKind::Controller => Refusal::OutOfRange {
             param: Param::Offset,
         },
+    }
+}
+
+/// `dst` from `src`, byte for byte over the shorter: `copy_from_slice`'s length check would
+/// pull core's formatting of its panic onto the firmware (the callers' lengths already match).
+fn copy(dst: &mut [u8], src: &[u8]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d = *s;
     }
 }
 

@@ -44,6 +44,7 @@ pub use table::{BOARD, CALIBRATION_TABLE, CONTROLLER_TABLE};
 pub use tactile_core::io::{ControlIo, ScanIo};
 pub use tactile_core::tasks::{
     ArrayEstimate, CalibrationStatus, ConfigError, Controller, FirmwareConfig, ScanReport, Scanner,
+    UnlocatedFrame,
 };
 pub use tactile_core::CONTROL_PERIOD_S;
 pub use telemetry::{drain, Message, Numbered, Outbox, RunEnd, RunStart};

@@ -5,8 +5,9 @@
 //!
 //! | task | priority | trigger | does |
 //! | --- | --- | --- | --- |
-//! | `control` | 3 | SysTick, 1 kHz (hardware reload: drift-free) | gauge → A1 → filter → DAC; then the simulated plant's next millisecond |
-//! | `scan` | 2 | spawned by `control` each tick | four multiplexer steps (4 × 250 µs dwell per ms) |
+//! | `control` | 4 | SysTick, 1 kHz (hardware reload: drift-free) | gauge → A1 → filter → DAC; then the simulated plant's next millisecond |
+//! | `scan` | 3 | spawned by `control` each tick | four multiplexer steps (4 × 250 µs dwell per ms) |
+//! | `locate` | 2 | spawned by `scan` once a frame | the contact's fit on the frame's estimates, the frame to the telemetry queue |
 //! | `telemetry` | 1 | spawned by `control` each tick | drains the bounded queues to defmt (semihosting) |
 //! | `idle` | 0 | — | WFI |
 //!
@@ -56,17 +57,18 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
 }
 
 #[cfg(target_os = "none")]
-#[rtic::app(device = stm32f4::stm32f405, dispatchers = [USART1, USART2])]
+#[rtic::app(device = stm32f4::stm32f405, dispatchers = [USART1, USART2, USART3])]
 mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::{SCB, SYST};
-    use heapless::spsc::{Consumer, Queue};
+    use heapless::spsc::{Consumer, Producer, Queue};
+    use tactile_core::contact::Locator;
     use tactile_core::estimator::EstimatorKind;
     use tactile_core::io::ControlIo;
     use tactile_firmware::{
-        Action, Controller, FilRun, Message, Outbox, RunEnd, RunStart, Scanner,
+        Action, Controller, FilRun, Message, Outbox, RunEnd, RunStart, Scanner, UnlocatedFrame,
     };
     use tactile_plant::hardware::SimHardware;
     use tactile_plant::rig::InjectedFault;
@@ -85,6 +87,8 @@ mod app {
     /// Largest command script, bytes.
     const SCRIPT_BYTES: usize = 4096;
     const TAXEL_QUEUE: usize = 5;
+    /// Frames between the scan and the locate task: one being located, one more arriving.
+    const UNLOCATED_QUEUE: usize = 3;
 
     type ControlMsg = Message<SimTruth>;
     type TaxelMsg = (
@@ -94,8 +98,11 @@ mod app {
 
     /// Set by `control` when the last run has ended; `telemetry` exits QEMU once drained.
     static SESSION_DONE: AtomicBool = AtomicBool::new(false);
-    /// Taxel frames dropped (the scan task's outbox count, for the run summaries).
+    /// Taxel frames dropped (the locate task's outbox count, for the run summaries).
     static TAXEL_DROPS: AtomicU32 = AtomicU32::new(0);
+    /// Frames the scan could not hand the locate task (its queue full): lost before the
+    /// telemetry queue, so no gap in its numbering shows them.
+    static UNLOCATED_DROPS: AtomicU32 = AtomicU32::new(0);
 
     #[shared]
     struct Shared {
@@ -111,6 +118,11 @@ mod app {
     struct Local {
         controller: Controller,
         scanner: &'static mut Scanner,
+        unlocated_tx: Producer<'static, UnlocatedFrame>,
+        unlocated_rx: Consumer<'static, UnlocatedFrame>,
+        /// The scanner's locator: the scan configuration is the same in every run, so a
+        /// rebuild at a run's start keeps this copy right.
+        locator: Locator,
         syst: SYST,
         control_out: Outbox<'static, ControlMsg>,
         taxel_out: Outbox<'static, TaxelMsg>,
@@ -125,6 +137,7 @@ mod app {
     #[init(local = [
         control_queue: Queue<ControlMsg, CONTROL_QUEUE> = Queue::new(),
         taxel_queue: Queue<TaxelMsg, TAXEL_QUEUE> = Queue::new(),
+        unlocated_queue: Queue<UnlocatedFrame, UNLOCATED_QUEUE> = Queue::new(),
         hw_slot: MaybeUninit<SimHardware> = MaybeUninit::uninit(),
         scanner_slot: MaybeUninit<Scanner> = MaybeUninit::uninit(),
         script_buf: [u8; SCRIPT_BYTES] = [0; SCRIPT_BYTES],
@@ -147,6 +160,8 @@ mod app {
         let port = session::Port::new(max_force_g, tactile_firmware::HOLD_S);
         let (control_tx, control_rx) = cx.local.control_queue.split();
         let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
+        let (unlocated_tx, unlocated_rx) = cx.local.unlocated_queue.split();
+        let locator = *scanner.locator();
         let mut syst = cx.core.SYST;
         // No clock-ready bits to wait for: QEMU's model has no RCC, and the core clock is
         // the model's fixed 168 MHz.
@@ -164,6 +179,9 @@ mod app {
             Local {
                 controller,
                 scanner,
+                unlocated_tx,
+                unlocated_rx,
+                locator,
                 control_out: Outbox::new(control_tx),
                 taxel_out: Outbox::new(taxel_tx),
                 control_rx,
@@ -185,7 +203,7 @@ mod app {
 
     /// The 1 kHz control tick; then the simulated plant's next millisecond (the board's
     /// "physics", which a real board gets for free).
-    #[task(binds = SysTick, priority = 3, shared = [hw, cost, port],
+    #[task(binds = SysTick, priority = 4, shared = [hw, cost, port],
            local = [controller, control_out, syst, crash, script, board_tick: u32 = 0,
                     run: usize = 0, started: bool = false, pending_reset: bool = false,
                     done: bool = false, commanded: Option<FilRun> = None, active: bool = false])]
@@ -389,7 +407,8 @@ mod app {
         RunEnd {
             end_tick: 0,
             control_frames_dropped,
-            taxel_frames_dropped: TAXEL_DROPS.load(Ordering::Relaxed),
+            taxel_frames_dropped: TAXEL_DROPS.load(Ordering::Relaxed)
+                + UNLOCATED_DROPS.load(Ordering::Relaxed),
             overruns: controller.overruns(),
         }
     }
@@ -403,7 +422,7 @@ mod app {
         }
     }
 
-    #[task(priority = 2, shared = [hw, cost, port], local = [scanner, taxel_out,
+    #[task(priority = 3, shared = [hw, cost, port], local = [scanner, unlocated_tx,
            started: bool = false, bench: Option<tactile_core::estimator::TaxelEstimators> = None,
            loaded: [u8; session::LOADED_TABLE_BYTES] = [0; session::LOADED_TABLE_BYTES]])]
     async fn scan(mut cx: scan::Context, tick: u32) {
@@ -440,7 +459,7 @@ mod app {
                 let code = hw.sample_selected_taxel();
                 let mut converter = session::Converted { hw, code };
                 let t0 = SYST::get_current();
-                let report = scanner.step(&mut converter, tick);
+                let report = scanner.step_unlocated(&mut converter, tick);
                 let t1 = SYST::get_current();
                 (report, elapsed(t0, t1))
             });
@@ -469,10 +488,34 @@ mod app {
                     }
                 }
             });
-            if let Some(r) = report {
-                if !local.taxel_out.send((r.frame, r.estimate)) {
-                    TAXEL_DROPS.store(local.taxel_out.dropped(), Ordering::Relaxed);
+            // The contact's fit outlasts a dwell: the locate task runs it below this
+            // priority. A refused spawn (the task still draining) loses nothing: it finds the
+            // frame queued.
+            if let Some(frame) = report {
+                if local.unlocated_tx.enqueue(frame).is_err() {
+                    UNLOCATED_DROPS.fetch_add(1, Ordering::Relaxed);
                 }
+                let _ = locate::spawn();
+            }
+        }
+    }
+
+    /// The completed frames' contacts, located in turn (each fit timed), then each frame to
+    /// the telemetry queue (numbered there, in the scan's order).
+    #[task(priority = 2, shared = [cost], local = [unlocated_rx, locator, taxel_out])]
+    async fn locate(mut cx: locate::Context) {
+        let local = cx.local;
+        while let Some(frame) = local.unlocated_rx.dequeue() {
+            let t0 = SYST::get_current();
+            let r = frame.locate(local.locator);
+            let t1 = SYST::get_current();
+            // Preempted by the tick, the span would count the tick's work: timed only when
+            // SysTick did not reload in between (its counter runs down).
+            if t1 <= t0 {
+                cx.shared.cost.lock(|c| c.locate.observe(t0 - t1));
+            }
+            if !local.taxel_out.send((r.frame, r.estimate)) {
+                TAXEL_DROPS.store(local.taxel_out.dropped(), Ordering::Relaxed);
             }
         }
     }

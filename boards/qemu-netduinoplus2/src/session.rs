@@ -342,6 +342,8 @@ pub struct Cost {
     pub scan_step: Span,
     /// The scan step that completes a frame (adds the array sums and the frame).
     pub scan_frame_step: Span,
+    /// The contact's fit on a completed frame (the locate task), when no tick preempted it.
+    pub locate: Span,
     /// One taxel update of each estimator (elastic, second-order inverse, scheduled inverse,
     /// observer, force bank), timed one at a time on the probed taxel's strain.
     pub estimator_update: [Span; EstimatorKind::COUNT],
@@ -360,6 +362,7 @@ pub struct InstructionCounts {
     pub control_tick: InstructionSpan,
     pub scan_step: InstructionSpan,
     pub scan_frame_step: InstructionSpan,
+    pub locate_frame: InstructionSpan,
     /// Per taxel update: elastic, second-order inverse, scheduled inverse, observer, force bank.
     pub estimator_update: [InstructionSpan; EstimatorKind::COUNT],
     pub simulated_plant_ms: InstructionSpan,
@@ -371,6 +374,7 @@ impl Cost {
             control_tick: self.control.instructions(),
             scan_step: self.scan_step.instructions(),
             scan_frame_step: self.scan_frame_step.instructions(),
+            locate_frame: self.locate.instructions(),
             estimator_update: self.estimator_update.map(|s| s.instructions()),
             simulated_plant_ms: self.physics.instructions(),
         }

@@ -4,8 +4,9 @@
 //!
 //! | task | priority | trigger | does |
 //! | --- | --- | --- | --- |
-//! | `control` | 3 | SysTick, 1 kHz (hardware reload: drift-free) | 8 gauge samples → A1 → filter → DAC; probe channel → inverse model |
-//! | `scan` | 2 | TIM2 update, 4 kHz (250 µs dwell) | sample the selected taxel, move the multiplexer on |
+//! | `control` | 4 | SysTick, 1 kHz (hardware reload: drift-free) | 8 gauge samples → A1 → filter → DAC; probe channel → inverse model |
+//! | `scan` | 3 | TIM2 update, 4 kHz (250 µs dwell) | sample the selected taxel, move the multiplexer on |
+//! | `locate` | 2 | spawned by `scan` once a frame (62.5 Hz) | the contact's fit on the frame's estimates, the frame to the telemetry queue |
 //! | `telemetry` | 1 | spawned by `control` | drains the bounded queues to defmt over RTT |
 //!
 //! Commands come down RTT down-channel 0 (`commands`); `control` takes the bytes
@@ -89,14 +90,28 @@ const DOWN_BYTES_PER_TICK: usize = 64;
 type Port = tactile_firmware::CommandPort<{ tactile_firmware::LOADED_TABLE_BYTES }>;
 
 /// CCM RAM, 64 KiB the CPU alone reaches (no DMA: nothing here is a DMA buffer) and that
-/// nothing else uses: the command port (its two table buffers, about 7 KB) and the copy of a
-/// loaded calibration table the scan task rebuilds its estimators from. Static RAM (the
-/// 32 KiB) is spoken for.
+/// nothing else uses: the command port (its two table buffers, about 7 KB), the copy of a
+/// loaded calibration table the scan task rebuilds its estimators from, and the frames the
+/// scan hands the locate task with the locator's configuration. Static RAM (the 32 KiB) is
+/// spoken for.
 #[cfg(target_os = "none")]
 mod ccm {
     use core::mem::MaybeUninit;
     use core::sync::atomic::{AtomicBool, Ordering};
-    use tactile_firmware::LOADED_TABLE_BYTES;
+    use heapless::spsc::Queue;
+    use tactile_core::contact::Locator;
+    use tactile_firmware::{UnlocatedFrame, LOADED_TABLE_BYTES};
+
+    /// Frames between the scan and the locate task: one being located, one more arriving.
+    pub const UNLOCATED_QUEUE: usize = 3;
+    pub type Unlocated = Queue<UnlocatedFrame, UNLOCATED_QUEUE>;
+
+    /// The locate task's share: the hand-off queue, and the slot for the scanner's locator
+    /// (known once the scanner is built).
+    pub struct Locating {
+        pub queue: &'static mut Unlocated,
+        pub locator: &'static mut MaybeUninit<Locator>,
+    }
 
     // NOTE: `.ccmram` is NOLOAD (memory.x): never zeroed at reset, so the slots are
     // `MaybeUninit` and written before they are read.
@@ -104,23 +119,33 @@ mod ccm {
     static mut PORT: MaybeUninit<super::Port> = MaybeUninit::uninit();
     #[link_section = ".ccmram.table"]
     static mut TABLE: MaybeUninit<[u8; LOADED_TABLE_BYTES]> = MaybeUninit::uninit();
+    #[link_section = ".ccmram.unlocated"]
+    static mut UNLOCATED: MaybeUninit<Unlocated> = MaybeUninit::uninit();
+    #[link_section = ".ccmram.locator"]
+    static mut LOCATOR: MaybeUninit<Locator> = MaybeUninit::uninit();
     static TAKEN: AtomicBool = AtomicBool::new(false);
 
-    /// The port, written with `port`, and the table copy, zeroed: once (from `init`; any later
-    /// call gets `None`).
+    /// The port, written with `port`, the table copy, zeroed, an empty hand-off queue and the
+    /// locator's slot: once (from `init`; any later call gets `None`).
     pub fn take(
         port: super::Port,
     ) -> Option<(
         &'static mut super::Port,
         &'static mut [u8; LOADED_TABLE_BYTES],
+        Locating,
     )> {
         if TAKEN.swap(true, Ordering::AcqRel) {
             return None;
         }
-        // SAFETY: the flag hands the two slots out once; nothing else names them.
+        // SAFETY: the flag hands the four slots out once; nothing else names them.
         let (p, t) = (&raw mut PORT, &raw mut TABLE);
-        let (p, t) = unsafe { (&mut *p, &mut *t) };
-        Some((p.write(port), t.write([0; LOADED_TABLE_BYTES])))
+        let (q, l) = (&raw mut UNLOCATED, &raw mut LOCATOR);
+        let (p, t, q, l) = unsafe { (&mut *p, &mut *t, &mut *q, &mut *l) };
+        let locating = Locating {
+            queue: q.write(Queue::new()),
+            locator: l,
+        };
+        Some((p.write(port), t.write([0; LOADED_TABLE_BYTES]), locating))
     }
 }
 
@@ -137,15 +162,16 @@ mod app {
     use core::sync::atomic::{AtomicU32, Ordering};
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SCB;
-    use heapless::spsc::{Consumer, Queue};
+    use heapless::spsc::{Consumer, Producer, Queue};
     use rtt_target::{ChannelMode, DownChannel};
     use stm32f4xx_hal::watchdog::IndependentWatchdog;
     use stm32f4xx_hal::{pac, prelude::*, timer};
+    use tactile_core::contact::Locator;
     use tactile_core::tactile::TaxelCalibration;
     use tactile_core::telemetry::TaxelFrame;
     use tactile_firmware::{
         Action, ArrayEstimate, CheckIns, Controller, Message, Outbox, RunEnd, RunStart, Scanner,
-        LOADED_TABLE_BYTES,
+        UnlocatedFrame, LOADED_TABLE_BYTES,
     };
 
     use crate::board::{self, ControlBoard, ScanBoard, WithAdc, CORE_HZ, PROTOCOL, PROTOCOL_NAME};
@@ -162,6 +188,9 @@ mod app {
 
     const CONTROL_QUEUE: usize = 17;
     const TAXEL_QUEUE: usize = 5;
+
+    /// Frames the scan could not hand the locate task (its queue full), for the run's end.
+    static UNLOCATED_DROPS: AtomicU32 = AtomicU32::new(0);
 
     /// The control tick now running (the scan stamps its frames with it).
     static TICK: AtomicU32 = AtomicU32::new(0);
@@ -187,6 +216,9 @@ mod app {
         down: DownChannel,
         table_copy: &'static mut [u8; LOADED_TABLE_BYTES],
         scanner: &'static mut Scanner,
+        unlocated_tx: Producer<'static, UnlocatedFrame>,
+        unlocated_rx: Consumer<'static, UnlocatedFrame>,
+        locator: &'static Locator,
         control_out: Outbox<'static, ControlMsg>,
         taxel_out: Outbox<'static, TaxelMsg>,
         control_rx: Consumer<'static, ControlMsg>,
@@ -253,7 +285,7 @@ mod app {
         } = board::setup(cx.device);
         control_board.zero_actuator();
         defmt::info!("{}", reset_cause);
-        let Some((port, table_copy)) = crate::ccm::take(port) else {
+        let Some((port, table_copy, locating)) = crate::ccm::take(port) else {
             defmt::panic!("the CCM RAM slots were taken before init");
         };
         // Calibrate with the probe lifted (the actuator output is at its safe zero).
@@ -281,6 +313,10 @@ mod app {
 
         let (control_tx, control_rx) = cx.local.control_queue.split();
         let (taxel_tx, taxel_rx) = cx.local.taxel_queue.split();
+        let (unlocated_tx, unlocated_rx) = locating.queue.split();
+        // The scan configuration, the locator's with it, is the same in every run: a rebuild
+        // at a commanded run keeps this copy right.
+        let locator: &'static Locator = locating.locator.write(*scanner.locator());
         // The control tick: SysTick on the 168 MHz core clock, reloaded by hardware.
         let mut syst = cx.core.SYST;
         syst.set_clock_source(SystClkSource::Core);
@@ -306,6 +342,9 @@ mod app {
                 down: channels.down.0,
                 table_copy,
                 scanner,
+                unlocated_tx,
+                unlocated_rx,
+                locator,
                 control_out: Outbox::new(control_tx),
                 taxel_out: Outbox::new(taxel_tx),
                 control_rx,
@@ -328,7 +367,7 @@ mod app {
         }
     }
 
-    #[task(binds = SysTick, priority = 3, shared = [adc, port],
+    #[task(binds = SysTick, priority = 4, shared = [adc, port],
            local = [controller, control_board, control_out, probe_calibration, down,
                     tick: u32 = 0, ended: bool = false, active: bool = true])]
     fn control(mut cx: control::Context) {
@@ -429,13 +468,14 @@ mod app {
         RunEnd {
             end_tick,
             control_frames_dropped: out.dropped(),
-            taxel_frames_dropped: 0,
+            // A frame lost before the telemetry queue leaves no gap in its numbering.
+            taxel_frames_dropped: UNLOCATED_DROPS.load(Ordering::Relaxed),
             overruns: controller.overruns(),
         }
     }
 
-    #[task(binds = TIM2, priority = 2, shared = [adc, port],
-           local = [scanner, scan_board, scan_timer, taxel_out, table_copy])]
+    #[task(binds = TIM2, priority = 3, shared = [adc, port],
+           local = [scanner, scan_board, scan_timer, unlocated_tx, table_copy])]
     fn scan(mut cx: scan::Context) {
         let local = cx.local;
         local.scan_timer.clear_flags(timer::Flag::Update);
@@ -460,12 +500,27 @@ mod app {
             defmt::info!("{}", local.scanner.calibration_status());
         }
         let (scanner, board) = (&mut *local.scanner, &mut *local.scan_board);
-        let report = cx
+        let frame = cx
             .shared
             .adc
-            .lock(|adc| scanner.step(&mut WithAdc { adc, board }, tick));
-        if let Some(report) = report {
-            local.taxel_out.send((report.frame, report.estimate));
+            .lock(|adc| scanner.step_unlocated(&mut WithAdc { adc, board }, tick));
+        // The contact's fit outlasts a dwell: the locate task runs it below this priority. A
+        // refused spawn (the task still draining) loses nothing: it finds the frame queued.
+        if let Some(frame) = frame {
+            if local.unlocated_tx.enqueue(frame).is_err() {
+                UNLOCATED_DROPS.fetch_add(1, Ordering::Relaxed);
+            }
+            let _ = locate::spawn();
+        }
+    }
+
+    /// The completed frames' contacts, located in turn, then each frame to the telemetry queue
+    /// (numbered there, in the scan's order).
+    #[task(priority = 2, local = [unlocated_rx, locator, taxel_out])]
+    async fn locate(cx: locate::Context) {
+        while let Some(frame) = cx.local.unlocated_rx.dequeue() {
+            let report = frame.locate(cx.local.locator);
+            cx.local.taxel_out.send((report.frame, report.estimate));
         }
     }
 

@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use defmt_decoder::{DecodeError, Table};
+use tactile_core::contact::ContactKind;
 use tactile_core::estimator::EstimatorKind;
 use tactile_core::tactile::{COLS, ROWS};
 use tactile_core::telemetry::TickRecord;
@@ -548,6 +549,9 @@ fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
         total_force_g: f.num("total_force_g")?,
         centroid_row: f.num("centroid_row")?,
         centroid_col: f.num("centroid_col")?,
+        contact_x_mm: f.num("contact_x_mm")?,
+        contact_y_mm: f.num("contact_y_mm")?,
+        contact: contact_kind(f.text("contact")?)?,
         probe_force_g: f.num("probe_force_g")?,
         probe_estimates_g: {
             let v: Vec<f32> = f.numbers("probe_estimates_g")?;
@@ -560,6 +564,17 @@ fn array_estimate(f: &Fields) -> Result<ArrayEstimate, String> {
             })?
         },
         extrapolated_taxels: f.num("extrapolated_taxels")?,
+    })
+}
+
+/// A contact kind as defmt prints the core's enum.
+fn contact_kind(text: &str) -> Result<ContactKind, String> {
+    Ok(match text {
+        "Nothing" => ContactKind::Nothing,
+        "Point" => ContactKind::Point,
+        "TwoPeaks" => ContactKind::TwoPeaks,
+        "Spread" => ContactKind::Spread,
+        other => return Err(format!("contact: '{other}' is no contact kind")),
     })
 }
 
@@ -686,17 +701,20 @@ pub fn write_run(
     }
     writeln!(
         w,
-        "t_s,total_force_g,centroid_row,centroid_col,probe_force_g,probe_elastic_g,probe_second_order_g,probe_scheduled_g,probe_observer_g,probe_bank_g,extrapolated_taxels"
+        "t_s,total_force_g,centroid_row,centroid_col,contact_x_mm,contact_y_mm,contact,probe_force_g,probe_elastic_g,probe_second_order_g,probe_scheduled_g,probe_observer_g,probe_bank_g,extrapolated_taxels"
     )?;
     for (f, e) in &run.frames {
         if let Some(e) = e {
             writeln!(
                 w,
-                "{:.4},{:.3},{:.3},{:.3},{:.3},{},{:#018x}",
+                "{:.4},{:.3},{:.3},{:.3},{:.3},{:.3},{},{:.3},{},{:#018x}",
                 run.tick_time_s(f.tick) + CONTROL_PERIOD_S,
                 e.total_force_g,
                 e.centroid_row,
                 e.centroid_col,
+                e.contact_x_mm,
+                e.contact_y_mm,
+                e.contact.name(),
                 e.probe_force_g,
                 e.probe_estimates_g.map(|v| format!("{v:.3}")).join(","),
                 e.extrapolated_taxels

@@ -14,9 +14,14 @@ pub struct CalibrateArgs {
     /// ROW,COL=FILE: a taxel (from zero) and its record of the calibration protocol.
     #[arg(value_parser = cli::parse_taxel_record)]
     pub records: Vec<(TaxelId, PathBuf)>,
-    /// The table (binary, what the firmware's calibration sector holds).
-    #[arg(long, default_value = "out/calibration/table.bin")]
-    pub out: PathBuf,
+    /// The array's calibration instead: frames records of presses at known positions
+    /// (`t_s,r0c0,…,r7c7,x_mm,y_mm,force_g`), fitted for the array's spatial response.
+    #[arg(long, num_args = 1.., value_name = "FRAMES.csv")]
+    pub array: Vec<PathBuf>,
+    /// The table (binary, what the firmware's calibration sector holds; default
+    /// out/calibration/table.bin, with --array out/calibration/array.bin).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// Seed of the simulated finger (without records).
     #[arg(long, default_value_t = sim_host::dynamic_calibration::FINGER_SEED)]
     pub seed: u64,
@@ -28,10 +33,27 @@ pub struct CalibrateArgs {
 pub fn run(args: CalibrateArgs) -> Result<(), Error> {
     let CalibrateArgs {
         records,
+        array,
         out,
         seed,
         finger,
     } = args;
+    if !array.is_empty() {
+        if !records.is_empty() {
+            return Err(Error::Usage(
+                "--array calibrates the array from frames records; the taxels' records are a \
+                 calibration of their own: one or the other"
+                    .into(),
+            ));
+        }
+        let out = out.unwrap_or_else(|| PathBuf::from("out/calibration/array.bin"));
+        outln!(
+            "{}",
+            sim_host::array_calibration::calibrate_command(&array, &out)?
+        );
+        return Ok(());
+    }
+    let out = out.unwrap_or_else(|| PathBuf::from("out/calibration/table.bin"));
     outln!("{}", cli::calibrate(&records, &out, seed, finger)?);
     Ok(())
 }

@@ -45,6 +45,7 @@ mod estimators;
 mod experiment;
 mod fit;
 mod identify;
+mod locate;
 mod tables;
 
 #[derive(Parser)]
@@ -72,6 +73,10 @@ enum Command {
     /// calibration table; write the force estimates as a record; with a reference force, print
     /// each estimator's error.
     Estimate(estimate::EstimateArgs),
+    /// Run the chip's scan over a frames record (each taxel's estimator, then the contact
+    /// locator with an array table): where and how hard, against the truth where the record
+    /// has it, the centroid beside it.
+    Locate(locate::LocateArgs),
     /// Identify the applicator from a record of the excitation (`tactile experiment excitation
     /// --record-hz 1000`, with its drive): the measured response and a low-order model.
     Identify(identify::IdentifyArgs),
@@ -123,6 +128,7 @@ fn run(command: Command) -> Result<(), Error> {
         Command::Fit(args) => fit::run(args),
         Command::Diagnose(args) => diagnose::run(args),
         Command::Estimate(args) => estimate::run(args),
+        Command::Locate(args) => locate::run(args),
         Command::Identify(args) => identify::run(args),
         Command::Applicator(args) => applicator::run(args),
         Command::Design(args) => design::run(args),
