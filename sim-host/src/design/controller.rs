@@ -22,8 +22,9 @@ pub struct Design {
     /// The least margins at each model's load over its [`variants`].
     pub margins: Vec<Margins>,
 }
-/// The controller for the identified `models` (in increasing load), the actuator's range
-/// `drive_range_g`.
+/// The controller for the identified `models` (in increasing load), the stiction the drive
+/// must overcome `stiction_g` and the actuator's range `drive_range_g` (the drive's grams, the
+/// firmware's: the models' static gain turns them into the probe's).
 pub fn design(
     models: &[LoadModel],
     stiction_g: f32,
@@ -264,8 +265,9 @@ fn schedule(
     schedule
 }
 
-/// The touch-down's push and the contact reading, g, for the designed `loads`; refused where
-/// the stiction is too little to stop the probe between the pushes.
+/// The touch-down's push (drive grams) and the contact reading (the gauge's), g, for the
+/// designed `loads`, `stiction_g` in drive grams; refused where the stiction is too little to
+/// stop the probe between the pushes.
 fn touch_down(
     loads: &[LoadModel],
     stiction_g: f32,
@@ -278,11 +280,13 @@ fn touch_down(
     // is twice the push.
     let w_light = 2.0 * std::f64::consts::PI * loads.first().map_or(50.0, |m| m.model.modes[0].hz);
     let pulse_s = f64::from(tactile_core::designed::APPROACH_TICKS) * CONTROL_PERIOD_S;
-    let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32;
+    // The momentum is the probe's, and a drive gram pushes it by the static gain's grams.
+    let gain = loads.first().map_or(1.0, |m| m.static_gain) as f32;
+    let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32 / gain;
     // And enough to press the finger to the contact test's force against a stiction 15 % above
     // the identified (the identification reads it 4–9 % low on the three rigs).
     let contact_g = CONTACT_G.max(CONTACT_DEVIATIONS * gauge_noise_g);
-    let push_g = push_g.max(contact_g + 0.15 * stiction_g + 0.2);
+    let push_g = push_g.max((contact_g + 0.2) / gain + 0.15 * stiction_g);
     let least_g = LEAST_STICTION_SHARE * push_g;
     if stiction_g < least_g {
         return Err(DesignError::TooLittleFriction {
@@ -333,9 +337,27 @@ pub fn design_identified(
     config: &RigConfig,
 ) -> Result<RigDesign, DesignError> {
     let law = config.firmware.law;
+    // The heaviest force step the loop takes: the design's top preload, within the gauge's.
+    let fw = &config.firmware;
+    let top_g = DESIGN_LOADS_G
+        .last()
+        .copied()
+        .unwrap_or(100.0)
+        .min(fw.supervisor.command_max_g)
+        .min(tactile_core::supervisor::GAUGE_COMMAND_SHARE * fw.gauge.force_max_g);
+    let top_g = f64::from(top_g);
+    let reach_g =
+        identified.static_gain * (f64::from(law.adjusted_max_g) - identified.stiction_drive_g());
+    if reach_g < top_g {
+        return Err(DesignError::OutOfReach {
+            reach_g,
+            top_g,
+            static_gain: identified.static_gain,
+        });
+    }
     let design = design(
         &identified.models,
-        identified.stiction_g as f32,
+        identified.stiction_drive_g() as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
         identified.gauge_noise_g as f32,
     )?;
