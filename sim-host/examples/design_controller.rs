@@ -149,6 +149,7 @@ fn analytic_design(config: &RigConfig) -> design::Design {
         &models,
         stiction_g as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
+        config.firmware.gauge,
         config.applicator.gauge_noise_g as f32,
     )
     .unwrap_or_else(|e| refuse(&e))

@@ -24,11 +24,13 @@ pub struct Design {
 }
 /// The controller for the identified `models` (in increasing load), the stiction the drive
 /// must overcome `stiction_g` and the actuator's range `drive_range_g` (the drive's grams, the
-/// firmware's: the models' static gain turns them into the probe's).
+/// firmware's: the models' static gain turns them into the probe's), through `gauge` (its
+/// noise `gauge_noise_g`).
 pub fn design(
     models: &[LoadModel],
     stiction_g: f32,
     drive_range_g: (f32, f32),
+    gauge: tactile_core::gauge::GaugeConfig,
     gauge_noise_g: f32,
 ) -> Result<Design, DesignError> {
     let friction_g = (FRICTION_SHARE * f64::from(stiction_g)) as f32;
@@ -65,6 +67,8 @@ pub fn design(
         contact_g,
         drive_min_g: drive_range_g.0,
         drive_max_g: drive_range_g.1,
+        gauge_g_per_v: gauge.grams_per_volt,
+        gauge_max_g: gauge.force_max_g,
     };
     let margins = families
         .iter()
@@ -359,6 +363,7 @@ pub fn design_identified(
         &identified.models,
         identified.stiction_drive_g() as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
+        config.firmware.gauge,
         identified.gauge_noise_g as f32,
     )?;
     Ok(RigDesign { identified, design })

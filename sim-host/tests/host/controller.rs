@@ -830,3 +830,27 @@ fn a_coarse_gauge_and_a_fast_amplifier_fit_a_pole_the_chirp_can_place() {
     );
     assert!(poles.len() >= 3 && poles.iter().all(|p| (100.0..=500.0).contains(p)));
 }
+
+#[test]
+fn a_table_designed_through_another_gauge_is_refused_with_both_scales() {
+    // The committed table is the memo rig's, its grams those of a 14 g/V gauge reading to
+    // 135 g; read by a firmware whose gauge is 28 g/V (to 270 g) its contact reading and loads
+    // would be off by two, so the loop is not built and the reason names both gauges.
+    let committed = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../boards/controller/table.bin"),
+    )
+    .unwrap();
+    let table = tactile_core::designed::DesignedConfig::decode(&committed).unwrap();
+    assert_eq!((table.gauge_g_per_v, table.gauge_max_g), (14.0, 135.0));
+    let mut p = sim_host::applicator::ApplicatorParams::MEMO;
+    p.gauge_g_per_v = 28.0;
+    let mut cfg = rig();
+    cfg.set_applicator(p);
+    cfg.firmware.designed = Some(table);
+    let e = run_named("force-steps", &ScenarioOptions::default(), cfg, |_| {})
+        .err()
+        .expect("refused")
+        .to_string();
+    eprintln!("{e}");
+    assert!(e.contains("14 g/V") && e.contains("28 g/V"), "{e}");
+}
