@@ -847,10 +847,10 @@ fn a_table_designed_through_another_gauge_is_refused_with_both_scales() {
     let mut cfg = rig();
     cfg.set_applicator(p);
     cfg.firmware.designed = Some(table);
-    let e = run_named("force-steps", &ScenarioOptions::default(), cfg, |_| {})
-        .err()
-        .expect("refused")
-        .to_string();
+    let Err(e) = run_named("force-steps", &ScenarioOptions::default(), cfg, |_| {}) else {
+        panic!("a table of another gauge was taken");
+    };
+    let e = e.to_string();
     eprintln!("{e}");
     assert!(e.contains("14 g/V") && e.contains("28 g/V"), "{e}");
 }
