@@ -10,6 +10,7 @@ use tactile_core::CONTROL_PERIOD_S;
 use super::feedback::{largest_passing, worst_margins};
 use super::models::upper_median;
 use super::*;
+use crate::applicator_model::ApplicatorModel;
 use crate::rig::RigConfig;
 
 /// The designed controller and what it was designed on.
@@ -34,8 +35,7 @@ pub fn design(
     gauge_noise_g: f32,
 ) -> Result<Design, DesignError> {
     let friction_g = (FRICTION_SHARE * f64::from(stiction_g)) as f32;
-    let grid = LoopGrid::new(models);
-    let loads = designed_loads(models, grid.lightest, grid.heaviest);
+    let (grid, loads) = LoopGrid::new(models);
     // The gains from the identified loads; each extrapolated light load gets the share of them
     // its margins allow.
     let feedback = search_feedback(&grid, models, &loads)?;
@@ -83,8 +83,8 @@ pub fn design(
     })
 }
 
-/// The loop's frequencies ([`loop_grid_hz`]) and the span of the identified loads: what a
-/// load's plants and a feedback's margins on them are computed on.
+/// The loop's frequencies ([`loop_grid_about`] the designed loads' modes) and the span of the
+/// identified loads: what a load's plants and a feedback's margins on them are computed on.
 struct LoopGrid {
     hz: Vec<f64>,
     lightest: f32,
@@ -92,15 +92,23 @@ struct LoopGrid {
 }
 
 impl LoopGrid {
-    fn new(models: &[LoadModel]) -> LoopGrid {
-        LoopGrid {
-            hz: loop_grid_hz(),
-            lightest: models
-                .iter()
-                .map(|m| m.load_g)
-                .fold(f32::INFINITY, f32::min),
-            heaviest: models.iter().map(|m| m.load_g).fold(0.0, f32::max),
-        }
+    /// The grid for the identified `models`, and the loads designed for ([`designed_loads`]).
+    fn new(models: &[LoadModel]) -> (LoopGrid, Vec<LoadModel>) {
+        let lightest = models
+            .iter()
+            .map(|m| m.load_g)
+            .fold(f32::INFINITY, f32::min);
+        let heaviest = models.iter().map(|m| m.load_g).fold(0.0, f32::max);
+        let loads = designed_loads(models, lightest, heaviest);
+        let outside = |m: &LoadModel| m.load_g < lightest || m.load_g > heaviest;
+        let modes: Vec<(ApplicatorModel, bool)> =
+            loads.iter().map(|m| (m.model, outside(m))).collect();
+        let grid = LoopGrid {
+            hz: loop_grid_about(&modes),
+            lightest,
+            heaviest,
+        };
+        (grid, loads)
     }
 
     /// The responses of `m`'s [`variants`] (an extrapolated load's outside the identified).
@@ -125,7 +133,7 @@ impl LoopGrid {
 
     /// The least margins of `fb` over `plants`.
     fn worst(&self, fb: Feedback, plants: &[Vec<Complex64>]) -> Margins {
-        worst_margins(plants, &self.on_grid(fb))
+        worst_margins(&self.hz, plants, &self.on_grid(fb))
     }
 
     /// Whether `fb` has the margins on every one of `plants`. Stops at the first plant that
@@ -133,7 +141,7 @@ impl LoopGrid {
     fn passes(&self, fb: Feedback, plants: &[Vec<Complex64>]) -> bool {
         let c = self.on_grid(fb);
         plants.iter().all(|p| {
-            let m = worst_margins(std::slice::from_ref(p), &c);
+            let m = worst_margins(&self.hz, std::slice::from_ref(p), &c);
             m.gain >= GAIN_MARGIN && m.phase_deg >= PHASE_MARGIN_DEG
         })
     }
