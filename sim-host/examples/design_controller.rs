@@ -33,6 +33,14 @@ fn main() {
     };
     override_from_env(&mut d, &config);
     print_design(&d);
+    let fw = &config.firmware;
+    println!(
+        "commands up to {:.1} g (the gauge's range ends at {:.1} g)",
+        fw.supervisor
+            .command_max_g
+            .min(tactile_core::supervisor::GAUGE_COMMAND_SHARE * fw.gauge.force_max_g),
+        fw.gauge.force_max_g
+    );
     // On stderr: a wall-clock time is no figure for docs/results.md.
     eprintln!(
         "identified and designed in {:.1} s",
@@ -141,6 +149,7 @@ fn analytic_design(config: &RigConfig) -> design::Design {
         &models,
         stiction_g as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
+        config.firmware.gauge,
         config.applicator.gauge_noise_g as f32,
     )
     .unwrap_or_else(|e| refuse(&e))

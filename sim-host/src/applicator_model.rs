@@ -45,7 +45,7 @@ pub enum IdentifyError {
         gauge_g: f64,
         tolerance_g: f64,
     },
-    #[error("the hold before the chirp drives {drive_g:.2} g for {gauge_g:.2} g at the gauge: an applicator's static gain is near 1 (0.5–2), so the drive column is not the drive")]
+    #[error("the hold before the chirp drives {drive_g:.2} g for {gauge_g:.2} g at the gauge: an applicator's static gain is within 0.2–5, so the drive column is not the drive")]
     HoldDrive { drive_g: f64, gauge_g: f64 },
     #[error("no still hold before the chirp: the record is shorter than the settling, or its drive or gauge is not finite there")]
     NoHold,
@@ -145,9 +145,10 @@ impl Hold {
     }
 }
 
-/// Gauge grams per drive gram an applicator can have: near 1, the drive being in grams at the
-/// probe (a hold's ratio and a fitted model's gain outside it are not an applicator's).
-pub const STATIC_GAIN_RANGE: (f64, f64) = (0.5, 2.0);
+/// Gauge grams per drive gram an applicator can have, the drive in the firmware's grams (the
+/// memo's drive at 0.98): a torque constant ×0.6–1.5, an amplifier of 0.12–0.28 A/V and an arm
+/// of 6–12 cm span 0.28–3.3; a hold's ratio or a fitted gain outside is not an applicator's.
+pub const STATIC_GAIN_RANGE: (f64, f64) = (0.2, 5.0);
 
 /// How far the hold's gauge may be from the preload: grams, and a share of the preload.
 pub const HOLD_TOLERANCE: (f64, f64) = (2.0, 0.2);

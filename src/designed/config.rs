@@ -66,6 +66,11 @@ pub struct DesignedConfig {
     /// Actuator range for the drive, g at the probe.
     pub drive_min_g: f32,
     pub drive_max_g: f32,
+    /// The gauge the rig was identified through: its scale, g/V, and the top of its range, g.
+    /// The table's grams (the contact reading, the schedule's loads) are that gauge's, so a
+    /// firmware that reads another is refused (`tasks::ConfigError::DesignedGauge`).
+    pub gauge_g_per_v: f32,
+    pub gauge_max_g: f32,
 }
 
 impl From<crate::seal::SealError> for DesignedError {
@@ -128,6 +133,8 @@ impl DesignedConfig {
         contact_g: 0.0,
         drive_min_g: -192.0,
         drive_max_g: 192.0,
+        gauge_g_per_v: 14.0,
+        gauge_max_g: 135.0,
     };
 
     pub(super) fn check(&self) -> Result<(), DesignedError> {
@@ -157,6 +164,8 @@ impl DesignedConfig {
         positive(self.approach_push_g, "approach_push_g")?;
         non_negative(-self.approach_brake_g, "approach_brake_g")?;
         non_negative(self.contact_g, "contact_g")?;
+        positive(self.gauge_g_per_v, "gauge_g_per_v")?;
+        positive(self.gauge_max_g, "gauge_max_g")?;
         // Stable: both poles inside the unit circle (the triangle a₂ < 1, |a₁| < 1 + a₂).
         let [b0, b1, b2, a1, a2] = self.feedback_filter;
         if ![b0, b1, b2, a1, a2].iter().all(|v| v.is_finite()) || a2 >= 1.0 || a1.abs() >= 1.0 + a2
@@ -260,12 +269,12 @@ impl DesignedConfig {
 /// The controller table's header (what the firmware checks at start-up, as it checks the
 /// calibration table): `TCTL`, version, a byte reserved (zero) and the schedule's length.
 pub const TABLE_MAGIC: [u8; 4] = *b"TCTL";
-pub const TABLE_VERSION: u16 = 6;
+pub const TABLE_VERSION: u16 = 7;
 const TABLE_HEADER_BYTES: usize = 8;
 /// dt, reference, kp, ki, friction, integral bound, drive range, the feedback's biquad, the
-/// touch-down's hold, push, brake and contact, the held friction, the amplifier's τ; then
-/// per point load, c₀…c₃, feedback share, the gauge's s² term.
-const TABLE_SCALARS: usize = 19;
+/// touch-down's hold, push, brake and contact, the held friction, the amplifier's τ, the
+/// gauge's scale and top; then per point load, c₀…c₃, feedback share, the gauge's s² term.
+const TABLE_SCALARS: usize = 21;
 /// The biquad that passes the error unchanged.
 pub const FEEDBACK_PASS: [f32; 5] = [1.0, 0.0, 0.0, 0.0, 0.0];
 const POINT_FLOATS: usize = 7;
@@ -298,6 +307,8 @@ impl DesignedConfig {
             self.contact_g,
             self.held_friction_g,
             self.amplifier_tau_s,
+            self.gauge_g_per_v,
+            self.gauge_max_g,
         ];
         let points = self.schedule.iter().flat_map(|p| {
             [
@@ -352,6 +363,8 @@ impl DesignedConfig {
             contact_g: f(16),
             held_friction_g: f(17),
             amplifier_tau_s: f(18),
+            gauge_g_per_v: f(19),
+            gauge_max_g: f(20),
             schedule: core::array::from_fn(point),
             points: all.get(7).copied().unwrap_or(0),
         };

@@ -1211,10 +1211,12 @@ mod tests {
         };
         cfg.held_friction_g = 0.3;
         cfg.amplifier_tau_s = 2.2e-3;
+        cfg.gauge_g_per_v = 5.8;
+        cfg.gauge_max_g = 56.0;
         let bytes = cfg.encode().unwrap();
         assert_eq!(DesignedConfig::decode(&bytes), Ok(cfg));
-        // 8 + 4·(19 + 9·7) + 4 bytes.
-        assert_eq!(bytes.len(), 340);
+        // 8 + 4·(21 + 9·7) + 4 bytes.
+        assert_eq!(bytes.len(), 348);
         let behind = DesignedConfig {
             amplifier_tau_s: -1e-3,
             ..cfg

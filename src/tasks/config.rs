@@ -76,4 +76,11 @@ pub enum ConfigError {
     Loop(#[from] LoopError),
     #[error(transparent)]
     Estimator(#[from] ModelError),
+    #[error("the controller table was designed through a gauge of {table_g_per_v} g/V reading to {table_max_g} g; this firmware reads {firmware_g_per_v} g/V to {firmware_max_g} g")]
+    DesignedGauge {
+        table_g_per_v: f32,
+        table_max_g: f32,
+        firmware_g_per_v: f32,
+        firmware_max_g: f32,
+    },
 }

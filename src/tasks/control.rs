@@ -71,6 +71,17 @@ impl ControlLoop {
         slew_g_per_s: f32,
         probe_calibration: TaxelCalibration,
     ) -> Result<Self, ConfigError> {
+        if let Some(d) = config.designed {
+            let g = config.gauge;
+            if d.gauge_g_per_v != g.grams_per_volt || d.gauge_max_g != g.force_max_g {
+                return Err(ConfigError::DesignedGauge {
+                    table_g_per_v: d.gauge_g_per_v,
+                    table_max_g: d.gauge_max_g,
+                    firmware_g_per_v: g.grams_per_volt,
+                    firmware_max_g: g.force_max_g,
+                });
+            }
+        }
         let force_loop = ForceLoop::new(ForceLoopConfig {
             law: config.law,
             filter: config.filter,

@@ -10,6 +10,7 @@ use tactile_core::CONTROL_PERIOD_S;
 use super::feedback::{largest_passing, worst_margins};
 use super::models::upper_median;
 use super::*;
+use crate::applicator_model::ApplicatorModel;
 use crate::rig::RigConfig;
 
 /// The designed controller and what it was designed on.
@@ -22,17 +23,19 @@ pub struct Design {
     /// The least margins at each model's load over its [`variants`].
     pub margins: Vec<Margins>,
 }
-/// The controller for the identified `models` (in increasing load), the actuator's range
-/// `drive_range_g`.
+/// The controller for the identified `models` (in increasing load), the stiction the drive
+/// must overcome `stiction_g` and the actuator's range `drive_range_g` (the drive's grams, the
+/// firmware's: the models' static gain turns them into the probe's), through `gauge` (its
+/// noise `gauge_noise_g`).
 pub fn design(
     models: &[LoadModel],
     stiction_g: f32,
     drive_range_g: (f32, f32),
+    gauge: tactile_core::gauge::GaugeConfig,
     gauge_noise_g: f32,
 ) -> Result<Design, DesignError> {
     let friction_g = (FRICTION_SHARE * f64::from(stiction_g)) as f32;
-    let grid = LoopGrid::new(models);
-    let loads = designed_loads(models, grid.lightest, grid.heaviest);
+    let (grid, loads) = LoopGrid::new(models);
     // The gains from the identified loads; each extrapolated light load gets the share of them
     // its margins allow.
     let feedback = search_feedback(&grid, models, &loads)?;
@@ -64,6 +67,8 @@ pub fn design(
         contact_g,
         drive_min_g: drive_range_g.0,
         drive_max_g: drive_range_g.1,
+        gauge_g_per_v: gauge.grams_per_volt,
+        gauge_max_g: gauge.force_max_g,
     };
     let margins = families
         .iter()
@@ -78,8 +83,8 @@ pub fn design(
     })
 }
 
-/// The loop's frequencies ([`loop_grid_hz`]) and the span of the identified loads: what a
-/// load's plants and a feedback's margins on them are computed on.
+/// The loop's frequencies ([`loop_grid_about`] the designed loads' modes) and the span of the
+/// identified loads: what a load's plants and a feedback's margins on them are computed on.
 struct LoopGrid {
     hz: Vec<f64>,
     lightest: f32,
@@ -87,15 +92,23 @@ struct LoopGrid {
 }
 
 impl LoopGrid {
-    fn new(models: &[LoadModel]) -> LoopGrid {
-        LoopGrid {
-            hz: loop_grid_hz(),
-            lightest: models
-                .iter()
-                .map(|m| m.load_g)
-                .fold(f32::INFINITY, f32::min),
-            heaviest: models.iter().map(|m| m.load_g).fold(0.0, f32::max),
-        }
+    /// The grid for the identified `models`, and the loads designed for ([`designed_loads`]).
+    fn new(models: &[LoadModel]) -> (LoopGrid, Vec<LoadModel>) {
+        let lightest = models
+            .iter()
+            .map(|m| m.load_g)
+            .fold(f32::INFINITY, f32::min);
+        let heaviest = models.iter().map(|m| m.load_g).fold(0.0, f32::max);
+        let loads = designed_loads(models, lightest, heaviest);
+        let outside = |m: &LoadModel| m.load_g < lightest || m.load_g > heaviest;
+        let modes: Vec<(ApplicatorModel, bool)> =
+            loads.iter().map(|m| (m.model, outside(m))).collect();
+        let grid = LoopGrid {
+            hz: loop_grid_about(&modes),
+            lightest,
+            heaviest,
+        };
+        (grid, loads)
     }
 
     /// The responses of `m`'s [`variants`] (an extrapolated load's outside the identified).
@@ -120,7 +133,7 @@ impl LoopGrid {
 
     /// The least margins of `fb` over `plants`.
     fn worst(&self, fb: Feedback, plants: &[Vec<Complex64>]) -> Margins {
-        worst_margins(plants, &self.on_grid(fb))
+        worst_margins(&self.hz, plants, &self.on_grid(fb))
     }
 
     /// Whether `fb` has the margins on every one of `plants`. Stops at the first plant that
@@ -128,7 +141,7 @@ impl LoopGrid {
     fn passes(&self, fb: Feedback, plants: &[Vec<Complex64>]) -> bool {
         let c = self.on_grid(fb);
         plants.iter().all(|p| {
-            let m = worst_margins(std::slice::from_ref(p), &c);
+            let m = worst_margins(&self.hz, std::slice::from_ref(p), &c);
             m.gain >= GAIN_MARGIN && m.phase_deg >= PHASE_MARGIN_DEG
         })
     }
@@ -264,8 +277,9 @@ fn schedule(
     schedule
 }
 
-/// The touch-down's push and the contact reading, g, for the designed `loads`; refused where
-/// the stiction is too little to stop the probe between the pushes.
+/// The touch-down's push (drive grams) and the contact reading (the gauge's), g, for the
+/// designed `loads`, `stiction_g` in drive grams; refused where the stiction is too little to
+/// stop the probe between the pushes.
 fn touch_down(
     loads: &[LoadModel],
     stiction_g: f32,
@@ -278,11 +292,13 @@ fn touch_down(
     // is twice the push.
     let w_light = 2.0 * std::f64::consts::PI * loads.first().map_or(50.0, |m| m.model.modes[0].hz);
     let pulse_s = f64::from(tactile_core::designed::APPROACH_TICKS) * CONTROL_PERIOD_S;
-    let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32;
+    // The momentum is the probe's, and a drive gram pushes it by the static gain's grams.
+    let gain = loads.first().map_or(1.0, |m| m.static_gain) as f32;
+    let push_g = (2.0 * TOUCH_OVERSHOOT_G / w_light / pulse_s) as f32 / gain;
     // And enough to press the finger to the contact test's force against a stiction 15 % above
     // the identified (the identification reads it 4–9 % low on the three rigs).
     let contact_g = CONTACT_G.max(CONTACT_DEVIATIONS * gauge_noise_g);
-    let push_g = push_g.max(contact_g + 0.15 * stiction_g + 0.2);
+    let push_g = push_g.max((contact_g + 0.2) / gain + 0.15 * stiction_g);
     let least_g = LEAST_STICTION_SHARE * push_g;
     if stiction_g < least_g {
         return Err(DesignError::TooLittleFriction {
@@ -333,10 +349,29 @@ pub fn design_identified(
     config: &RigConfig,
 ) -> Result<RigDesign, DesignError> {
     let law = config.firmware.law;
+    // The heaviest force step the loop takes: the design's top preload, within the gauge's.
+    let fw = &config.firmware;
+    let top_g = DESIGN_LOADS_G
+        .last()
+        .copied()
+        .unwrap_or(100.0)
+        .min(fw.supervisor.command_max_g)
+        .min(tactile_core::supervisor::GAUGE_COMMAND_SHARE * fw.gauge.force_max_g);
+    let top_g = f64::from(top_g);
+    let reach_g =
+        identified.static_gain * (f64::from(law.adjusted_max_g) - identified.stiction_drive_g());
+    if reach_g < top_g {
+        return Err(DesignError::OutOfReach {
+            reach_g,
+            top_g,
+            static_gain: identified.static_gain,
+        });
+    }
     let design = design(
         &identified.models,
-        identified.stiction_g as f32,
+        identified.stiction_drive_g() as f32,
         (law.adjusted_min_g, law.adjusted_max_g),
+        config.firmware.gauge,
         identified.gauge_noise_g as f32,
     )?;
     Ok(RigDesign { identified, design })

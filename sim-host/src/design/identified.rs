@@ -26,6 +26,13 @@ pub struct Identified {
     pub left_out: Vec<LeftOut>,
 }
 
+impl Identified {
+    /// The stiction in the drive's grams (the firmware's): the drive that overcomes it.
+    pub fn stiction_drive_g(&self) -> f64 {
+        self.stiction_g / self.static_gain
+    }
+}
+
 /// A preload the design left out, and why.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LeftOut {
@@ -62,12 +69,14 @@ pub struct Excited {
 /// `supervisor::GAUGE_COMMAND_SHARE` of the gauge's top reading: a gauge twice as sensitive as
 /// the memo's reads up to 67.5 g, and the 75 g preload's hold put it at its rail before the
 /// chirp began, which refused the design; the loads above are extrapolated from the heaviest
-/// identified) on a rig built from `config` (the loop that holds the preload is the one
-/// `config` has) and identifies the applicator from them ([`identified_from`]); a preload
-/// whose excitation cannot be identified, even with its chirp halved, is left out.
+/// identified) on a rig built from `config` and identifies the applicator from them
+/// ([`identified_from`]); a preload whose excitation cannot be identified, even with its chirp
+/// halved, is left out. The drive is read in the firmware's grams of `config` whatever scale
+/// the identification ran at ([`identification_config`]).
 pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
     let top_g = tactile_core::supervisor::GAUGE_COMMAND_SHARE * config.firmware.gauge.force_max_g;
-    let held_share = held_share(config)?;
+    let identifying = identification_config(config, held_share(config)?);
+    let actuator = config.firmware.actuator;
     let runs: Vec<Result<Excited, DesignError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = DESIGN_LOADS_G
             .iter()
@@ -75,9 +84,9 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
             .map(|&load_g| {
                 let config = RigConfig {
                     scan_array: false,
-                    ..config.clone()
+                    ..identifying.clone()
                 };
-                scope.spawn(move || excite(config, load_g, held_share))
+                scope.spawn(move || excite(config, &actuator, load_g))
             })
             .collect();
         handles
@@ -96,6 +105,20 @@ pub fn identify_loads(config: &RigConfig) -> Result<Identified, DesignError> {
         }
     }
     identified_from(&excited, left_out)
+}
+
+/// The rig the excitation runs on: `config`'s, its firmware's drive scale moved to the
+/// `held_share` it measured (`None`: left). A1 has no integral action and its feedback is a
+/// hundredth of the command at 10 g, so it drives the command itself: a drive at 0.38 of the
+/// firmware's scale held 3.8 g for 10 g, and the supervisor took that for a contact lost
+/// (the reading under half the command) at every preload. With the scale moved, the holds
+/// land near the preloads and the commands' secant steps ([`HOLD_TRIES`]) do the rest.
+pub fn identification_config(config: &RigConfig, held_share: Option<f64>) -> RigConfig {
+    let mut identifying = config.clone();
+    if let Some(share) = held_share {
+        identifying.firmware.actuator.grams_per_volt *= share as f32;
+    }
+    identifying
 }
 
 /// What a preload's failed excitation says for the design: a [`LeftOut`] where the excitation
@@ -172,6 +195,8 @@ pub fn identified_from(
         upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
     let (static_gain, stiction_g) =
         crate::applicator_model::static_line(&holds).ok_or(DesignError::NoStaticLine)?;
+    // The friction acts on the drive: its grams are the probe's over the drive's gain.
+    let stiction_drive_g = stiction_g / static_gain;
     // One fit per preload, side by side (each is a few hundred milliseconds).
     let fits: Vec<Option<ApplicatorModel>> = std::thread::scope(|scope| {
         let handles: Vec<_> = excited
@@ -180,9 +205,12 @@ pub fn identified_from(
                 scope.spawn(move || {
                     // The linear fit starts the one with the friction simulated (seconds).
                     let fit = |pole_hz: Option<f64>| {
-                        let linear = e.means.fit_less_friction(stiction_g, pole_hz)?;
+                        let linear = e.means.fit_less_friction(stiction_drive_g, pole_hz)?;
                         let refined = crate::stick_slip::fit_with_friction_and_pole(
-                            &e.means, stiction_g, &linear, pole_hz,
+                            &e.means,
+                            stiction_drive_g,
+                            &linear,
+                            pole_hz,
                         );
                         Some(refined.unwrap_or(linear))
                     };
@@ -286,37 +314,41 @@ fn excited_at(
 /// Runs of the excitation a preload gets to find the command that holds it.
 pub const HOLD_TRIES: usize = 4;
 
-/// The force A1 holds per gram commanded at the lightest preload, where that is off the
-/// preload (`None` where it holds it, or the hold says nothing): the first guess at the command
-/// each preload needs, so that a heavy preload is not first commanded past the gauge's range.
+/// The force held per gram commanded at the lightest preload, with the supervisor's contact
+/// rule off (a drive under half the firmware's scale reads under half the command), where that
+/// is off 1 (`None` where it is not, or the hold says nothing).
 fn held_share(config: &RigConfig) -> Result<Option<f64>, DesignError> {
     let load_g = DESIGN_LOADS_G[0];
     let mut protocol = Protocol::design_excitation(load_g);
     if let Protocol::Excitation { periods, .. } = &mut protocol {
         *periods = 1;
     }
-    let run = run_protocol("excitation", protocol, config.clone(), false, |_| {})?;
+    let mut free = config.clone();
+    free.firmware.supervisor.contact_command_g = f32::INFINITY;
+    let run = run_protocol("excitation", protocol, free, false, |_| {})?;
     let hold = crate::applicator_model::hold_means(&run.ticks, &config.firmware.actuator);
     Ok(hold
         .map(|h| h.gauge_g / f64::from(load_g))
         .filter(|share| share.is_finite() && *share > 0.1 && (share - 1.0).abs() > HELD_SHARE_OFF))
 }
 
-/// How far off 1 the force held per gram commanded must be for the commands to be moved: A1's
-/// steady error on the memo's drive is under a gram at 10 g; a drive 1.5× as strong holds 14 g.
+/// How far off 1 the force held per gram commanded must be for the drive's scale to be moved:
+/// A1's steady error on the memo's drive is under a gram at 10 g; a drive 1.5× as strong holds
+/// 14 g.
 pub const HELD_SHARE_OFF: f64 = 0.25;
 
 /// The excitation at one preload on the simulated rig ([`Protocol::design_excitation`]), its
-/// chirp halved while the probe leaves the finger or the gauge leaves its range.
+/// chirp halved while the probe leaves the finger or the gauge leaves its range, the drive
+/// read in `actuator`'s grams (the firmware's own, whatever scale `config` runs at).
 ///
-/// A1 has no integral action: on a drive stronger or weaker than the firmware's scale
-/// (27–29 g at the probe per volt for the memo's 18.8) it holds another force than it is
-/// commanded (14.1 g for 10 g), and the 100 g preload's chirp rang the gauge into the
-/// supervisor. So a hold off the preload is read as the rig's static gain: the command is
-/// moved until the gauge holds the preload (secant steps through the holds' forces), and the
-/// chirp scaled by the same ratio, so that it is the same force at the probe.
-fn excite(config: RigConfig, load_g: f32, held_share: Option<f64>) -> Result<Excited, DesignError> {
-    let actuator = config.firmware.actuator;
+/// A1 has no integral action: a hold off the preload is read as the rig's static gain, and
+/// the command moved until the gauge holds the preload (secant steps through the holds'
+/// forces), the chirp scaled by the same ratio, so that it is the same force at the probe.
+fn excite(
+    config: RigConfig,
+    actuator: &tactile_core::control::ActuatorConfig,
+    load_g: f32,
+) -> Result<Excited, DesignError> {
     let top_g = tactile_core::supervisor::GAUGE_COMMAND_SHARE * config.firmware.gauge.force_max_g;
     let mut protocol = Protocol::design_excitation(load_g);
     let chirp_g = match protocol {
@@ -324,18 +356,6 @@ fn excite(config: RigConfig, load_g: f32, held_share: Option<f64>) -> Result<Exc
         _ => 0.0,
     };
     let command = |c: f64| (c as f32).clamp(0.25 * load_g, top_g.max(load_g));
-    if let (
-        Some(share),
-        Protocol::Excitation {
-            preload_g,
-            amplitude_g,
-            ..
-        },
-    ) = (held_share, &mut protocol)
-    {
-        *preload_g = command(f64::from(load_g) / share);
-        *amplitude_g = chirp_g * *preload_g / load_g;
-    }
     let mut tried: Vec<(f64, f64)> = Vec::new();
     loop {
         let run = run_protocol("excitation", protocol, config.clone(), false, |_| {})?;
@@ -347,7 +367,7 @@ fn excite(config: RigConfig, load_g: f32, held_share: Option<f64>) -> Result<Exc
         else {
             return Err(DesignError::Record(IdentifyError::NotTheExcitation));
         };
-        let hold = crate::applicator_model::hold_means(&run.ticks, &actuator);
+        let hold = crate::applicator_model::hold_means(&run.ticks, actuator);
         if let Some(h) = hold.filter(|h| h.gauge_g > 0.1 * f64::from(load_g)) {
             let off = matches!(
                 h.at_preload(load_g),
@@ -360,7 +380,7 @@ fn excite(config: RigConfig, load_g: f32, held_share: Option<f64>) -> Result<Exc
                 continue;
             }
         }
-        match excited_at(&run.ticks, protocol, &actuator, load_g) {
+        match excited_at(&run.ticks, protocol, actuator, load_g) {
             Err(DesignError::Identify {
                 source: IdentifyError::LostContact { .. } | IdentifyError::Faulted { .. },
                 ..

@@ -105,9 +105,15 @@ pub enum DesignError {
         left_out_list(left_out)
     )]
     TooFewModels { have: usize, left_out: Vec<LeftOut> },
+    #[error("the drive at its rail holds {reach_g:.0} g at the probe (its gain {static_gain:.2} of the firmware's scale, less the stiction), under the {top_g:.0} g the force steps reach: a stronger motor, amplifier or a shorter arm")]
+    OutOfReach {
+        reach_g: f64,
+        top_g: f64,
+        static_gain: f64,
+    },
     #[error("no integral gain gives the margins at every load (the model at {load_g} g has a gain margin of {margin:.2} with none)")]
     NoMargin { load_g: f32, margin: f64 },
-    #[error("the holds read {stiction_g:.3} g of stiction, under the {least_g:.3} g the touch-down needs to stop the probe between its pushes of {push_g:.2} g: the probe would strike the finger after a rest (a rig this free needs a sensor of the motor's position)")]
+    #[error("the holds read {stiction_g:.3} g of stiction at the drive, under the {least_g:.3} g the touch-down needs to stop the probe between its pushes of {push_g:.2} g: the probe would strike the finger after a rest (a rig this free needs a sensor of the motor's position)")]
     TooLittleFriction {
         stiction_g: f32,
         push_g: f32,
@@ -285,7 +291,7 @@ mod tests {
         let mut spike = kept.model;
         spike.gain = 0.003;
         spike.pole_hz = 6.5e30;
-        assert_eq!(implausible(&spike), Some("its gain is not within 0.5–2"));
+        assert_eq!(implausible(&spike), Some("its gain is not within 0.2–5"));
         spike.gain = 0.9;
         assert_eq!(
             implausible(&spike),

@@ -35,7 +35,7 @@ pub fn implausible(m: &ApplicatorModel) -> Option<&'static str> {
     let above = |x: f64, y: f64| x.partial_cmp(&y) == Some(Greater);
     let (lo, hi) = crate::applicator_model::STATIC_GAIN_RANGE;
     if !(lo..hi).contains(&m.gain) {
-        Some("its gain is not within 0.5–2")
+        Some("its gain is not within 0.2–5")
     } else if !above(0.7, a.damping_ratio) {
         Some("its inertia–finger mode is damped past ζ 0.7")
     } else if !above(a.hz, 5.0) {
