@@ -14,6 +14,9 @@ const RAM: std::ops::Range<u64> = 0x2000_0000..0x2002_0000;
 /// The core-coupled RAM (memory.x's CCMRAM): the command port lives there.
 const CCM: std::ops::Range<u64> = 0x1000_0000..0x1001_0000;
 const FLASH_BUDGET: u64 = 64 * 1024;
+/// The designed controller's build carries its table (348 B), its loop and the table's checks
+/// on top of the build a user types: 2 KiB more (the chip has 1 MiB).
+const DESIGNED_FLASH_BUDGET: u64 = FLASH_BUDGET + 2 * 1024;
 const STATIC_RAM_BUDGET: u64 = 32 * 1024;
 
 #[test]
@@ -103,10 +106,15 @@ fn check_elf(path: &std::path::Path, alias: &str) {
         }
     }
     let label = format!("tactile-f407 (cargo {alias})");
+    let flash_budget = if alias.ends_with("designed") {
+        DESIGNED_FLASH_BUDGET
+    } else {
+        FLASH_BUDGET
+    };
     println!(
         "{label}: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB), CCM RAM {ccm} B of 64 KiB",
         flash as f64 / 1024.0,
-        FLASH_BUDGET / 1024,
+        flash_budget / 1024,
         ram as f64 / 1024.0,
         STATIC_RAM_BUDGET / 1024
     );
@@ -130,7 +138,7 @@ fn check_elf(path: &std::path::Path, alias: &str) {
         "{label}: CCM RAM {ccm} B over 64 KiB"
     );
     assert!(
-        flash <= FLASH_BUDGET,
+        flash <= flash_budget,
         "{label}: flash {flash} B over budget"
     );
     assert!(
