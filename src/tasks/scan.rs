@@ -464,7 +464,7 @@ impl Scanner {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::calibration::{CalibrationTable, MAX_TABLE_BYTES};
     use crate::gauge::AdcCode;
@@ -476,11 +476,12 @@ mod tests {
         ..FirmwareConfig::MEMO
     };
 
-    /// A fake multiplexer: per-taxel output volts, converted by the memo's converter.
-    struct Panel {
-        volts: [f32; TAXELS],
-        selected: TaxelId,
-        adc: AdcScale,
+    /// A fake multiplexer: per-taxel output volts, converted by the memo's converter (the
+    /// unlocated frame's tests share it).
+    pub(in crate::tasks) struct Panel {
+        pub(in crate::tasks) volts: [f32; TAXELS],
+        pub(in crate::tasks) selected: TaxelId,
+        pub(in crate::tasks) adc: AdcScale,
     }
 
     impl ScanIo for Panel {

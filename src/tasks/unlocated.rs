@@ -40,26 +40,9 @@ impl UnlocatedFrame {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gauge::{AdcCode, AdcScale};
-    use crate::io::ScanIo;
     use crate::tactile::{ReadoutAmplifier, TaxelCalibration, TaxelId};
+    use crate::tasks::scan::tests::Panel;
     use crate::tasks::{FirmwareConfig, Scanner};
-
-    /// Per-taxel output volts through the memo's converter.
-    struct Panel {
-        volts: [f32; TAXELS],
-        selected: TaxelId,
-        adc: AdcScale,
-    }
-
-    impl ScanIo for Panel {
-        fn select_taxel(&mut self, taxel: TaxelId) {
-            self.selected = taxel;
-        }
-        fn read_taxel(&mut self) -> AdcCode {
-            self.adc.code(self.volts[self.selected.index()])
-        }
-    }
 
     /// A board's split (the scan's step, the fit later, by the scanner's locator) gives what
     /// the host's `Scanner::step` gives, frame for frame, a bad taxel included.
