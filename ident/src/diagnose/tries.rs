@@ -411,24 +411,14 @@ fn delay(
     if all.len() > active.len() {
         variants.extend(best_delay(work, &others, longest, views(all.clone())));
     }
-    // A stiffening's basis runs through the heaviest branches of the fit it was built on; an
-    // undelayed fit of a lagging strain puts its weight on branches of about the lag (a 30 ms
-    // delay: 20–30 ms, no spring), so the basis is rebuilt through the delayed fit's branches.
-    let stiffening = state
+    // After a stiffening, its basis rebuilt through the delayed fit's branches too.
+    let base: Option<Vec<usize>> = state
         .groups
         .iter()
-        .find(|g| g.0 == Effect::LoadDependentStiffness);
-    if let Some((_, stiff)) = stiffening {
-        let base: Vec<usize> = all.iter().copied().filter(|c| !stiff.contains(c)).collect();
-        let rebuilt = |work: &mut Work, d: f64| -> Vec<usize> {
-            let delayed: Vec<usize> = base.iter().map(|&c| work.add_delayed(c, d)).collect();
-            let fit: Vec<usize> = others.iter().chain(&delayed).copied().collect();
-            let sc = work.pool.score(&fit);
-            let taus = heaviest_branches(work, &sc.columns, &sc.beta);
-            let basis = stiffening_columns(work, &taus, d);
-            delayed.into_iter().chain(basis).collect()
-        };
-        variants.extend(best_delay(work, &others, longest, rebuilt));
+        .find(|g| g.0 == Effect::LoadDependentStiffness)
+        .map(|(_, stiff)| all.iter().copied().filter(|c| !stiff.contains(c)).collect());
+    if let Some(base) = &base {
+        variants.extend(rebuilt_stiffening_delay(work, &others, base, longest));
     }
     for other in variants {
         let (worse, better) = if other.1 < best.1 {
@@ -440,7 +430,9 @@ fn delay(
         best = better;
     }
     let (d, _, cols) = best;
-    let regroup = stiffening
+    // The rebuilt basis, where that variant won: its own columns, not delayed views.
+    let regroup = base
+        .as_ref()
         .map(|_| {
             let rebuilt: Vec<usize> = cols
                 .iter()
@@ -453,33 +445,10 @@ fn delay(
             (Effect::LoadDependentStiffness, rebuilt)
         })
         .filter(|(_, rebuilt)| !rebuilt.is_empty());
-    // A basis rebuilt through other branches may fit better at no delay at all: the delay is
-    // judged against that basis undelayed where it holds out better than the model.
-    let reference = regroup.as_ref().and_then(|(_, rebuilt)| {
-        let taus: Vec<f64> = rebuilt
-            .iter()
-            .filter_map(|c| match work.terms[*c] {
-                Term::Stiffening {
-                    power: 0.5,
-                    tau_s: Some(tau),
-                } => Some(tau),
-                _ => None,
-            })
-            .collect();
-        let basis = stiffening_columns(work, &taus, 0.0);
-        let undelayed: Vec<usize> = others
-            .iter()
-            .chain(
-                all.iter()
-                    .filter(|c| !stiffening.is_some_and(|g| g.1.contains(c))),
-            )
-            .chain(&basis)
-            .copied()
-            .collect();
-        let sc = work.pool.score(&undelayed);
-        basis.iter().for_each(|c| work.pool.drop_column(*c));
-        (sc.cv_mse < state.scored.cv_mse).then_some(sc)
-    });
+    let reference = regroup
+        .as_ref()
+        .zip(base.as_ref())
+        .and_then(|((_, rebuilt), base)| undelayed_reference(work, state, &others, base, rebuilt));
     Some(Try {
         effect: Effect::TimeDelay,
         variant: format!("force delayed {:.1} ms", 1e3 * d),
@@ -489,6 +458,55 @@ fn delay(
         regroup: regroup.into_iter().collect(),
         reference,
     })
+}
+
+/// The delay beside `others` that holds out best with a stiffening's basis rebuilt through the
+/// delayed fit's branches, `base` the other force-driven columns. The basis runs through the
+/// heaviest branches of the fit it was built on, and an undelayed fit of a lagging strain puts
+/// its weight on branches of about the lag (a 30 ms delay: 20–30 ms, no spring).
+fn rebuilt_stiffening_delay(
+    work: &mut Work,
+    others: &[usize],
+    base: &[usize],
+    longest: f64,
+) -> Option<(f64, f64, Vec<usize>)> {
+    let rebuilt = |work: &mut Work, d: f64| -> Vec<usize> {
+        let delayed: Vec<usize> = base.iter().map(|&c| work.add_delayed(c, d)).collect();
+        let fit: Vec<usize> = others.iter().chain(&delayed).copied().collect();
+        let sc = work.pool.score(&fit);
+        let taus = heaviest_branches(work, &sc.columns, &sc.beta);
+        let basis = stiffening_columns(work, &taus, d);
+        delayed.into_iter().chain(basis).collect()
+    };
+    best_delay(work, others, longest, rebuilt)
+}
+
+/// The model with the basis `rebuilt` (columns of a rebuilt stiffening) undelayed, where it
+/// holds out better than the model as it stands: a basis rebuilt through other branches may fit
+/// better at no delay at all, and the delay is judged against it.
+fn undelayed_reference(
+    work: &mut Work,
+    state: &State,
+    others: &[usize],
+    base: &[usize],
+    rebuilt: &[usize],
+) -> Option<Scored> {
+    // Each power runs through the same branches: one power's give them.
+    let taus: Vec<f64> = rebuilt
+        .iter()
+        .filter_map(|c| match work.terms[*c] {
+            Term::Stiffening {
+                power: 0.5,
+                tau_s: Some(tau),
+            } => Some(tau),
+            _ => None,
+        })
+        .collect();
+    let basis = stiffening_columns(work, &taus, 0.0);
+    let undelayed: Vec<usize> = others.iter().chain(base).chain(&basis).copied().collect();
+    let sc = work.pool.score(&undelayed);
+    basis.iter().for_each(|c| work.pool.drop_column(*c));
+    (sc.cv_mse < state.scored.cv_mse).then_some(sc)
 }
 
 /// The delay beside `others` that holds out best, its held-out error and the columns `build`
