@@ -299,17 +299,17 @@ impl Pool {
 
     fn cross_of(&mut self, a: usize, b: usize, built: &HashMap<usize, Vec<f32>>) -> Vec<f64> {
         let key = (a.min(b), a.max(b));
-        if let Some(v) = self.cross.get(&key) {
-            return v.clone();
+        if !self.cross.contains_key(&key) {
+            self.take_products(&[a, b], built);
         }
-        let v = self.products(key, built);
-        self.cross.insert(key, v.clone());
-        v
+        self.cross.get(&key).cloned().unwrap_or_default()
     }
 
-    /// The per-fold products of every pair of `columns` not yet taken, shared among the
-    /// machine's cores when there are many (each pair's sums are its own: the result does
-    /// not depend on how they are shared).
+    /// The per-fold products of every pair of `columns` not yet taken. Fold by fold, each
+    /// column's samples are read once (a delayed one shifted, a half-cosine rotated) and every
+    /// pair summed from them; the folds are shared among the machine's cores when there is
+    /// enough work (each fold's sums are its own: the result does not depend on how they are
+    /// shared).
     fn take_products(&mut self, columns: &[usize], built: &HashMap<usize, Vec<f32>>) {
         let mut missing: Vec<(usize, usize)> = Vec::new();
         for (r, &a) in columns.iter().enumerate() {
@@ -320,31 +320,68 @@ impl Pool {
                 }
             }
         }
-        for &(a, b) in &missing {
-            if let Some((d, s)) = self.cosine_orders(a, b) {
+        // Two half-cosines: from the sums of their difference's and sum's orders.
+        let (cosines, missing): (Vec<_>, Vec<_>) = missing
+            .into_iter()
+            .partition(|&(a, b)| self.cosine_orders(a, b).is_some());
+        for key in cosines {
+            if let Some((d, s)) = self.cosine_orders(key.0, key.1) {
                 self.cosine_sums(d);
                 self.cosine_sums(s);
+                let sums = |k| self.cosine_sums.get(&k).cloned().unwrap_or_default();
+                let v = sums(d)
+                    .iter()
+                    .zip(&sums(s))
+                    .map(|(a, b)| 0.5 * (a + b))
+                    .collect();
+                self.cross.insert(key, v);
             }
         }
+        if missing.is_empty() {
+            return;
+        }
+        let mut involved: Vec<usize> = missing.iter().flat_map(|&(a, b)| [a, b]).collect();
+        involved.sort_unstable();
+        involved.dedup();
+        // Columns read from a recipe (not built for this score) are built once here.
+        let extra: HashMap<usize, Vec<f32>> = involved
+            .iter()
+            .filter(|&&c| {
+                !built.contains_key(&c)
+                    && self.raw(c).is_none()
+                    && !matches!(self.cols.get(c), Some(Column::Cosine(_)))
+            })
+            .map(|&c| (c, self.values(c).into_owned()))
+            .collect();
+        let at = |c| involved.binary_search(&c).unwrap_or(0);
+        let pairs: Vec<(usize, usize)> = missing.iter().map(|&(a, b)| (at(a), at(b))).collect();
+        let k = self.folds.len();
         let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
         // NOTE: below some millions of samples' products a thread costs more than it saves.
-        let threads = threads.min(missing.len() * self.n / 2_000_000).max(1);
+        let threads = threads
+            .min(k)
+            .min(missing.len() * self.n / 2_000_000)
+            .max(1);
         let this = &*self;
-        let done: Vec<((usize, usize), Vec<f64>)> = if threads == 1 {
-            missing
+        let fold = |f: usize| -> Vec<f64> {
+            let (s, e) = this.folds.ranges[f];
+            let read: Vec<FoldSlice> = involved
                 .iter()
-                .map(|&k| (k, this.products(k, built)))
-                .collect()
+                .map(|&c| this.fold_slice(c, (s, e), built.get(&c).or(extra.get(&c))))
+                .collect();
+            fold_products(&read, &pairs, &this.weight[s..e])
+        };
+        let per_fold: Vec<Vec<f64>> = if threads == 1 {
+            (0..k).map(fold).collect()
         } else {
-            std::thread::scope(|scope| {
+            let fold = &fold;
+            let mut done: Vec<(usize, Vec<f64>)> = std::thread::scope(|scope| {
                 let runs: Vec<_> = (0..threads)
                     .map(|t| {
-                        let share: Vec<(usize, usize)> =
-                            missing.iter().skip(t).step_by(threads).copied().collect();
                         scope.spawn(move || {
-                            share
-                                .into_iter()
-                                .map(|k| (k, this.products(k, built)))
+                            (t..k)
+                                .step_by(threads)
+                                .map(|f| (f, fold(f)))
                                 .collect::<Vec<_>>()
                         })
                     })
@@ -352,74 +389,42 @@ impl Pool {
                 runs.into_iter()
                     .flat_map(|r| r.join().unwrap_or_default())
                     .collect()
-            })
+            });
+            done.sort_by_key(|d| d.0);
+            done.into_iter().map(|d| d.1).collect()
         };
-        self.cross.extend(done);
+        for (i, key) in missing.into_iter().enumerate() {
+            let v = per_fold
+                .iter()
+                .map(|p| p.get(i).copied().unwrap_or(0.0))
+                .collect();
+            self.cross.insert(key, v);
+        }
     }
 
-    /// Columns `key`'s products on each fold.
-    fn products(&self, key: (usize, usize), built: &HashMap<usize, Vec<f32>>) -> Vec<f64> {
-        if let Some((d, s)) = self.cosine_orders(key.0, key.1) {
-            let sums = |k| {
-                self.cosine_sums
-                    .get(&k)
-                    .cloned()
-                    .unwrap_or_else(|| self.fold_cosine_sums(k))
-            };
-            let (cd, cs) = (sums(d), sums(s));
-            return cd.iter().zip(&cs).map(|(a, b)| 0.5 * (a + b)).collect();
+    /// Column `c`'s samples `s..e` as the products read them: `whole` if it was built for this
+    /// score, else its stored values (shifted, if delayed) or its half-cosine; a column of
+    /// nothing stored reads as zeros.
+    fn fold_slice<'s>(
+        &'s self,
+        c: usize,
+        (s, e): (usize, usize),
+        whole: Option<&'s Vec<f32>>,
+    ) -> FoldSlice<'s> {
+        if let Some(v) = whole.filter(|v| v.len() == self.n) {
+            return FoldSlice::Samples(Cow::Borrowed(&v[s..e]));
         }
-        let w = &self.weight;
-        let cosine = self.cosine_k(key.0, key.1);
-        match (self.raw(key.0), self.raw(key.1)) {
-            (Some((ca, 0, fa)), Some((cb, 0, fb))) if fa == 0.0 && fb == 0.0 => self
-                .folds
-                .ranges
-                .iter()
-                .map(|&(s, e)| dot3(&ca[s..e], &cb[s..e], &w[s..e]))
-                .collect(),
-            // A delayed column is read from its source at an offset (no copy).
-            (Some(a), Some(b)) => {
-                let (mut xa, mut xb) = (Vec::new(), Vec::new());
-                self.folds
-                    .ranges
-                    .iter()
-                    .map(|&(s, e)| dot3(view(&mut xa, a, s, e), view(&mut xb, b, s, e), &w[s..e]))
-                    .collect()
+        if let Some(Column::Cosine(k)) = self.cols.get(c) {
+            return FoldSlice::Cosine(cosine_span(self.n, *k, s, e - s));
+        }
+        match self.raw(c) {
+            Some((v, 0, frac)) if frac == 0.0 => FoldSlice::Samples(Cow::Borrowed(&v[s..e])),
+            Some(raw) => {
+                let mut buf = Vec::new();
+                span(&mut buf, raw, s, e);
+                FoldSlice::Samples(Cow::Owned(buf))
             }
-            // A half-cosine against a stored column: rotated along each fold, not built.
-            (Some(src), None) | (None, Some(src)) if cosine.is_some() => {
-                let k = cosine.unwrap_or(0);
-                let mut x = Vec::new();
-                self.folds
-                    .ranges
-                    .iter()
-                    .map(|&(s, e)| dot_cosine(view(&mut x, src, s, e), &w[s..e], self.n, k, s))
-                    .collect()
-            }
-            // A half-cosine against a column built for this score: rotated along its folds.
-            _ if cosine.is_some() => {
-                let k = cosine.unwrap_or(0);
-                let other = if matches!(self.cols.get(key.0), Some(Column::Cosine(_))) {
-                    key.1
-                } else {
-                    key.0
-                };
-                let x = self.read(other, built);
-                self.folds
-                    .ranges
-                    .iter()
-                    .map(|&(s, e)| dot_cosine(&x[s..e], &w[s..e], self.n, k, s))
-                    .collect()
-            }
-            _ => {
-                let (ca, cb) = (self.read(key.0, built), self.read(key.1, built));
-                self.folds
-                    .ranges
-                    .iter()
-                    .map(|&(s, e)| dot3(&ca[s..e], &cb[s..e], &w[s..e]))
-                    .collect()
-            }
+            None => FoldSlice::Samples(Cow::Owned(vec![0.0; e - s])),
         }
     }
 
@@ -451,15 +456,6 @@ impl Pool {
             .iter()
             .map(|&(s, e)| dot_cosine(&w[s..e], &w[s..e], self.n, k, s))
             .collect()
-    }
-
-    /// The `k` of the one half-cosine among columns `a` and `b`.
-    fn cosine_k(&self, a: usize, b: usize) -> Option<usize> {
-        match (self.cols.get(a), self.cols.get(b)) {
-            (Some(Column::Cosine(_)), Some(Column::Cosine(_))) => None,
-            (Some(Column::Cosine(k)), _) | (_, Some(Column::Cosine(k))) => Some(*k),
-            _ => None,
-        }
     }
 
     fn y_of(&mut self, a: usize, built: &HashMap<usize, Vec<f32>>) -> Vec<f64> {
@@ -584,68 +580,165 @@ impl Pool {
     }
 }
 
-/// Σ a·b·w, in eight running sums (one sum is a chain of dependent additions the compiler may
-/// not reorder: a quarter of the speed on a long record).
-fn dot3(a: &[f32], b: &[f32], w: &[f32]) -> f64 {
-    let mut acc = [0.0f64; 8];
+/// A column's samples over one fold, as the Gram products read them.
+enum FoldSlice<'a> {
+    Samples(Cow<'a, [f32]>),
+    /// A half-cosine's values, in f64 (`cosine_span`).
+    Cosine(Vec<f64>),
+}
+
+/// Σ a·b·w over a fold for each pair of `read`, block by block: every pair from a block's
+/// samples while they are in cache. Built for AVX2 where the processor has it: the same
+/// operations lane by lane, so the same sums, twice as many at a time.
+fn fold_products(read: &[FoldSlice], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2 (detected above).
+        return unsafe { fold_products_avx2(read, pairs, w) };
+    }
+    fold_products_with(read, pairs, w)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn fold_products_avx2(read: &[FoldSlice], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
+    fold_products_with(read, pairs, w)
+}
+
+#[inline(always)]
+fn fold_products_with(read: &[FoldSlice], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
+    let whole = w.len() - w.len() % 8;
+    let mut lanes = vec![[0.0f64; 8]; pairs.len()];
+    for b0 in (0..whole).step_by(BLOCK) {
+        let block = b0..(b0 + BLOCK).min(whole);
+        for (acc, &(a, b)) in lanes.iter_mut().zip(pairs) {
+            FoldSlice::lanes(acc, &read[a], &read[b], w, block.clone());
+        }
+    }
+    pairs
+        .iter()
+        .zip(&lanes)
+        .map(|(&(a, b), acc)| {
+            let mut tail = [0.0f64; 8];
+            FoldSlice::lanes(&mut tail, &read[a], &read[b], w, whole..w.len());
+            acc.iter().sum::<f64>() + tail.iter().sum::<f64>()
+        })
+        .collect()
+}
+
+/// Samples a block of every column's fold holds for the Gram products: a few columns' blocks
+/// stay in the core's cache while every pair of them is summed.
+const BLOCK: usize = 4096;
+
+impl FoldSlice<'_> {
+    /// Adds a·b·w over `range` of the fold into eight lanes (sample i into lane i mod 8, as
+    /// [`dot3`] sums): a range shorter than eight samples is a tail, one sample a lane.
+    #[inline(always)]
+    fn lanes(
+        acc: &mut [f64; 8],
+        a: &FoldSlice,
+        b: &FoldSlice,
+        w: &[f32],
+        range: core::ops::Range<usize>,
+    ) {
+        let w = &w[range.clone()];
+        match (a, b) {
+            (FoldSlice::Samples(x), FoldSlice::Samples(y)) => {
+                lanes3(acc, &x[range.clone()], &y[range], w)
+            }
+            (FoldSlice::Samples(x), FoldSlice::Cosine(c))
+            | (FoldSlice::Cosine(c), FoldSlice::Samples(x)) => {
+                lanes_with(acc, &x[range.clone()], w, &c[range])
+            }
+            (FoldSlice::Cosine(c), FoldSlice::Cosine(d)) => {
+                for (i, ((p, q), r)) in c[range.clone()].iter().zip(&d[range]).zip(w).enumerate() {
+                    acc[i % 8] += p * q * f64::from(*r);
+                }
+            }
+        }
+    }
+}
+
+/// Σ a·b·w into eight lanes, sample i into lane i mod 8 (one sum is a chain of dependent
+/// additions the compiler may not reorder: a quarter of the speed on a long record).
+#[inline(always)]
+fn lanes3(acc: &mut [f64; 8], a: &[f32], b: &[f32], w: &[f32]) {
     let (ca, cb, cw) = (a.chunks_exact(8), b.chunks_exact(8), w.chunks_exact(8));
-    let tail: f64 = ca
+    for (i, ((x, y), z)) in ca
         .remainder()
         .iter()
         .zip(cb.remainder())
         .zip(cw.remainder())
-        .map(|((x, y), z)| f64::from(x * y * z))
-        .sum();
+        .enumerate()
+    {
+        acc[i] += f64::from(x * y * z);
+    }
     for ((x, y), z) in ca.zip(cb).zip(cw) {
         for k in 0..8 {
             acc[k] += f64::from(x[k] * y[k] * z[k]);
         }
     }
-    acc.iter().sum::<f64>() + tail
 }
 
-/// Σ x·w·cos(π·k·(i + ½)/n) over samples i = start, start + 1, …: eight lanes, each rotated by
-/// eight samples at a time (one rotation a sample is a chain of dependent multiplies, and was
-/// the diagnosis's slowest loop on a 600 s record at 1 kHz with a drift in its model).
-fn dot_cosine(x: &[f32], w: &[f32], n: usize, k: usize, start: usize) -> f64 {
+/// Σ a·b·w.
+#[cfg(test)]
+fn dot3(a: &[f32], b: &[f32], w: &[f32]) -> f64 {
+    let whole = a.len() - a.len() % 8;
+    let (mut acc, mut tail) = ([0.0f64; 8], [0.0f64; 8]);
+    lanes3(&mut acc, &a[..whole], &b[..whole], &w[..whole]);
+    lanes3(&mut tail, &a[whole..], &b[whole..], &w[whole..]);
+    acc.iter().sum::<f64>() + tail.iter().sum::<f64>()
+}
+
+/// cos(π·k·(i + ½)/n) for `len` samples i from `start`: eight lanes, each rotated by eight
+/// samples at a time (one rotation a sample is a chain of dependent multiplies).
+fn cosine_span(n: usize, k: usize, start: usize, len: usize) -> Vec<f64> {
     let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
     let (sin8, cos8) = (8.0 * step).sin_cos();
     let mut lanes = [(0.0f64, 0.0f64); 8];
     for (j, l) in lanes.iter_mut().enumerate() {
         *l = (step * ((start + j) as f64 + 0.5)).sin_cos();
     }
-    let mut acc = [0.0f64; 8];
-    for (a, b) in x.chunks_exact(8).zip(w.chunks_exact(8)) {
-        for j in 0..8 {
-            let (s, c) = lanes[j];
-            acc[j] += f64::from(a[j] * b[j]) * c;
-            lanes[j] = (s * cos8 + c * sin8, c * cos8 - s * sin8);
+    let mut out = Vec::with_capacity(len);
+    while out.len() < len {
+        let take = (len - out.len()).min(8);
+        out.extend(lanes[..take].iter().map(|l| l.1));
+        for l in &mut lanes {
+            let (s, c) = *l;
+            *l = (s * cos8 + c * sin8, c * cos8 - s * sin8);
         }
     }
-    // The tail's samples are the lanes' next ones.
-    let whole = x.len() - x.len() % 8;
-    let tail: f64 = x[whole..]
-        .iter()
-        .zip(&w[whole..])
-        .zip(&lanes)
-        .map(|((a, b), l)| f64::from(a * b) * l.1)
-        .sum();
-    acc.iter().sum::<f64>() + tail
+    out
 }
 
-/// Samples `s..e` of a raw column: its own slice if it is not delayed, else [`span`] into `buf`.
-fn view<'a>(
-    buf: &'a mut Vec<f32>,
-    raw @ (v, whole, frac): (&'a [f32], usize, f32),
-    s: usize,
-    e: usize,
-) -> &'a [f32] {
-    if whole == 0 && frac == 0.0 {
-        &v[s..e]
-    } else {
-        span(buf, raw, s, e);
-        buf
+/// Σ x·w·c into eight lanes, as [`lanes3`] sums.
+#[inline(always)]
+fn lanes_with(acc: &mut [f64; 8], x: &[f32], w: &[f32], c: &[f64]) {
+    let (cx, cw, cc) = (x.chunks_exact(8), w.chunks_exact(8), c.chunks_exact(8));
+    for (i, ((a, b), l)) in cx
+        .remainder()
+        .iter()
+        .zip(cw.remainder())
+        .zip(cc.remainder())
+        .enumerate()
+    {
+        acc[i] += f64::from(a * b) * l;
     }
+    for ((a, b), l) in cx.zip(cw).zip(cc) {
+        for j in 0..8 {
+            acc[j] += f64::from(a[j] * b[j]) * l[j];
+        }
+    }
+}
+
+/// Σ x·w·cos(π·k·(i + ½)/n) over samples i = start, start + 1, ….
+fn dot_cosine(x: &[f32], w: &[f32], n: usize, k: usize, start: usize) -> f64 {
+    let c = cosine_span(n, k, start, x.len());
+    let whole = x.len() - x.len() % 8;
+    let (mut acc, mut tail) = ([0.0f64; 8], [0.0f64; 8]);
+    lanes_with(&mut acc, &x[..whole], &w[..whole], &c[..whole]);
+    lanes_with(&mut tail, &x[whole..], &w[whole..], &c[whole..]);
+    acc.iter().sum::<f64>() + tail.iter().sum::<f64>()
 }
 
 /// Samples `s..e` of a raw column (`v` delayed by `whole + frac` samples, held at its first

@@ -482,19 +482,21 @@ const MODEL_KINDS: [EstimatorKind; 4] = [
 const OBSERVER: usize = 3;
 const SCHEDULED: usize = 2;
 
-/// Held-out RMS (g) of each of [`MODEL_KINDS`] built per fold from `fold_terms`.
-fn held_out_force(
+/// Held-out RMS (g) of each of `kinds` built per fold from `fold_terms`.
+fn held_out_force<const K: usize>(
     fold_terms: &[Vec<(Term, f64)>],
     d: &Diagnosis,
     series: &Series,
     form: ChipForm,
-) -> Option<[f64; 4]> {
-    let (mut sums, mut count) = ([0.0; 4], 0usize);
+    kinds: [EstimatorKind; K],
+) -> Option<[f64; K]> {
+    let (mut sums, mut count) = ([0.0; K], 0usize);
     for (terms, &(a, b)) in fold_terms.iter().zip(&d.model.folds) {
         let model = taxel_model_of(terms, d, series, TaxelId::default(), form)?;
         let mut est = TaxelEstimators::new(&model, series.dt_s).ok()?;
+        // From the record's start: the estimators' state at the fold is its whole history's.
         for i in 0..b {
-            let forces = est.update_kinds(series.strain_pct[i] as f32, MODEL_KINDS);
+            let forces = est.update_kinds(series.strain_pct[i] as f32, kinds);
             if i >= a && !series.excluded[i] {
                 let f = series.force_g[i];
                 // An estimate that ran away counts as the chip would show it: no force.
@@ -508,6 +510,33 @@ fn held_out_force(
     }
     let rms = sums.map(|s| (s / count.max(1) as f64).sqrt());
     rms.iter().all(|v| v.is_finite()).then_some(rms)
+}
+
+/// Held-out RMS (g) of each of [`MODEL_KINDS`] but the observer, whose is `observer_g`, each
+/// kind on a thread of its own (they run apart: the same figures as run together).
+fn held_out_kinds(
+    fold_terms: &[Vec<(Term, f64)>],
+    d: &Diagnosis,
+    series: &Series,
+    form: ChipForm,
+    observer_g: f64,
+) -> Option<[f64; 4]> {
+    let each: Vec<Option<f64>> = std::thread::scope(|scope| {
+        let runs: Vec<_> = MODEL_KINDS[..OBSERVER]
+            .iter()
+            .map(|&kind| {
+                scope.spawn(move || {
+                    held_out_force(fold_terms, d, series, form, [kind]).map(|v| v[0])
+                })
+            })
+            .collect();
+        runs.into_iter().map(|r| r.join().ok().flatten()).collect()
+    });
+    let mut out = [observer_g; 4];
+    for (o, v) in out.iter_mut().zip(each) {
+        *o = v?;
+    }
+    Some(out)
 }
 
 /// `model` with the force bank fitted on the record, every estimator's held-out error (the
@@ -532,30 +561,40 @@ fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> Taxe
     model
 }
 
-/// The form among `forms` whose observer holds out best on the chip, with its held-out errors
-/// (each form on a thread of its own).
+/// The form among `forms` whose observer holds out best on the chip, with its held-out errors:
+/// each form's observer on a thread of its own, then the other estimators of the best (of the
+/// next best where one of them has no figure).
 fn best_form(
     fold_terms: &[Vec<(Term, f64)>],
     d: &Diagnosis,
     series: &Series,
     forms: &[ChipForm],
 ) -> (ChipForm, Option<[f64; 4]>) {
-    let scored: Vec<(ChipForm, Option<[f64; 4]>)> = std::thread::scope(|scope| {
+    let observer: Vec<Option<f64>> = std::thread::scope(|scope| {
         let runs: Vec<_> = forms
             .iter()
-            .map(|&form| scope.spawn(move || held_out_force(fold_terms, d, series, form)))
+            .map(|&form| {
+                scope.spawn(move || {
+                    held_out_force(fold_terms, d, series, form, [EstimatorKind::Observer])
+                        .map(|v| v[0])
+                })
+            })
             .collect();
-        forms
-            .iter()
-            .zip(runs)
-            .map(|(form, run)| (*form, run.join().ok().flatten()))
-            .collect()
+        runs.into_iter().map(|r| r.join().ok().flatten()).collect()
     });
-    let key = |x: &Option<[f64; 4]>| x.map_or(f64::INFINITY, |v| v[OBSERVER]);
-    scored
+    let mut order: Vec<(ChipForm, f64)> = forms
+        .iter()
+        .zip(&observer)
+        .filter_map(|(f, o)| Some((*f, (*o)?)))
+        .collect();
+    // Stable: of forms that hold out alike, the first.
+    order.sort_by(|a, b| a.1.total_cmp(&b.1));
+    order
         .into_iter()
-        .min_by(|a, b| key(&a.1).total_cmp(&key(&b.1)))
-        .unwrap_or((ChipForm::ALL[0], None))
+        .find_map(|(form, observer_g)| {
+            held_out_kinds(fold_terms, d, series, form, observer_g).map(|v| (form, Some(v)))
+        })
+        .unwrap_or((forms.first().copied().unwrap_or(ChipForm::ALL[0]), None))
 }
 
 /// What the chip runs and why: every estimator's held-out error, the one it runs marked.

@@ -396,12 +396,12 @@ fn delay(
                 .any(|(k, b)| k == c && (*b != 0.0 || work.terms[*c] == Term::Elastic))
         })
         .collect();
-    let views = |sources: Vec<usize>| {
-        move |work: &mut Work, d: f64| -> Vec<usize> {
-            sources.iter().map(|&c| work.add_delayed(c, d)).collect()
-        }
+    let mut views = Views::default();
+    let Some(mut best) = best_delay(work, &others, longest, |work, d| views.of(work, &active, d))
+    else {
+        views.free_except(work, &[]);
+        return None;
     };
-    let mut best = best_delay(work, &others, longest, views(active.clone()))?;
     let all: Vec<usize> = driven_now
         .iter()
         .chain(&columns.unsupported)
@@ -409,7 +409,9 @@ fn delay(
         .collect();
     let mut variants = Vec::new();
     if all.len() > active.len() {
-        variants.extend(best_delay(work, &others, longest, views(all.clone())));
+        variants.extend(best_delay(work, &others, longest, |work, d| {
+            views.of(work, &all, d)
+        }));
     }
     // After a stiffening, its basis rebuilt through the delayed fit's branches too.
     let base: Option<Vec<usize>> = state
@@ -418,7 +420,9 @@ fn delay(
         .find(|g| g.0 == Effect::LoadDependentStiffness)
         .map(|(_, stiff)| all.iter().copied().filter(|c| !stiff.contains(c)).collect());
     if let Some(base) = &base {
-        variants.extend(rebuilt_stiffening_delay(work, &others, base, longest));
+        variants.extend(rebuilt_stiffening_delay(
+            work, &others, base, longest, &mut views,
+        ));
     }
     for other in variants {
         let (worse, better) = if other.1 < best.1 {
@@ -426,10 +430,11 @@ fn delay(
         } else {
             (other, best)
         };
-        worse.2.iter().for_each(|c| work.pool.drop_column(*c));
+        free_built(work, &worse.2);
         best = better;
     }
     let (d, _, cols) = best;
+    views.free_except(work, &cols);
     // The rebuilt basis, where that variant won: its own columns, not delayed views.
     let regroup = base
         .as_ref()
@@ -469,9 +474,10 @@ fn rebuilt_stiffening_delay(
     others: &[usize],
     base: &[usize],
     longest: f64,
+    views: &mut Views,
 ) -> Option<(f64, f64, Vec<usize>)> {
     let rebuilt = |work: &mut Work, d: f64| -> Vec<usize> {
-        let delayed: Vec<usize> = base.iter().map(|&c| work.add_delayed(c, d)).collect();
+        let delayed = views.of(work, base, d);
         let fit: Vec<usize> = others.iter().chain(&delayed).copied().collect();
         let sc = work.pool.score(&fit);
         let taus = heaviest_branches(work, &sc.columns, &sc.beta);
@@ -509,6 +515,46 @@ fn undelayed_reference(
     (sc.cv_mse < state.scored.cv_mse).then_some(sc)
 }
 
+/// Delayed views made during one delay search, each of a column and a delay once: its variants
+/// share their products (a view costs no memory, only its products).
+#[derive(Default)]
+struct Views(Vec<((usize, u64), usize)>);
+
+impl Views {
+    /// Each of `sources` delayed by `d` s.
+    fn of(&mut self, work: &mut Work, sources: &[usize], d: f64) -> Vec<usize> {
+        sources
+            .iter()
+            .map(|&c| match self.0.iter().find(|v| v.0 == (c, d.to_bits())) {
+                Some(v) => v.1,
+                None => {
+                    let j = work.add_delayed(c, d);
+                    self.0.push(((c, d.to_bits()), j));
+                    j
+                }
+            })
+            .collect()
+    }
+
+    /// Frees every view but `keep`'s.
+    fn free_except(self, work: &mut Work, keep: &[usize]) {
+        for (_, j) in self.0 {
+            if !keep.contains(&j) {
+                work.pool.drop_column(j);
+            }
+        }
+    }
+}
+
+/// Frees the columns a delay's variant built, but the views ([`Views`] frees them).
+fn free_built(work: &mut Work, cols: &[usize]) {
+    for &c in cols {
+        if work.pool.delayed_source(c).is_none() {
+            work.pool.drop_column(c);
+        }
+    }
+}
+
 /// The delay beside `others` that holds out best, its held-out error and the columns `build`
 /// made for it. Doubling delays from one sample to `longest` s, then the best refined between
 /// its neighbours; only the best delay's columns are kept (a delayed column is a view of its
@@ -521,17 +567,23 @@ fn best_delay(
 ) -> Option<(f64, f64, Vec<usize>)> {
     let dt = work.s.dt_s;
     let mut best: Option<(f64, f64, Vec<usize>)> = None;
+    // The refinements meet delays already scored (at the search's ends): each is scored once.
+    let mut scored: Vec<f64> = Vec::new();
     let mut consider = |work: &mut Work, d: f64, best: &mut Option<(f64, f64, Vec<usize>)>| {
+        if scored.iter().any(|s| (s - d).abs() <= 1e-9 * dt) {
+            return;
+        }
+        scored.push(d);
         let cols = build(work, d);
         let all: Vec<usize> = others.iter().chain(&cols).copied().collect();
         let mse = work.pool.score(&all).cv_mse;
         if best.as_ref().is_none_or(|b| mse < b.1) {
             if let Some((_, _, old)) = best.take() {
-                old.iter().for_each(|c| work.pool.drop_column(*c));
+                free_built(work, &old);
             }
             *best = Some((d, mse, cols));
         } else {
-            cols.iter().for_each(|c| work.pool.drop_column(*c));
+            free_built(work, &cols);
         }
     };
     let mut d = dt;
