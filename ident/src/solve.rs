@@ -418,7 +418,7 @@ impl Pool {
             return FoldSlice::Cosine(cosine_span(self.n, *k, s, e - s));
         }
         match self.raw(c) {
-            Some((v, 0, frac)) if frac == 0.0 => FoldSlice::Samples(Cow::Borrowed(&v[s..e])),
+            Some((v, 0, 0.0)) => FoldSlice::Samples(Cow::Borrowed(&v[s..e])),
             Some(raw) => {
                 let mut buf = Vec::new();
                 span(&mut buf, raw, s, e);
