@@ -299,34 +299,15 @@ fn touch_down(
     // the identified (the identification reads it 4–9 % low on the three rigs).
     let contact_g = CONTACT_G.max(CONTACT_DEVIATIONS * gauge_noise_g);
     let push_g = push_g.max((contact_g + 0.2) / gain + 0.15 * stiction_g);
-    let push_g = push_g.max(mean_landing_push_g(contact_g, gain, stiction_g));
     let least_g = LEAST_STICTION_SHARE * push_g;
     if stiction_g < least_g {
         return Err(DesignError::TooLittleFriction {
             stiction_g,
             push_g,
             least_g,
-            contact_g,
         });
     }
     Ok((push_g, contact_g))
-}
-
-/// The push (drive grams) that lands a probe by the pulse cycle's mean reading where the
-/// friction cannot hold the finger pressed between the pulses; 0 where it can. A push ends at
-/// no drive, where a motor stuck on the finger holds up to the stiction s: with s at the mean
-/// test's reading (`CONTACT_MEAN_SHARE` of contact) or over, a pressed finger stays pressed
-/// and the peak's rule lands it. Under it the finger follows the drive: the push's half cycle
-/// reads P/2 on average (P = gain·push, the Hann shape's mean one half), the brake's about
-/// nothing, the cycle P/4, which must reach the mean test's reading (0.2 g over contact, as
-/// the peak's rule). A 27.6 g/V gauge's 0.5 g of noise set contact at 1.4 g, over the 1.6 g
-/// peak's reach with 0.4 g of stiction: the probe pressed and fell back, never landing.
-fn mean_landing_push_g(contact_g: f32, gain: f32, stiction_g: f32) -> f32 {
-    let share = tactile_core::designed::CONTACT_MEAN_SHARE;
-    if gain * stiction_g >= share * contact_g {
-        return 0.0;
-    }
-    4.0 * share * (contact_g + 0.2) / gain + 0.15 * stiction_g
 }
 
 /// The least stiction the design takes, as a share of the touch-down's push: the pulses' brake
@@ -394,29 +375,4 @@ pub fn design_identified(
         identified.gauge_noise_g as f32,
     )?;
     Ok(RigDesign { identified, design })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_finger_the_friction_cannot_hold_pressed_is_landed_by_the_cycles_mean() {
-        // A 0.5 g gauge noise's contact at 1.4 g, a unit drive: with 0.2 g of stiction the
-        // cycle's mean P/4 must reach half of 1.6 g, P = 3.2 g, plus 15 % of the stiction; with
-        // 0.7 g (half the contact reading) the friction holds the press and the peak's rule is
-        // left alone. A drive of half the gain needs twice the push.
-        let push = |gain, stiction_g| mean_landing_push_g(1.4, gain, stiction_g);
-        assert!(
-            (push(1.0, 0.2) - (3.2 + 0.03)).abs() < 1e-5,
-            "{}",
-            push(1.0, 0.2)
-        );
-        assert_eq!(push(1.0, 0.7), 0.0);
-        assert!(
-            (push(0.5, 0.2) - (6.4 + 0.03)).abs() < 1e-5,
-            "{}",
-            push(0.5, 0.2)
-        );
-    }
 }

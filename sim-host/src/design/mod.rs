@@ -113,12 +113,11 @@ pub enum DesignError {
     },
     #[error("no integral gain gives the margins at every load (the model at {load_g} g has a gain margin of {margin:.2} with none)")]
     NoMargin { load_g: f32, margin: f64 },
-    #[error("the holds read {stiction_g:.3} g of stiction at the drive, under the {least_g:.3} g the touch-down needs to stop the probe between its pushes of {push_g:.2} g (sized to press the finger to the contact reading, {contact_g:.2} g): the probe would strike the finger after a rest (a rig this free needs a sensor of the motor's position, or a quieter gauge)")]
+    #[error("the holds read {stiction_g:.3} g of stiction at the drive, under the {least_g:.3} g the touch-down needs to stop the probe between its pushes of {push_g:.2} g: the probe would strike the finger after a rest (a rig this free needs a sensor of the motor's position)")]
     TooLittleFriction {
         stiction_g: f32,
         push_g: f32,
         least_g: f32,
-        contact_g: f32,
     },
 }
 
