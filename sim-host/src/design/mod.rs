@@ -286,6 +286,16 @@ mod tests {
             implausible(&fit(100.0, 69.4, 51.9, 167.0).model),
             Some("its anti-resonance or beam mode is under the inertia–finger mode")
         );
+        // The inertia–finger mode undamped (a rig with 3.9 g of stiction read its 35 g fit's
+        // 27.2 Hz mode at ζ 0.00): the friction simulated took the rubber's damping.
+        let mut undamped = kept.model;
+        undamped.modes[0] = mode(27.2, 4e-4);
+        assert_eq!(
+            implausible(&undamped),
+            Some(
+                "its inertia–finger mode is undamped (the friction simulated took all its damping)"
+            )
+        );
         // A drive that was one spike: the fit's gain 0.00 and its pole at 6.5e30 Hz (the gain
         // is the first reason named).
         let mut spike = kept.model;
