@@ -238,15 +238,27 @@ pub fn simulated_frames(
     (frames, truth)
 }
 
-/// The chip's scanner for strains given as such (its read-out calibration is never used).
-fn scanner(config: &FirmwareConfig) -> Result<Scanner, Error> {
+/// The chip's scanner for strains given as such (its read-out calibration is never used), its
+/// taxels' estimators from the calibration table `table` (empty: the nominal models).
+fn scanner(config: &FirmwareConfig, table: &[u8]) -> Result<Scanner, Error> {
     let rest = [TaxelCalibration {
         amplifier: tactile_core::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
         rest_output_v: 0.0,
         gain: 1.0,
     }; TAXELS];
-    Scanner::new(config, rest)
-        .map_err(|e| Error::Failed(format!("the scanner's configuration was refused: {e}")))
+    let refused = |e| Error::Failed(format!("the scanner's configuration was refused: {e}"));
+    let mut scanner = Scanner::new(config, rest).map_err(refused)?;
+    if !table.is_empty() {
+        scanner
+            .reset_with_table(config, rest, table)
+            .map_err(refused)?;
+        if let Some(e) = scanner.calibration_status().refused {
+            return Err(Error::Failed(format!(
+                "the calibration table was refused: {e}"
+            )));
+        }
+    }
+    Ok(scanner)
 }
 
 /// The chip's scan over a frames record: each row's strains through every taxel's estimator
@@ -266,7 +278,17 @@ pub fn chip_frames(
     rec: &FramesRecord,
     config: &FirmwareConfig,
 ) -> Result<Vec<(ArrayEstimate, StrainGrid)>, Error> {
-    let mut scanner = scanner(config)?;
+    chip_frames_calibrated(rec, config, config.calibration)
+}
+
+/// [`chip_frames`] with each taxel's estimator from the calibration table `table` (a table
+/// read from a file, which a configuration's `'static` one cannot be).
+pub fn chip_frames_calibrated(
+    rec: &FramesRecord,
+    config: &FirmwareConfig,
+    table: &[u8],
+) -> Result<Vec<(ArrayEstimate, StrainGrid)>, Error> {
+    let mut scanner = scanner(config, table)?;
     Ok(rec
         .strain_pct
         .iter()
@@ -285,6 +307,16 @@ pub fn presses_from_record(
     path: &Path,
     config: &FirmwareConfig,
 ) -> Result<Vec<Press>, Error> {
+    presses_calibrated(rec, path, config, config.calibration)
+}
+
+/// [`presses_from_record`] with each taxel's estimator from the calibration table `table`.
+pub fn presses_calibrated(
+    rec: &FramesRecord,
+    path: &Path,
+    config: &FirmwareConfig,
+    table: &[u8],
+) -> Result<Vec<Press>, Error> {
     if rec.truth.iter().all(Option::is_none) {
         return Err(Error::Usage(format!(
             "{}: no x_mm,y_mm,force_g: a calibration record carries the probe's position and force",
@@ -295,7 +327,7 @@ pub fn presses_from_record(
         locator: LocatorConfig::MEMO,
         ..*config
     };
-    let mut scanner = scanner(&config)?;
+    let mut scanner = scanner(&config, table)?;
     let mut runs: Vec<(Truth, Vec<[f32; TAXELS]>)> = Vec::new();
     for (k, (grid, truth)) in rec.strain_pct.iter().zip(&rec.truth).enumerate() {
         scanner.step_strains(grid, k as u32);
