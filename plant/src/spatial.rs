@@ -18,6 +18,17 @@ pub enum SpatialLaw {
     /// `pitch_mm` (plates the memo's 3.57 mm squares); the memo geometry, 4.0 mm deep on a
     /// 4.0 mm pitch, reproduces the kernel at taxel-centre presses within 0.015.
     HalfSpace { depth_mm: f64, pitch_mm: f64 },
+    /// The same half-space read as strain rather than stress: the compression −ε_zz under a
+    /// point, ∝ z(3z² − 2νR²)/R⁵ (Boussinesq's displacement differentiated, Poisson's ratio
+    /// `poisson`), averaged over each plate numerically, relative to a centred contact. It
+    /// narrows faster than σ_zz and turns to extension beyond r = z·√(3/(2ν) − 1) (1.41
+    /// depths for rubber's ν = 0.5), read as no load: a field the locator's model does not
+    /// hold.
+    Strain {
+        depth_mm: f64,
+        pitch_mm: f64,
+        poisson: f64,
+    },
 }
 
 impl SpatialLaw {
@@ -39,7 +50,10 @@ impl SpatialLaw {
     pub fn response(self) -> SpatialResponse {
         match self {
             SpatialLaw::Kernel => SpatialResponse::MEMO,
-            SpatialLaw::HalfSpace { depth_mm, pitch_mm } => SpatialResponse {
+            SpatialLaw::HalfSpace { depth_mm, pitch_mm }
+            | SpatialLaw::Strain {
+                depth_mm, pitch_mm, ..
+            } => SpatialResponse {
                 depth_mm: depth_mm as f32,
                 pitch_mm: pitch_mm as f32,
                 ..SpatialResponse::MEMO
@@ -61,17 +75,57 @@ impl SpatialLaw {
                     let r = self.response();
                     let (cx, cy) = r.centre_mm(t);
                     let w = r.share(cx - x_mm as f32, cy - y_mm as f32).weight;
-                    // Below a millionth the share is nothing a taxel can read: left unloaded
-                    // so its state is not stepped each scan.
-                    if w > 1e-6 {
-                        f64::from(w)
-                    } else {
-                        0.0
-                    }
+                    unloaded_below_a_millionth(f64::from(w))
+                }
+                SpatialLaw::Strain {
+                    depth_mm, poisson, ..
+                } => {
+                    let r = self.response();
+                    let (cx, cy) = r.centre_mm(t);
+                    let h = 0.5 * f64::from(r.plate_mm);
+                    let at = |u: f64, v: f64| plate_strain(u, v, h, depth_mm, poisson);
+                    let w = at(f64::from(cx) - x_mm, f64::from(cy) - y_mm) / at(0.0, 0.0);
+                    unloaded_below_a_millionth(w)
                 }
             }
         })
     }
+}
+
+/// Below a millionth the share is nothing a taxel can read: left unloaded so its state is not
+/// stepped each scan (and a taxel in extension reads no load).
+fn unloaded_below_a_millionth(w: f64) -> f64 {
+    if w > 1e-6 && w.is_finite() {
+        w
+    } else {
+        0.0
+    }
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1], six points (exact to degree 11).
+const GAUSS_6: [(f64, f64); 6] = [
+    (-0.932_469_514_203_152, 0.171_324_492_379_170),
+    (-0.661_209_386_466_265, 0.360_761_573_048_139),
+    (-0.238_619_186_083_197, 0.467_913_934_572_691),
+    (0.238_619_186_083_197, 0.467_913_934_572_691),
+    (0.661_209_386_466_265, 0.360_761_573_048_139),
+    (0.932_469_514_203_152, 0.171_324_492_379_170),
+];
+
+/// The compressive strain z(3z² − 2νR²)/R⁵ of a point load integrated over the plate
+/// [−h, h]² centred (`u_mm`, `v_mm`) from the load, at depth `z_mm` (6 × 6 Gauss points: the
+/// depth keeps the integrand smooth over a plate of about its size).
+fn plate_strain(u_mm: f64, v_mm: f64, h_mm: f64, z_mm: f64, poisson: f64) -> f64 {
+    let mut sum = 0.0;
+    for (a, wa) in GAUSS_6 {
+        for (b, wb) in GAUSS_6 {
+            let (x, y) = (u_mm + h_mm * a, v_mm + h_mm * b);
+            let r2 = x * x + y * y + z_mm * z_mm;
+            let r5 = r2 * r2 * libm::sqrt(r2);
+            sum += wa * wb * z_mm * (3.0 * z_mm * z_mm - 2.0 * poisson * r2) / r5;
+        }
+    }
+    sum * h_mm * h_mm
 }
 
 /// The taxels other than `probe` with a share, for the finger's per-tick accumulation.
@@ -187,5 +241,41 @@ mod tests {
         };
         let (ea, eb) = (strain(&mut f, a, a - 1), strain(&mut f, b, a));
         assert!(ea > 1.2 * eb && eb > 0.5, "{ea} {eb}");
+    }
+
+    /// Read as strain: with ν = 0 the compression is σ_zz's shape (3z³/R⁵), so the numerical
+    /// plate average gives the half-space's closed form; with rubber's ν = 0.5 a neighbour a
+    /// pitch away reads 0.614 of what σ_zz gives it (point-sampled, (1/2^2.5)/2 against 2^−2.5:
+    /// a half; over the plate, a 400 × 400 midpoint sum gives 0.6143), and a taxel two pitches
+    /// away, all of its plate beyond r = √2 z, none.
+    #[test]
+    fn read_as_strain_the_field_narrows_and_turns_to_extension() {
+        let pitch = f64::from(SpatialResponse::MEMO.pitch_mm);
+        let depth = f64::from(SpatialResponse::MEMO.depth_mm);
+        let probe = NOMINAL_PROBE;
+        let (x, y) = (probe.col() as f64 * pitch, probe.row() as f64 * pitch);
+        let strain = |poisson| SpatialLaw::Strain {
+            depth_mm: depth,
+            pitch_mm: pitch,
+            poisson,
+        };
+        let stress = SpatialLaw::MEMO_HALF_SPACE.shares(probe, x + 1.3, y - 0.7);
+        let like = strain(0.0).shares(probe, x + 1.3, y - 0.7);
+        for (a, b) in stress.iter().zip(like) {
+            assert!((a - b).abs() < 1e-4, "{a} {b}");
+        }
+        let rubber = strain(0.5).shares(probe, x, y);
+        let near = |dr: usize, dc: usize| probe.index() + dr * COLS + dc;
+        assert!((rubber[probe.index()] - 1.0).abs() < 1e-9);
+        let ratio = rubber[near(0, 1)] / stress_at(near(0, 1), x, y);
+        assert!((ratio - 0.6143).abs() < 0.002, "{ratio}");
+        assert_eq!(rubber[near(0, 2)], 0.0);
+        assert_eq!(rubber[near(2, 0)], 0.0);
+    }
+
+    const NOMINAL_PROBE: TaxelId = crate::finger::NOMINAL_TAXEL;
+
+    fn stress_at(index: usize, x: f64, y: f64) -> f64 {
+        SpatialLaw::MEMO_HALF_SPACE.shares(NOMINAL_PROBE, x, y)[index]
     }
 }

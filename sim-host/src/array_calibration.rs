@@ -238,15 +238,27 @@ pub fn simulated_frames(
     (frames, truth)
 }
 
-/// The chip's scanner for strains given as such (its read-out calibration is never used).
-fn scanner(config: &FirmwareConfig) -> Result<Scanner, Error> {
+/// The chip's scanner for strains given as such (its read-out calibration is never used), its
+/// taxels' estimators from the calibration table `table` (empty: the nominal models).
+pub fn scanner(config: &FirmwareConfig, table: &[u8]) -> Result<Scanner, Error> {
     let rest = [TaxelCalibration {
         amplifier: tactile_core::tactile::ReadoutAmplifier::MEMO_ELEMENT_4_2,
         rest_output_v: 0.0,
         gain: 1.0,
     }; TAXELS];
-    Scanner::new(config, rest)
-        .map_err(|e| Error::Failed(format!("the scanner's configuration was refused: {e}")))
+    let refused = |e| Error::Failed(format!("the scanner's configuration was refused: {e}"));
+    let mut scanner = Scanner::new(config, rest).map_err(refused)?;
+    if !table.is_empty() {
+        scanner
+            .reset_with_table(config, rest, table)
+            .map_err(refused)?;
+        if let Some(e) = scanner.calibration_status().refused {
+            return Err(Error::Failed(format!(
+                "the calibration table was refused: {e}"
+            )));
+        }
+    }
+    Ok(scanner)
 }
 
 /// The chip's scan over a frames record: each row's strains through every taxel's estimator
@@ -266,7 +278,17 @@ pub fn chip_frames(
     rec: &FramesRecord,
     config: &FirmwareConfig,
 ) -> Result<Vec<(ArrayEstimate, StrainGrid)>, Error> {
-    let mut scanner = scanner(config)?;
+    chip_frames_calibrated(rec, config, config.calibration)
+}
+
+/// [`chip_frames`] with each taxel's estimator from the calibration table `table` (a table
+/// read from a file, which a configuration's `'static` one cannot be).
+pub fn chip_frames_calibrated(
+    rec: &FramesRecord,
+    config: &FirmwareConfig,
+    table: &[u8],
+) -> Result<Vec<(ArrayEstimate, StrainGrid)>, Error> {
+    let mut scanner = scanner(config, table)?;
     Ok(rec
         .strain_pct
         .iter()
@@ -285,17 +307,36 @@ pub fn presses_from_record(
     path: &Path,
     config: &FirmwareConfig,
 ) -> Result<Vec<Press>, Error> {
+    presses_calibrated(rec, path, config, config.calibration)
+}
+
+/// [`presses_from_record`] with each taxel's estimator from the calibration table `table`.
+pub fn presses_calibrated(
+    rec: &FramesRecord,
+    path: &Path,
+    config: &FirmwareConfig,
+    table: &[u8],
+) -> Result<Vec<Press>, Error> {
+    let config = FirmwareConfig {
+        locator: LocatorConfig::MEMO,
+        ..*config
+    };
+    presses_scanned(rec, path, &mut scanner(&config, table)?)
+}
+
+/// [`presses_from_record`] through a scanner that is running already (its estimators' state
+/// the finger's history).
+pub fn presses_scanned(
+    rec: &FramesRecord,
+    path: &Path,
+    scanner: &mut Scanner,
+) -> Result<Vec<Press>, Error> {
     if rec.truth.iter().all(Option::is_none) {
         return Err(Error::Usage(format!(
             "{}: no x_mm,y_mm,force_g: a calibration record carries the probe's position and force",
             path.display()
         )));
     }
-    let config = FirmwareConfig {
-        locator: LocatorConfig::MEMO,
-        ..*config
-    };
-    let mut scanner = scanner(&config)?;
     let mut runs: Vec<(Truth, Vec<[f32; TAXELS]>)> = Vec::new();
     for (k, (grid, truth)) in rec.strain_pct.iter().zip(&rec.truth).enumerate() {
         scanner.step_strains(grid, k as u32);
@@ -375,15 +416,28 @@ pub fn locator_of(response: SpatialResponse) -> Locator {
     })
 }
 
-/// `tactile calibrate --array FRAMES.csv… --out A.bin`: the presses of every record (the
-/// chip's nominal estimators per taxel), the fitted response sealed into `out`; the summary.
-pub fn calibrate_command(records: &[std::path::PathBuf], out: &Path) -> Result<String, Error> {
-    let inputs: Vec<&Path> = records.iter().map(|p| p.as_path()).collect();
+/// A calibration table read from `path` (none: empty, each taxel's nominal models), checked
+/// when a scanner is built on it.
+fn calibration_bytes(path: Option<&Path>) -> Result<Vec<u8>, Error> {
+    path.map_or(Ok(Vec::new()), |p| std::fs::read(p).map_err(Error::io(p)))
+}
+
+/// `tactile calibrate --array FRAMES.csv… [--calibration T.bin] --out A.bin`: the presses of
+/// every record through each taxel's estimator (from the calibration table `calibration`, or
+/// the nominal models), the fitted response sealed into `out`; the summary.
+pub fn calibrate_command(
+    records: &[std::path::PathBuf],
+    calibration: Option<&Path>,
+    out: &Path,
+) -> Result<String, Error> {
+    let mut inputs: Vec<&Path> = records.iter().map(|p| p.as_path()).collect();
+    inputs.extend(calibration);
     let table_out = crate::output::Output::claim(out, &inputs)?;
+    let cal = calibration_bytes(calibration)?;
     let mut presses = Vec::new();
     for path in records {
         let rec = tactile_record::read_frames(path)?;
-        let found = presses_from_record(&rec, path, &FirmwareConfig::MEMO)?;
+        let found = presses_calibrated(&rec, path, &FirmwareConfig::MEMO, &cal)?;
         if found.is_empty() {
             return Err(Error::Failed(format!(
                 "{}: no press held for two frames at one position",
@@ -411,11 +465,20 @@ pub fn calibrate_command(records: &[std::path::PathBuf], out: &Path) -> Result<S
     ))
 }
 
-/// `tactile locate FRAMES.csv --table A.bin [--out OUT.csv]`: the chip's scan (each taxel's
-/// nominal estimator, then the locator on the table's response) over a frames record; the
+/// `tactile locate FRAMES.csv --table A.bin [--calibration T.bin] [--out OUT.csv]`: the
+/// chip's scan (each taxel's estimator from the calibration table `calibration`, or the
+/// nominal models; then the locator on the array table's response) over a frames record; the
 /// errors against the truth where the record has it, the centroid's beside them.
-pub fn locate_command(file: &Path, table: &Path, out: Option<&Path>) -> Result<String, Error> {
-    let out = crate::output::Output::claim_some(out, &[file, table])?;
+pub fn locate_command(
+    file: &Path,
+    table: &Path,
+    calibration: Option<&Path>,
+    out: Option<&Path>,
+) -> Result<String, Error> {
+    let mut inputs = vec![file, table];
+    inputs.extend(calibration);
+    let out = crate::output::Output::claim_some(out, &inputs)?;
+    let cal = calibration_bytes(calibration)?;
     let bytes = std::fs::read(table).map_err(Error::io(table))?;
     let response = SpatialResponse::decode(&bytes)
         .map_err(|e| Error::Failed(format!("{}: {e}", table.display())))?;
@@ -427,7 +490,10 @@ pub fn locate_command(file: &Path, table: &Path, out: Option<&Path>) -> Result<S
         },
         ..FirmwareConfig::MEMO
     };
-    let estimates = chip_estimates(&rec, &config)?;
+    let estimates: Vec<ArrayEstimate> = chip_frames_calibrated(&rec, &config, &cal)?
+        .into_iter()
+        .map(|(e, _)| e)
+        .collect();
     let mut text = format!(
         "{}: {} frames; pitch {:.3} mm, depth {:.3} mm from {}\n",
         file.display(),
@@ -654,7 +720,7 @@ mod tests {
         let presses = dir.join("presses.csv");
         tactile_record::write_frames_with_truth(&presses, &[], &frames, &truth).unwrap();
         let table = dir.join("array.bin");
-        let text = calibrate_command(std::slice::from_ref(&presses), &table).unwrap();
+        let text = calibrate_command(std::slice::from_ref(&presses), None, &table).unwrap();
         assert!(text.contains("64 presses"), "{text}");
         let r = SpatialResponse::decode(&std::fs::read(&table).unwrap()).unwrap();
         assert!(
@@ -662,7 +728,7 @@ mod tests {
             "{r:?}"
         );
         let out = dir.join("located.csv");
-        let text = locate_command(&presses, &table, Some(&out)).unwrap();
+        let text = locate_command(&presses, &table, None, Some(&out)).unwrap();
         assert!(text.contains("| the centroid |"), "{text}");
         let rows = std::fs::read_to_string(&out).unwrap();
         assert_eq!(rows.lines().count(), frames.len() + 1);
@@ -672,17 +738,25 @@ mod tests {
         let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
         lines[3] = lines[3].replacen(',', ",oops,", 1);
         std::fs::write(&bad, lines.join("\n")).unwrap();
-        let e = locate_command(&bad, &table, None).unwrap_err().to_string();
+        let e = locate_command(&bad, &table, None, None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("bad.csv:4"), "{e}");
-        let e = locate_command(&presses, &presses, None)
+        let e = locate_command(&presses, &presses, None, None)
             .unwrap_err()
             .to_string();
         assert!(
             e.contains("presses.csv") && e.contains("spatial table"),
             "{e}"
         );
-        let e = calibrate_command(std::slice::from_ref(&bad), &dir.join("b.bin")).unwrap_err();
+        let e =
+            calibrate_command(std::slice::from_ref(&bad), None, &dir.join("b.bin")).unwrap_err();
         assert!(e.to_string().contains("bad.csv:4"), "{e}");
+        // A calibration table that is none: refused with why, no table written.
+        let e = locate_command(&presses, &table, Some(&table), None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("calibration table was refused"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
 

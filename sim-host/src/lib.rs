@@ -6,6 +6,7 @@
 
 pub mod analysis;
 pub mod applicator_model;
+pub mod array_bench;
 pub mod array_calibration;
 pub mod board_link;
 pub mod chip_diagnosis;

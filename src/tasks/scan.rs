@@ -313,6 +313,13 @@ impl Scanner {
         &self.locator
     }
 
+    /// Locates the next frames with `config`, the taxels' estimators going on as they are: a
+    /// host that learns the array's response from the frames it scans (a reset would start
+    /// every estimator over on a finger that has crept).
+    pub fn set_locator(&mut self, config: LocatorConfig) {
+        self.locator = Locator::new(config);
+    }
+
     /// [`Self::step`] without the locator, for an interrupt that must stay within its dwell:
     /// the completed frame is located later by [`UnlocatedFrame::locate`].
     pub fn step_unlocated(

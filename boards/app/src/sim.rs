@@ -12,8 +12,10 @@ use tactile_plant::finger::{
 };
 use tactile_plant::rig::{FaultInjection, InjectedFault, RigConfig};
 
+use crate::commands::CommandPort;
 use crate::table::{CALIBRATION_TABLE, CONTROLLER_TABLE};
 use tactile_core::designed::DesignedConfig;
+use tactile_core::estimator::EstimatorKind;
 
 /// One run of the firmware-in-the-loop session: a protocol on a fresh simulated board, with
 /// the fault that board injects. The QEMU firmware runs [`FIL_SESSION`] in order; the QEMU
@@ -32,6 +34,11 @@ pub struct FilRun {
     /// Run the designed force controller of [`CONTROLLER_TABLE`] instead of A1 (A1 if the
     /// table is refused: the QEMU test checks it is not).
     pub designed: bool,
+    /// The estimator every taxel of the array runs (a command's choice); `None`: each taxel's
+    /// own.
+    pub estimator: Option<EstimatorKind>,
+    /// The calibration table in place of [`CALIBRATION_TABLE`] (one loaded by command).
+    pub calibration: Option<&'static [u8]>,
 }
 
 impl FilRun {
@@ -40,7 +47,8 @@ impl FilRun {
     pub fn rig(&self) -> RigConfig {
         let defaults = RigConfig::default();
         let firmware = FirmwareConfig {
-            calibration: &CALIBRATION_TABLE,
+            calibration: self.calibration.unwrap_or(&CALIBRATION_TABLE),
+            array_estimator: self.estimator.or(defaults.firmware.array_estimator),
             designed: if self.designed {
                 DesignedConfig::decode(&CONTROLLER_TABLE).ok()
             } else {
@@ -76,6 +84,8 @@ const fn calibration_run(name: &'static str, taxel: TaxelId) -> FilRun {
         finger: Some((taxel, CALIBRATION_FINGER_SEED)),
         element: None,
         designed: false,
+        estimator: None,
+        calibration: None,
     }
 }
 
@@ -104,6 +114,8 @@ const fn excitation_run(name: &'static str, preload_g: f32) -> FilRun {
         finger: None,
         element: None,
         designed: false,
+        estimator: None,
+        calibration: None,
     }
 }
 
@@ -201,6 +213,8 @@ impl FilRun {
             finger: None,
             element: None,
             designed: false,
+            estimator: None,
+            calibration: None,
         }
     }
 
@@ -215,6 +229,20 @@ impl FilRun {
                 _ => None,
             },
             ..FilRun::hold(0.0)
+        }
+    }
+
+    /// This commanded run as the board runs it after the commands `port` took: the force law
+    /// and the array's estimator they chose, and the calibration table they loaded in place of
+    /// the build's (the board's scan task rebuilds its estimators from the same table). A
+    /// controller table loaded by command is not carried: `designed` runs the build's.
+    pub fn after_commands<const CAL: usize>(self, port: &'static CommandPort<CAL>) -> FilRun {
+        let chosen = port.firmware(FirmwareConfig::MEMO, &CONTROLLER_TABLE);
+        FilRun {
+            designed: chosen.designed.is_some(),
+            estimator: chosen.array_estimator,
+            calibration: port.calibration_table(),
+            ..self
         }
     }
 }
@@ -258,6 +286,8 @@ const fn fault_run(name: &'static str, fault: InjectedFault) -> FilRun {
         finger: None,
         element: None,
         designed: false,
+        estimator: None,
+        calibration: None,
     }
 }
 
@@ -274,6 +304,8 @@ pub const FIL_SESSION: [FilRun; 6] = [
         finger: None,
         element: None,
         designed: false,
+        estimator: None,
+        calibration: None,
     },
     FilRun {
         name: "pseudo-random",
@@ -282,6 +314,8 @@ pub const FIL_SESSION: [FilRun; 6] = [
         finger: None,
         element: None,
         designed: false,
+        estimator: None,
+        calibration: None,
     },
     FilRun {
         name: "force-steps-designed",
@@ -290,6 +324,8 @@ pub const FIL_SESSION: [FilRun; 6] = [
         finger: None,
         element: None,
         designed: true,
+        estimator: None,
+        calibration: None,
     },
     fault_run("fault-gauge-disconnected", InjectedFault::GaugeDisconnected),
     fault_run("fault-force-spike", InjectedFault::ForceSpike { g: 80.0 }),

@@ -238,12 +238,11 @@ fn fault_run_is_safe_and_is_the_rigs(run: &tactile_decode::Run, spec: &FilRun) {
 /// The host rig, same protocol, fault, controller and seed: every command, control output,
 /// DAC code and fault bit identical to the bit, and the same forces.
 fn is_the_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun) {
-    is_this_rigs_to_the_bit(run, spec, spec.rig(), true);
+    is_this_rigs_to_the_bit(run, spec, spec.rig());
 }
 
-/// [`is_the_rigs_to_the_bit`] against the host rig built from `rig`; the frames' estimates too
-/// where `frames` (the scan configuration is the rig's).
-fn is_this_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun, rig: RigConfig, frames: bool) {
+/// [`is_the_rigs_to_the_bit`] against the host rig built from `rig`.
+fn is_this_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun, rig: RigConfig) {
     let name = spec.name;
     let ticks = &run.ticks;
     let records = run.tick_records();
@@ -274,7 +273,6 @@ fn is_this_rigs_to_the_bit(run: &tactile_decode::Run, spec: &FilRun, rig: RigCon
     // An injected overrun delays the firmware's scan against the plant (the rig counts it
     // without delaying anything): its frames are the rig's up to the injection.
     let before_tick = match spec.fault {
-        _ if !frames => 0,
         Some(f) if f.fault == InjectedFault::DeadlineOverrun => {
             (f.at_s / tactile_core::CONTROL_PERIOD_S) as u32
         }
@@ -350,7 +348,7 @@ fn the_firmware_runs_the_plant_of_an_applicator_file() {
     assert_eq!(light.gauge_g_per_v, 28.0);
     let mut config = spec.rig();
     config.set_applicator(light);
-    is_this_rigs_to_the_bit(run, spec, config, true);
+    is_this_rigs_to_the_bit(run, spec, config);
     let memo = run_protocol(spec.name, spec.protocol, spec.rig(), false, |_| {}).expect("memo");
     let differ = run
         .ticks
@@ -967,7 +965,7 @@ fn a_session_driven_by_commands() {
         f[5..7].copy_from_slice(&crc.to_le_bytes());
         f
     };
-    let script: Vec<(u32, Vec<u8>)> = vec![
+    let mut script: Vec<(u32, Vec<u8>)> = vec![
         (
             5,
             [
@@ -1007,6 +1005,27 @@ fn a_session_driven_by_commands() {
         ),
         (5100, unknown),
     ];
+    // A calibration table of the build's first two taxels only, loaded in chunks one tick
+    // apart before the run: the run's other taxels fall back to the nominal models, so its
+    // frames tell this table from the build's.
+    let loaded = first_taxels_of_the_builds_table(2);
+    let chunks = Command::table_chunks(TableKind::Calibration, &loaded);
+    let mut loading: Vec<(u32, Vec<u8>)> = chunks
+        .enumerate()
+        .map(|(k, c)| (2110 + k as u32, frame(20 + k as u16, c)))
+        .collect();
+    let load_seq = 20 + loading.len() as u16;
+    let load = Command::LoadTable {
+        table: TableKind::Calibration,
+        len: loaded.len() as u16,
+    };
+    loading.push((2110 + u32::from(load_seq - 20), frame(load_seq, load)));
+    assert!(loading.last().is_some_and(|(tick, _)| *tick < 2200));
+    let at = script
+        .iter()
+        .position(|(tick, _)| *tick == 2200)
+        .expect("the run");
+    script.splice(at..at, loading);
     let path = dir.join("commands.bin");
     let bytes = tactile_decode::transport::script_bytes(&script).expect("a script");
     std::fs::write(&path, &bytes).expect("script written");
@@ -1029,11 +1048,16 @@ fn a_session_driven_by_commands() {
             (5, None),
             (6, None),
             (7, refused("TableRefused")),
+        ]
+        .into_iter()
+        .chain((20..=load_seq).map(|seq| (seq, None)))
+        .chain([
             (8, None),
             (9, None),
             (10, refused("OutOfRange { param: PreloadG }")),
             (11, refused("UnknownCommand { op: 42 }")),
-        ]
+        ])
+        .collect::<Vec<_>>()
     );
     let names: Vec<&str> = session.runs.iter().map(|r| r.name.as_str()).collect();
     assert_eq!(names, ["hold", "pseudo-random"]);
@@ -1048,11 +1072,44 @@ fn a_session_driven_by_commands() {
         .collect();
     let mean = last.iter().sum::<f64>() / last.len() as f64;
     assert!((mean - 30.0).abs() < 0.5, "the hold at {mean:.2} g");
-    // The run asked for by command is the host rig's, to the bit.
-    // Its frames are the commanded estimator's on the table loaded by command, which the
-    // host's commanded run does not build: the control traces are compared.
-    let spec = tactile_firmware::FilRun::commanded(pseudo_random);
-    is_this_rigs_to_the_bit(&session.runs[1], &spec, spec.rig(), false);
+    // The run asked for by command is the host rig's, to the bit, frames included: the host
+    // takes the script's commands up to the run into a port of its own and builds the run
+    // with the estimator and the calibration table they set.
+    let port = commands_up_to(&script, 2200);
+    assert_eq!(port.calibration_table(), Some(loaded.as_slice()));
+    let spec = tactile_firmware::FilRun::commanded(pseudo_random).after_commands(port);
+    assert_eq!(spec.estimator, Some(EstimatorKind::Elastic));
+    is_the_rigs_to_the_bit(&session.runs[1], &spec);
+}
+
+/// The build's calibration table cut to its first `n` taxels.
+fn first_taxels_of_the_builds_table(n: usize) -> Vec<u8> {
+    use tactile_core::calibration::{CalibrationTable, TableView};
+    let view = TableView::check(&tactile_firmware::CALIBRATION_TABLE).expect("the build's table");
+    let mut table = CalibrationTable::default();
+    for m in view.models().take(n) {
+        table.taxels.push(m).expect("room");
+    }
+    let mut bytes = vec![0; table.encoded_len()];
+    let len = table.encode(&mut bytes).expect("encoded");
+    bytes.truncate(len);
+    bytes
+}
+
+/// A port on the host that took the script's commands due up to `tick` (inclusive), as the
+/// QEMU board's did; kept for the rest of the test process (a run's table borrows it).
+fn commands_up_to(
+    script: &[(u32, Vec<u8>)],
+    tick: u32,
+) -> &'static tactile_firmware::CommandPort<{ tactile_firmware::LOADED_TABLE_BYTES }> {
+    let max_force_g = tactile_core::tasks::FirmwareConfig::MEMO
+        .supervisor
+        .command_max_g;
+    let mut port = tactile_firmware::CommandPort::new(max_force_g, tactile_firmware::HOLD_S);
+    for (_, bytes) in script.iter().filter(|(t, _)| *t <= tick) {
+        port.poll(bytes, &tactile_firmware::CONTROLLER_TABLE, |_, _| {});
+    }
+    Box::leak(Box::new(port))
 }
 
 /// CRC-16/IBM-3740 (the command frames'), to build a frame the encoder would not.

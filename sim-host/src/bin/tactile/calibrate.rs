@@ -18,6 +18,10 @@ pub struct CalibrateArgs {
     /// (`t_s,r0c0,…,r7c7,x_mm,y_mm,force_g`), fitted for the array's spatial response.
     #[arg(long, num_args = 1.., value_name = "FRAMES.csv")]
     pub array: Vec<PathBuf>,
+    /// With --array: the taxels' calibration table (`tactile calibrate`), so the presses are
+    /// read through each taxel's calibrated estimator as the board reads them.
+    #[arg(long, requires = "array")]
+    pub calibration: Option<PathBuf>,
     /// The table (binary, what the firmware's calibration sector holds; default
     /// out/calibration/table.bin, with --array out/calibration/array.bin).
     #[arg(long)]
@@ -34,6 +38,7 @@ pub fn run(args: CalibrateArgs) -> Result<(), Error> {
     let CalibrateArgs {
         records,
         array,
+        calibration,
         out,
         seed,
         finger,
@@ -49,7 +54,7 @@ pub fn run(args: CalibrateArgs) -> Result<(), Error> {
         let out = out.unwrap_or_else(|| PathBuf::from("out/calibration/array.bin"));
         outln!(
             "{}",
-            sim_host::array_calibration::calibrate_command(&array, &out)?
+            sim_host::array_calibration::calibrate_command(&array, calibration.as_deref(), &out)?
         );
         return Ok(());
     }

@@ -14,14 +14,22 @@ pub struct LocateArgs {
     /// The array table (`tactile calibrate --array`).
     #[arg(long)]
     pub table: PathBuf,
+    /// The taxels' calibration table (`tactile calibrate`): each taxel's calibrated estimator,
+    /// as the board runs it; without it, the nominal models.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
     /// Where to write each frame's contact (kind, x, y, force, centroid).
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
 
 pub fn run(args: LocateArgs) -> Result<(), Error> {
-    let text =
-        sim_host::array_calibration::locate_command(&args.file, &args.table, args.out.as_deref())?;
+    let text = sim_host::array_calibration::locate_command(
+        &args.file,
+        &args.table,
+        args.calibration.as_deref(),
+        args.out.as_deref(),
+    )?;
     out!("{text}");
     Ok(())
 }
