@@ -307,20 +307,31 @@ impl Moments {
                     && terms[i].iter().all(|v| v.is_finite())
             })
             .collect();
-        let p = BANK_FEATURES;
-        let mut folds = vec![(DMatrix::zeros(p, p), DVector::zeros(p), 0.0); FOLDS];
+        const P: usize = BANK_FEATURES;
+        // Summed in fixed arrays, sample by sample (a record of 600 000 samples and 18 sets of
+        // terms: no allocation a sample).
+        let mut sums = vec![([[0.0f64; P]; P], [0.0f64; P], 0.0f64); FOLDS];
         for &i in &kept {
-            let fold = fold_of(i, n);
             // Term 0 is the bias, 1 in every sample.
-            let x = DVector::from_iterator(p, terms[i].iter().map(|v| f64::from(*v)));
-            let (g, b, ff) = &mut folds[fold];
-            g.syger(1.0, &x, &x, 1.0);
-            b.axpy(force_g[i], &x, 1.0);
+            let x: [f64; P] = terms[i].map(f64::from);
+            let (g, b, ff) = &mut sums[fold_of(i, n)];
+            for (r, row) in g.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate().take(r + 1) {
+                    *v += x[c] * x[r];
+                }
+            }
+            for (v, xr) in b.iter_mut().zip(&x) {
+                *v += force_g[i] * xr;
+            }
             *ff += force_g[i] * force_g[i];
         }
-        for (g, _, _) in &mut folds {
-            g.fill_upper_triangle_with_lower_triangle();
-        }
+        let folds = sums
+            .iter()
+            .map(|(g, b, ff)| {
+                let g = DMatrix::from_fn(P, P, |r, c| g[r.max(c)][r.min(c)]);
+                (g, DVector::from_column_slice(b), *ff)
+            })
+            .collect();
         Moments { folds }
     }
 
