@@ -5,7 +5,7 @@
 //! before it.
 //!
 //! Stages: [`candidates`] lays out the banks worth trying from the record's length, rate and
-//! strain; [`terms_of`] runs one over the record; [`Ridge`] scores it on contiguous folds and
+//! strain; [`moments_of`] runs one over the record; [`Ridge`] scores it on contiguous folds and
 //! fits it on all; [`fit_bank`] keeps the best and then tries the re-zero on it.
 
 use nalgebra::{DMatrix, DVector};
@@ -104,10 +104,15 @@ pub fn fit_bank(
     }
     // Then the best layout and terms without re-zero, its weights fitted while its moments
     // are at hand.
+    let layouts = layouts(dt_s, n, strain_pct, scale);
+    let moments = on_threads(&layouts, |layout| {
+        moments_of(layout, dt_s, strain_pct, force_g, scored).done()
+    });
     let mut best: Option<BankFit> = None;
-    for layout in layouts(dt_s, n, strain_pct, scale) {
-        let (terms, target_g) = terms_of(&layout, dt_s, strain_pct, force_g);
-        let moments = Moments::new(&terms, &target_g, scored);
+    for (layout, moments) in layouts.into_iter().zip(moments) {
+        let Some(moments) = moments else {
+            continue;
+        };
         for terms in Terms::ALL {
             let used = terms.used();
             let Some((held_out_g, lambda)) = moments.cross_validate(&used) else {
@@ -134,11 +139,25 @@ pub fn fit_bank(
     // constant that holds out best. It is kept whether or not it gains on the folds: the
     // record's zero has wandered less within it than it will after it, which no fold of the
     // record can score.
-    let rezeroed = REZERO_TAUS_S
-        .iter()
-        .filter_map(|tau_s| with_rezero(&plain, dt_s, force_g, strain_pct, scored, *tau_s))
-        .min_by(|a, b| a.held_out_g.total_cmp(&b.held_out_g));
+    let rezeroed = on_threads(&REZERO_TAUS_S, |tau_s| {
+        with_rezero(&plain, dt_s, force_g, strain_pct, scored, *tau_s)
+    })
+    .into_iter()
+    .flatten()
+    .flatten()
+    .min_by(|a, b| a.held_out_g.total_cmp(&b.held_out_g));
     Some(rezeroed.unwrap_or(plain))
+}
+
+/// `run` of each of `items`, each on a thread of its own, in their order (each is one pass of
+/// the chip's bank over the record: independent, and its moments small); `None` for a run
+/// that did not finish.
+fn on_threads<T: Sync, R: Send>(items: &[T], run: impl Fn(&T) -> R + Sync) -> Vec<Option<R>> {
+    let run = &run;
+    std::thread::scope(|scope| {
+        let runs: Vec<_> = items.iter().map(|x| scope.spawn(move || run(x))).collect();
+        runs.into_iter().map(|r| r.join().ok()).collect()
+    })
 }
 
 /// The layouts worth trying: lowpasses log-spaced from a few samples to a twentieth or a fifth
@@ -179,30 +198,37 @@ fn layouts(dt_s: f64, n: usize, strain_pct: &[f64], scale: f64) -> Vec<BankModel
 
 /// The bank's terms over the record as the chip computes them, and the force they are to
 /// weigh: the record's, plus the zero the chip's re-zero (if it has one) takes off the weighed
-/// terms at that sample. A strain that is not finite is skipped, as the chip skips it: a row
-/// of NaN, left out of the fit.
-fn terms_of(
+/// terms at that sample; summed into their moments as they come (a 600 s record at 1 kHz:
+/// 48 MB of terms not stored). A strain that is not finite is skipped, as the chip skips it:
+/// left out of the fit.
+fn moments_of(
     model: &BankModel,
     dt_s: f64,
     strain_pct: &[f64],
     force_g: &[f64],
-) -> (Vec<[f32; BANK_FEATURES]>, Vec<f64>) {
+    scored: &[bool],
+) -> Moments {
+    let mut moments = Moments::zero();
     let Ok(mut bank) = ForceBank::new(model, dt_s) else {
-        return (Vec::new(), Vec::new());
+        return moments;
     };
-    strain_pct
-        .iter()
-        .zip(force_g)
-        .map(|(e, f)| {
-            let e = *e as f32;
-            if !e.is_finite() {
-                return ([f32::NAN; BANK_FEATURES], f64::NAN);
-            }
-            let (terms, estimate) = bank.step(e);
-            let weighed: f32 = terms.iter().zip(&model.weights_g).map(|(x, w)| x * w).sum();
-            (terms, f + f64::from(weighed - estimate))
-        })
-        .unzip()
+    let n = strain_pct.len().min(force_g.len());
+    for (i, (e, f)) in strain_pct.iter().zip(force_g).enumerate() {
+        let e = *e as f32;
+        if !e.is_finite() {
+            continue;
+        }
+        let (terms, estimate) = bank.step(e);
+        let weighed: f32 = terms.iter().zip(&model.weights_g).map(|(x, w)| x * w).sum();
+        let target = f + f64::from(weighed - estimate);
+        if scored.get(i).copied().unwrap_or(false)
+            && target.is_finite()
+            && terms.iter().all(|v| v.is_finite())
+        {
+            moments.add(fold_of(i, n), &terms, target);
+        }
+    }
+    moments
 }
 
 /// The terms with the re-zero of time constant `tau_s` running on `fit`'s weights, then the
@@ -246,8 +272,7 @@ fn with_rezero(
     };
     let mut held_out_g = f64::INFINITY;
     for _ in 0..REZERO_ROUNDS {
-        let (terms, target_g) = terms_of(&trial, dt_s, strain_pct, force_g);
-        let moments = Moments::new(&terms, &target_g, scored);
+        let moments = moments_of(&trial, dt_s, strain_pct, force_g, scored).done();
         let (Some(score), Some(weights_g)) = (
             moments.score(&used, fit.lambda),
             moments.fit(&used, fit.lambda),
@@ -293,46 +318,63 @@ fn noise(u: &[f64]) -> f64 {
 /// the others' sum for its fit), from which any subset of the terms is fitted and scored.
 /// The raw moments serve every subset: each fit centres and scales its own.
 struct Moments {
+    /// Per fold, as the samples come: Σ x xᵀ (lower triangle), Σ f x and Σ f².
+    #[allow(clippy::type_complexity)]
+    sums: Vec<(
+        [[f64; BANK_FEATURES]; BANK_FEATURES],
+        [f64; BANK_FEATURES],
+        f64,
+    )>,
     /// Per fold: Σ x xᵀ, Σ f x and Σ f², x = (1, terms…).
     folds: Vec<(DMatrix<f64>, DVector<f64>, f64)>,
 }
 
 impl Moments {
-    fn new(terms: &[[f32; BANK_FEATURES]], force_g: &[f64], scored: &[bool]) -> Moments {
-        let n = terms.len().min(force_g.len());
-        let kept: Vec<usize> = (0..n)
-            .filter(|&i| {
-                scored.get(i).copied().unwrap_or(false)
-                    && force_g[i].is_finite()
-                    && terms[i].iter().all(|v| v.is_finite())
-            })
-            .collect();
-        const P: usize = BANK_FEATURES;
-        // Summed in fixed arrays, sample by sample (a record of 600 000 samples and 18 sets of
-        // terms: no allocation a sample).
-        let mut sums = vec![([[0.0f64; P]; P], [0.0f64; P], 0.0f64); FOLDS];
-        for &i in &kept {
-            // Term 0 is the bias, 1 in every sample.
-            let x: [f64; P] = terms[i].map(f64::from);
-            let (g, b, ff) = &mut sums[fold_of(i, n)];
-            for (r, row) in g.iter_mut().enumerate() {
-                for (c, v) in row.iter_mut().enumerate().take(r + 1) {
-                    *v += x[c] * x[r];
-                }
-            }
-            for (v, xr) in b.iter_mut().zip(&x) {
-                *v += force_g[i] * xr;
-            }
-            *ff += force_g[i] * force_g[i];
+    fn zero() -> Moments {
+        Moments {
+            sums: vec![
+                (
+                    [[0.0; BANK_FEATURES]; BANK_FEATURES],
+                    [0.0; BANK_FEATURES],
+                    0.0
+                );
+                FOLDS
+            ],
+            folds: Vec::new(),
         }
-        let folds = sums
+    }
+
+    /// Adds a sample's terms and force to its fold's sums (in fixed arrays: no allocation a
+    /// sample).
+    fn add(&mut self, fold: usize, terms: &[f32; BANK_FEATURES], force_g: f64) {
+        // Term 0 is the bias, 1 in every sample.
+        let x: [f64; BANK_FEATURES] = terms.map(f64::from);
+        let Some((g, b, ff)) = self.sums.get_mut(fold) else {
+            return;
+        };
+        for (r, row) in g.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate().take(r + 1) {
+                *v += x[c] * x[r];
+            }
+        }
+        for (v, xr) in b.iter_mut().zip(&x) {
+            *v += force_g * xr;
+        }
+        *ff += force_g * force_g;
+    }
+
+    /// The folds' moments as matrices, once every sample is in.
+    fn done(mut self) -> Moments {
+        const P: usize = BANK_FEATURES;
+        self.folds = self
+            .sums
             .iter()
             .map(|(g, b, ff)| {
                 let g = DMatrix::from_fn(P, P, |r, c| g[r.max(c)][r.min(c)]);
                 (g, DVector::from_column_slice(b), *ff)
             })
             .collect();
-        Moments { folds }
+        self
     }
 
     /// Weights of the terms `used` (the bias first) from the folds other than `skip`: ridge on

@@ -450,7 +450,9 @@ impl Pool {
             _ => None,
         };
         match (delayed(a), delayed(b)) {
-            (Some((sa, wa, fa)), Some((sb, wb, fb))) if wa == wb && fa.to_bits() == fb.to_bits() => {
+            (Some((sa, wa, fa)), Some((sb, wb, fb)))
+                if wa == wb && fa.to_bits() == fb.to_bits() =>
+            {
                 Some(Moved::Pair((sa.min(sb), sa.max(sb)), (wa, fa)))
             }
             (Some((src, w, f)), None) => cosine(b).map(|k| Moved::Cosine(k, src, (w, f))),
@@ -473,8 +475,10 @@ impl Pool {
                 let bases = match self.pair_bases.get(&sources) {
                     Some(b) => b.clone(),
                     None => {
-                        let b: Vec<[f64; 2]> =
-                            ranges.iter().map(|&r| shift::pair_base(va, vb, r)).collect();
+                        let b: Vec<[f64; 2]> = ranges
+                            .iter()
+                            .map(|&r| shift::pair_base(va, vb, r))
+                            .collect();
                         self.pair_bases.insert(sources, b.clone());
                         b
                     }
@@ -492,8 +496,10 @@ impl Pool {
                 let bases = match self.cosine_bases.get(&(k, src)) {
                     Some(b) => b.clone(),
                     None => {
-                        let b: Vec<[f64; 2]> =
-                            ranges.iter().map(|&r| shift::cosine_base(v, n, k, r)).collect();
+                        let b: Vec<[f64; 2]> = ranges
+                            .iter()
+                            .map(|&r| shift::cosine_base(v, n, k, r))
+                            .collect();
                         self.cosine_bases.insert((k, src), b.clone());
                         b
                     }
@@ -1145,7 +1151,12 @@ mod tests {
         // A stored source's delayed products are its own, moved (in f64, where the samples
         // multiply in f32): alike to the f32 rounding of a product.
         let (a, b) = (pool.score(&[xsd, zs]), pool.score(&[xcd, zc]));
-        for (u, v) in a.fold_mse.iter().zip(&b.fold_mse).chain(a.beta.iter().zip(&b.beta)) {
+        for (u, v) in a
+            .fold_mse
+            .iter()
+            .zip(&b.fold_mse)
+            .chain(a.beta.iter().zip(&b.beta))
+        {
             assert!((u - v).abs() <= 1e-5 * v.abs(), "{u} {v}");
         }
         // The delay is what the data hold: 1.5 on x two samples back, a small held-out error.

@@ -142,7 +142,11 @@ pub(super) fn delayed_cosine(
         cos * sums[0] - sin * sums[1]
     };
     let f = f64::from(frac);
-    let later = if f == 0.0 { 0.0 } else { f * shifted(whole + 1) };
+    let later = if f == 0.0 {
+        0.0
+    } else {
+        f * shifted(whole + 1)
+    };
     head + (1.0 - f) * shifted(whole) + later
 }
 
@@ -181,8 +185,23 @@ mod tests {
         (a, b)
     }
 
-    const FOLDS: [(usize, usize); 6] = [(0, 4000), (0, 3), (2, 9), (4000, 8000), (7990, 10_007), (5, 10_007)];
-    const DELAYS: [(usize, f32); 7] = [(0, 0.25), (1, 0.0), (3, 0.5), (40, 0.75), (517, 0.0), (517, 0.3), (9000, 0.5)];
+    const FOLDS: [(usize, usize); 6] = [
+        (0, 4000),
+        (0, 3),
+        (2, 9),
+        (4000, 8000),
+        (7990, 10_007),
+        (5, 10_007),
+    ];
+    const DELAYS: [(usize, f32); 7] = [
+        (0, 0.25),
+        (1, 0.0),
+        (3, 0.5),
+        (40, 0.75),
+        (517, 0.0),
+        (517, 0.3),
+        (9000, 0.5),
+    ];
 
     #[test]
     fn a_delayed_pair_sums_as_its_samples_do() {
