@@ -391,11 +391,11 @@ impl Pool {
         let this = &*self;
         let fold = |f: usize| -> Vec<f64> {
             let (s, e) = this.folds.ranges[f];
-            let read: Vec<FoldSlice> = involved
+            let mut read: Vec<FoldReader> = involved
                 .iter()
-                .map(|&c| this.fold_slice(c, (s, e), built.get(&c).or(extra.get(&c))))
+                .map(|&c| this.fold_reader(c, (s, e), built.get(&c).or(extra.get(&c))))
                 .collect();
-            fold_products(&read, &pairs, &this.weight[s..e])
+            fold_products(&mut read, &pairs, &this.weight[s..e])
         };
         let per_fold: Vec<Vec<f64>> = if threads == 1 {
             (0..k).map(fold).collect()
@@ -518,26 +518,22 @@ impl Pool {
     /// Column `c`'s samples `s..e` as the products read them: `whole` if it was built for this
     /// score, else its stored values (shifted, if delayed) or its half-cosine; a column of
     /// nothing stored reads as zeros.
-    fn fold_slice<'s>(
+    fn fold_reader<'s>(
         &'s self,
         c: usize,
         (s, e): (usize, usize),
         whole: Option<&'s Vec<f32>>,
-    ) -> FoldSlice<'s> {
+    ) -> FoldReader<'s> {
         if let Some(v) = whole.filter(|v| v.len() == self.n) {
-            return FoldSlice::Samples(Cow::Borrowed(&v[s..e]));
+            return FoldReader::Samples(&v[s..e]);
         }
         if let Some(Column::Cosine(k)) = self.cols.get(c) {
-            return FoldSlice::Cosine(cosine_span(self.n, *k, s, e - s));
+            return FoldReader::Cosine(Rotation::new(self.n, *k, s), Vec::new());
         }
         match self.raw(c) {
-            Some((v, 0, 0.0)) => FoldSlice::Samples(Cow::Borrowed(&v[s..e])),
-            Some(raw) => {
-                let mut buf = Vec::new();
-                span(&mut buf, raw, s, e);
-                FoldSlice::Samples(Cow::Owned(buf))
-            }
-            None => FoldSlice::Samples(Cow::Owned(vec![0.0; e - s])),
+            Some((v, 0, 0.0)) => FoldReader::Samples(&v[s..e]),
+            Some(raw) => FoldReader::Delayed(raw, s, Vec::new()),
+            None => FoldReader::Zeros(Vec::new()),
         }
     }
 
@@ -701,17 +697,53 @@ enum Moved {
     Cosine(usize, usize, (usize, f32)),
 }
 
-/// A column's samples over one fold, as the Gram products read them.
-enum FoldSlice<'a> {
-    Samples(Cow<'a, [f32]>),
-    /// A half-cosine's values, in f64 (`cosine_span`).
-    Cosine(Vec<f64>),
+/// A column's samples over one fold, read block by block as the Gram products take them.
+enum FoldReader<'a> {
+    /// Its samples over the fold, stored (or built for this score).
+    Samples(&'a [f32]),
+    /// A stored column delayed (`raw`) from the fold's start, shifted block by block into its
+    /// buffer.
+    Delayed((&'a [f32], usize, f32), usize, Vec<f32>),
+    /// A half-cosine, rotated on from block to block into its buffer.
+    Cosine(Rotation, Vec<f64>),
+    Zeros(Vec<f32>),
 }
 
-/// Σ a·b·w over a fold for each pair of `read`, block by block: every pair from a block's
-/// samples while they are in cache. Built for AVX2 where the processor has it: the same
-/// operations lane by lane, so the same sums, twice as many at a time.
-fn fold_products(read: &[FoldSlice], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
+impl FoldReader<'_> {
+    /// Reads samples `b0..b1` of the fold into the buffer, where the column needs one.
+    fn fill(&mut self, b0: usize, b1: usize) {
+        match self {
+            FoldReader::Samples(_) => {}
+            FoldReader::Delayed(raw, s, buf) => span(buf, *raw, *s + b0, *s + b1),
+            FoldReader::Cosine(rotation, buf) => {
+                buf.clear();
+                rotation.fill(buf, b1 - b0);
+            }
+            FoldReader::Zeros(buf) => buf.resize(b1 - b0, 0.0),
+        }
+    }
+
+    /// Samples `b0..b1` of the fold, once [`fill`](Self::fill)ed.
+    fn view(&self, b0: usize, b1: usize) -> FoldSlice<'_> {
+        match self {
+            FoldReader::Samples(v) => FoldSlice::Samples(&v[b0..b1]),
+            FoldReader::Delayed(_, _, buf) | FoldReader::Zeros(buf) => FoldSlice::Samples(buf),
+            FoldReader::Cosine(_, buf) => FoldSlice::Cosine(buf),
+        }
+    }
+}
+
+/// A block of a column's samples.
+enum FoldSlice<'a> {
+    Samples(&'a [f32]),
+    /// A half-cosine's values, in f64.
+    Cosine(&'a [f64]),
+}
+
+/// Σ a·b·w over a fold for each pair of `read`, block by block: each column's block read once
+/// and every pair summed from it while it is in cache. Built for AVX2 where the processor has
+/// it: the same operations lane by lane, so the same sums, twice as many at a time.
+fn fold_products(read: &mut [FoldReader], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the processor has AVX2 (detected above).
@@ -722,28 +754,36 @@ fn fold_products(read: &[FoldSlice], pairs: &[(usize, usize)], w: &[f32]) -> Vec
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn fold_products_avx2(read: &[FoldSlice], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
+unsafe fn fold_products_avx2(
+    read: &mut [FoldReader],
+    pairs: &[(usize, usize)],
+    w: &[f32],
+) -> Vec<f64> {
     fold_products_with(read, pairs, w)
 }
 
 #[inline(always)]
-fn fold_products_with(read: &[FoldSlice], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
+fn fold_products_with(read: &mut [FoldReader], pairs: &[(usize, usize)], w: &[f32]) -> Vec<f64> {
+    // Eight lanes a pair over whole groups of eight samples, and the fold's last few apart.
     let whole = w.len() - w.len() % 8;
     let mut lanes = vec![[0.0f64; 8]; pairs.len()];
-    for b0 in (0..whole).step_by(BLOCK) {
-        let block = b0..(b0 + BLOCK).min(whole);
-        for (acc, &(a, b)) in lanes.iter_mut().zip(pairs) {
-            FoldSlice::lanes(acc, &read[a], &read[b], w, block.clone());
+    let mut tails = vec![[0.0f64; 8]; pairs.len()];
+    for b0 in (0..w.len()).step_by(BLOCK) {
+        let b1 = (b0 + BLOCK).min(w.len());
+        read.iter_mut().for_each(|r| r.fill(b0, b1));
+        let views: Vec<FoldSlice> = read.iter().map(|r| r.view(b0, b1)).collect();
+        let (wb, body) = (&w[b0..b1], whole.max(b0).min(b1) - b0);
+        for ((acc, tail), &(a, b)) in lanes.iter_mut().zip(&mut tails).zip(pairs) {
+            FoldSlice::lanes(acc, &views[a], &views[b], wb, 0..body);
+            if body < b1 - b0 {
+                FoldSlice::lanes(tail, &views[a], &views[b], wb, body..b1 - b0);
+            }
         }
     }
-    pairs
+    lanes
         .iter()
-        .zip(&lanes)
-        .map(|(&(a, b), acc)| {
-            let mut tail = [0.0f64; 8];
-            FoldSlice::lanes(&mut tail, &read[a], &read[b], w, whole..w.len());
-            acc.iter().sum::<f64>() + tail.iter().sum::<f64>()
-        })
+        .zip(&tails)
+        .map(|(acc, tail)| acc.iter().sum::<f64>() + tail.iter().sum::<f64>())
         .collect()
 }
 
@@ -814,22 +854,43 @@ fn dot3(a: &[f32], b: &[f32], w: &[f32]) -> f64 {
 /// cos(π·k·(i + ½)/n) for `len` samples i from `start`: eight lanes, each rotated by eight
 /// samples at a time (one rotation a sample is a chain of dependent multiplies).
 fn cosine_span(n: usize, k: usize, start: usize, len: usize) -> Vec<f64> {
-    let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
-    let (sin8, cos8) = (8.0 * step).sin_cos();
-    let mut lanes = [(0.0f64, 0.0f64); 8];
-    for (j, l) in lanes.iter_mut().enumerate() {
-        *l = (step * ((start + j) as f64 + 0.5)).sin_cos();
-    }
     let mut out = Vec::with_capacity(len);
-    while out.len() < len {
-        let take = (len - out.len()).min(8);
-        out.extend(lanes[..take].iter().map(|l| l.1));
-        for l in &mut lanes {
-            let (s, c) = *l;
-            *l = (s * cos8 + c * sin8, c * cos8 - s * sin8);
+    Rotation::new(n, k, start).fill(&mut out, len);
+    out
+}
+
+/// The half-cosine `k` of a record of `n` samples from sample `start` on, as eight lanes
+/// rotated eight samples at a time.
+struct Rotation {
+    lanes: [(f64, f64); 8],
+    sin8: f64,
+    cos8: f64,
+}
+
+impl Rotation {
+    fn new(n: usize, k: usize, start: usize) -> Rotation {
+        let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
+        let (sin8, cos8) = (8.0 * step).sin_cos();
+        let mut lanes = [(0.0f64, 0.0f64); 8];
+        for (j, l) in lanes.iter_mut().enumerate() {
+            *l = (step * ((start + j) as f64 + 0.5)).sin_cos();
+        }
+        Rotation { lanes, sin8, cos8 }
+    }
+
+    /// The next `len` values onto `out` (a whole number of eights but at the end: the lanes
+    /// move on by eight samples after each group).
+    fn fill(&mut self, out: &mut Vec<f64>, len: usize) {
+        let end = out.len() + len;
+        while out.len() < end {
+            let take = (end - out.len()).min(8);
+            out.extend(self.lanes[..take].iter().map(|l| l.1));
+            for l in &mut self.lanes {
+                let (s, c) = *l;
+                *l = (s * self.cos8 + c * self.sin8, c * self.cos8 - s * self.sin8);
+            }
         }
     }
-    out
 }
 
 /// Σ x·w·c into eight lanes, as [`lanes3`] sums.
