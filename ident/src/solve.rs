@@ -56,7 +56,7 @@ pub struct Pool {
     /// (`shift`).
     plain: bool,
     /// Per pair of sources, per fold: `shift::pair_base`.
-    pair_bases: HashMap<(usize, usize), Vec<[f64; 2]>>,
+    pair_bases: HashMap<(usize, usize), Vec<f64>>,
     /// Per half-cosine order and source, per fold: `shift::cosine_base`.
     cosine_bases: HashMap<(usize, usize), Vec<[f64; 2]>>,
     yy: Vec<f64>,
@@ -196,6 +196,13 @@ impl Pool {
     /// source's sign constraint; returns its index.
     pub fn add_delayed(&mut self, source: usize, samples: f64) -> usize {
         let sign = self.signs.get(source).copied().unwrap_or(Sign::Free);
+        // A whole number of samples as a whole number (a delay of m·dt over dt is m only to
+        // its last bit).
+        let samples = if (samples - samples.round()).abs() < 1e-9 {
+            samples.round()
+        } else {
+            samples
+        };
         let whole = samples.max(0.0).floor() as usize;
         self.cols.push(Column::Delayed {
             source,
@@ -434,13 +441,15 @@ impl Pool {
         if !self.plain {
             return None;
         }
+        // Delayed by whole samples: a fraction mixes two samples in f32, which no sum of the
+        // source's products gives exactly (and the Gram matrix must be one matrix's).
         let delayed = |j: usize| match self.cols.get(j)? {
             Column::Delayed {
                 source,
                 whole,
                 frac,
-            } => match self.cols.get(*source)? {
-                Column::Stored(v) if v.len() == self.n => Some((*source, *whole, *frac)),
+            } if *frac == 0.0 => match self.cols.get(*source)? {
+                Column::Stored(v) if v.len() == self.n => Some((*source, *whole)),
                 _ => None,
             },
             _ => None,
@@ -450,13 +459,11 @@ impl Pool {
             _ => None,
         };
         match (delayed(a), delayed(b)) {
-            (Some((sa, wa, fa)), Some((sb, wb, fb)))
-                if wa == wb && fa.to_bits() == fb.to_bits() =>
-            {
-                Some(Moved::Pair((sa.min(sb), sa.max(sb)), (wa, fa)))
+            (Some((sa, wa)), Some((sb, wb))) if wa == wb => {
+                Some(Moved::Pair((sa.min(sb), sa.max(sb)), wa))
             }
-            (Some((src, w, f)), None) => cosine(b).map(|k| Moved::Cosine(k, src, (w, f))),
-            (None, Some((src, w, f))) => cosine(a).map(|k| Moved::Cosine(k, src, (w, f))),
+            (Some((src, w)), None) => cosine(b).map(|k| Moved::Cosine(k, src, w)),
+            (None, Some((src, w))) => cosine(a).map(|k| Moved::Cosine(k, src, w)),
             _ => None,
         }
     }
@@ -475,7 +482,7 @@ impl Pool {
                 let bases = match self.pair_bases.get(&sources) {
                     Some(b) => b.clone(),
                     None => {
-                        let b: Vec<[f64; 2]> = ranges
+                        let b: Vec<f64> = ranges
                             .iter()
                             .map(|&r| shift::pair_base(va, vb, r))
                             .collect();
@@ -690,11 +697,10 @@ impl Pool {
 }
 
 /// A pair of columns whose products follow from their sources' (`shift`): two sources
-/// delayed alike, or a half-cosine's order and a delayed source; the delay as (whole samples,
-/// fraction).
+/// delayed alike, or a half-cosine's order and a delayed source; the delay in whole samples.
 enum Moved {
-    Pair((usize, usize), (usize, f32)),
-    Cosine(usize, usize, (usize, f32)),
+    Pair((usize, usize), usize),
+    Cosine(usize, usize, usize),
 }
 
 /// A column's samples over one fold, read block by block as the Gram products take them.

@@ -125,6 +125,11 @@ pub fn paired_p_value(d: &[f64]) -> f64 {
         return if m > 0.0 { 0.0 } else { 1.0 };
     }
     let t = m / (sd / (k as f64).sqrt());
+    // A gain of no size (a fold's error of zero or beyond f64) is no evidence either way; the
+    // distribution's code would panic on it.
+    if !t.is_finite() {
+        return 1.0;
+    }
     StudentsT::new(0.0, 1.0, (k - 1) as f64)
         .map(|dist| 1.0 - dist.cdf(t))
         .unwrap_or(1.0)
@@ -249,6 +254,15 @@ pub fn noise_variance(x: &[f64], window: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn gains_of_no_size_give_no_evidence_and_no_panic() {
+        assert_eq!(paired_p_value(&[1.0, f64::INFINITY, 2.0]), 1.0);
+        assert_eq!(paired_p_value(&[1.0, f64::NAN, 2.0]), 1.0);
+        // Hand-checked: gains 1, 2, 3 → t = 2/(1/√3) = 3.46 on 2 degrees of freedom, p = 0.037.
+        let p = paired_p_value(&[1.0, 2.0, 3.0]);
+        assert!((p - 0.0371).abs() < 1e-3, "{p}");
+    }
 
     #[test]
     fn ljung_box_critical_value_is_the_chi_square_quantile() {

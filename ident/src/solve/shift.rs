@@ -1,4 +1,4 @@
-//! A delayed column's Gram products from its source's. Delayed by L samples, a column's sum
+//! A column delayed by whole samples: its Gram products from its source's. Delayed by L samples, a column's sum
 //! over a fold is its source's sum over the fold moved back by L: the fold's own sum (taken
 //! once) and two pieces of L samples at its ends. A delay search scores tens of delays of the
 //! same columns; each costs O(L) a pair, not a pass over the record. Only where every sample
@@ -6,85 +6,74 @@
 
 use std::f64::consts::PI;
 
-/// Per fold, for sources `a` and `b` over [max(s, 1), e): Σ a_j·b_j and
-/// Σ (a_j·b_{j−1} + a_{j−1}·b_j) (what a fractional delay mixes in).
-pub(super) fn pair_base(a: &[f32], b: &[f32], (s, e): (usize, usize)) -> [f64; 2] {
-    let r = lagged(a, b, s.max(1), e);
-    [r[0], r[1]]
+/// Per fold, for sources `a` and `b`: Σ a_j·b_j over [s, e), each product in f32 as the Gram
+/// products take it.
+pub(super) fn pair_base(a: &[f32], b: &[f32], (s, e): (usize, usize)) -> f64 {
+    products(a, b, s, e)
 }
 
-/// Σ over samples [lo, hi), lo ≥ 1, of (a_j·b_j, a_j·b_{j−1} + a_{j−1}·b_j), in eight running
-/// sums (one is a chain of dependent additions).
-fn lagged(a: &[f32], b: &[f32], lo: usize, hi: usize) -> [f64; 2] {
+/// Σ over samples [lo, hi) of a_j·b_j (the product in f32), in eight running sums (one is a
+/// chain of dependent additions).
+fn products(a: &[f32], b: &[f32], lo: usize, hi: usize) -> f64 {
     if hi <= lo {
-        return [0.0; 2];
+        return 0.0;
     }
-    let (x, xp) = (&a[lo..hi], &a[lo - 1..hi - 1]);
-    let (y, yp) = (&b[lo..hi], &b[lo - 1..hi - 1]);
-    let mut acc = [[0.0f64; 8]; 2];
-    let whole = x.len() - x.len() % 8;
-    for c in (0..whole).step_by(8) {
+    let (x, y) = (&a[lo..hi], &b[lo..hi]);
+    let mut acc = [0.0f64; 8];
+    let (cx, cy) = (x.chunks_exact(8), y.chunks_exact(8));
+    let tail: f64 = cx
+        .remainder()
+        .iter()
+        .zip(cy.remainder())
+        .map(|(u, v)| f64::from(u * v))
+        .sum();
+    for (u, v) in cx.zip(cy) {
         for l in 0..8 {
-            let i = c + l;
-            let (u, v) = (f64::from(x[i]), f64::from(y[i]));
-            acc[0][l] += u * v;
-            acc[1][l] += u * f64::from(yp[i]) + f64::from(xp[i]) * v;
+            acc[l] += f64::from(u[l] * v[l]);
         }
     }
-    let mut out = acc.map(|a| a.iter().sum::<f64>());
-    for i in whole..x.len() {
-        let (u, v) = (f64::from(x[i]), f64::from(y[i]));
-        out[0] += u * v;
-        out[1] += u * f64::from(yp[i]) + f64::from(xp[i]) * v;
-    }
-    out
+    acc.iter().sum::<f64>() + tail
 }
 
-/// Σ over the fold [s, e) of x_i·y_i, x and y the sources `a` and `b` delayed by `whole +
-/// frac` samples as `span` reads them (held at their first value), from the fold's
-/// [`pair_base`].
-pub(super) fn delayed_pair(
-    (a, b): (&[f32], &[f32]),
-    (whole, frac): (usize, f32),
-    (s, e): (usize, usize),
-    base: [f64; 2],
-) -> f64 {
-    let f = f64::from(frac);
-    let ab = |j: usize| f64::from(a[j]) * f64::from(b[j]);
-    // Samples at or before `whole` hold the first value.
-    let split = (whole + 1).clamp(s, e);
-    let head = (split - s) as f64 * ab(0);
-    if split == e {
-        return head;
-    }
-    // Sample i > whole reads j = i − whole and j − 1: j over [p, q), p ≥ 1.
-    let (p, q, s1) = (split - whole, e - whole, s.max(1));
-    let sums = moved(base, (s1, e), (p, q), |lo, hi| lagged(a, b, lo, hi));
-    // Σ a_{j−1}·b_{j−1} over [p, q) is Σ a_j·b_j over [p − 1, q − 1).
-    let previous = sums[0] + ab(p - 1) - ab(q - 1);
-    head + (1.0 - f) * (1.0 - f) * sums[0] + f * (1.0 - f) * sums[1] + f * f * previous
-}
-
-/// The sums over [p, q) from those over [s, e) (`base`): the pieces between their ends added
+/// The sum over [p, q) from the one over [s, e) (`base`): the pieces between their ends added
 /// or taken off, or [p, q) summed by `sum` where that is shorter.
-fn moved(
-    base: [f64; 2],
+fn moved<T: Copy + core::ops::Add<Output = T> + core::ops::Sub<Output = T>>(
+    base: T,
     (s, e): (usize, usize),
     (p, q): (usize, usize),
-    sum: impl Fn(usize, usize) -> [f64; 2],
-) -> [f64; 2] {
+    sum: impl Fn(usize, usize) -> T,
+) -> T {
     if p.abs_diff(s) + q.abs_diff(e) >= q.saturating_sub(p) {
         return sum(p, q);
     }
-    let signed = |from: usize, to: usize| {
-        if from <= to {
-            sum(from, to)
+    // [p, q) = [p, s) + [s, e) − [q, e), each piece signed by its direction.
+    let add = |acc: T, from: usize, to: usize, forward: bool| {
+        if (from <= to) == forward {
+            acc + sum(from.min(to), from.max(to))
         } else {
-            sum(to, from).map(|v| -v)
+            acc - sum(from.min(to), from.max(to))
         }
     };
-    let (lead, tail) = (signed(p, s), signed(q, e));
-    [0, 1].map(|m| base[m] + lead[m] - tail[m])
+    add(add(base, p, s, true), q, e, false)
+}
+
+/// Σ over the fold [s, e) of x_i·y_i, x and y the sources `a` and `b` delayed by `whole`
+/// samples as `span` reads them (held at their first value), from the fold's [`pair_base`].
+pub(super) fn delayed_pair(
+    (a, b): (&[f32], &[f32]),
+    whole: usize,
+    (s, e): (usize, usize),
+    base: f64,
+) -> f64 {
+    // Samples at or before `whole` hold the first value.
+    let split = (whole + 1).clamp(s, e);
+    let head = (split - s) as f64 * f64::from(a[0] * b[0]);
+    if split == e {
+        return head;
+    }
+    // Sample i > whole reads j = i − whole: j over [split − whole, e − whole).
+    let range = (split - whole, e - whole);
+    head + moved(base, (s, e), range, |lo, hi| products(a, b, lo, hi))
 }
 
 /// Per fold [s, e): Σ cos θ_j·a_j and Σ sin θ_j·a_j, θ_j = π·k·(j + ½)/n (the half-cosine
@@ -117,13 +106,31 @@ fn quadrature(a: &[f32], n: usize, k: usize, lo: usize, hi: usize) -> [f64; 2] {
     acc.map(|a| a.iter().sum::<f64>())
 }
 
-/// Σ over the fold [s, e) of cos θ_i·x_i, x the source `a` delayed by `whole + frac` samples
-/// as `span` reads it, from the fold's [`cosine_base`]: the half-cosine moved by L samples is
+/// Two sums side by side, as [`moved`] adds them.
+#[derive(Clone, Copy)]
+struct Pair([f64; 2]);
+
+impl core::ops::Add for Pair {
+    type Output = Pair;
+    fn add(self, o: Pair) -> Pair {
+        Pair([self.0[0] + o.0[0], self.0[1] + o.0[1]])
+    }
+}
+
+impl core::ops::Sub for Pair {
+    type Output = Pair;
+    fn sub(self, o: Pair) -> Pair {
+        Pair([self.0[0] - o.0[0], self.0[1] - o.0[1]])
+    }
+}
+
+/// Σ over the fold [s, e) of cos θ_i·x_i, x the source `a` delayed by `whole` samples as
+/// `span` reads it, from the fold's [`cosine_base`]: the half-cosine moved by L samples is
 /// cos θ_j·cos φ − sin θ_j·sin φ, φ = π·k·L/n.
 pub(super) fn delayed_cosine(
     a: &[f32],
     (n, k): (usize, usize),
-    (whole, frac): (usize, f32),
+    whole: usize,
     (s, e): (usize, usize),
     base: [f64; 2],
 ) -> f64 {
@@ -135,19 +142,12 @@ pub(super) fn delayed_cosine(
         return head;
     }
     // Σ over i in [split, e) of cos θ_i·a_{i−L}: a over [split − L, e − L).
-    let shifted = |lag: usize| -> f64 {
-        let range = (split - lag, e - lag);
-        let sums = moved(base, (s, e), range, |lo, hi| quadrature(a, n, k, lo, hi));
-        let (sin, cos) = (step * lag as f64).sin_cos();
-        cos * sums[0] - sin * sums[1]
-    };
-    let f = f64::from(frac);
-    let later = if f == 0.0 {
-        0.0
-    } else {
-        f * shifted(whole + 1)
-    };
-    head + (1.0 - f) * shifted(whole) + later
+    let range = (split - whole, e - whole);
+    let sums = moved(Pair(base), (s, e), range, |lo, hi| {
+        Pair(quadrature(a, n, k, lo, hi))
+    });
+    let (sin, cos) = (step * whole as f64).sin_cos();
+    head + cos * sums.0[0] - sin * sums.0[1]
 }
 
 /// Σ cos(step·(i + ½)) over samples [lo, hi): the Dirichlet kernel's sum,
@@ -165,13 +165,12 @@ fn cosine_sum(step: f64, lo: usize, hi: usize) -> f64 {
 mod tests {
     use super::*;
 
-    /// Sample i of `v` delayed as `span` reads it, in f64.
-    fn at(v: &[f32], whole: usize, frac: f32, i: usize) -> f64 {
-        let f = f64::from(frac);
+    /// Sample i of `v` delayed by `whole` samples as `span` reads it.
+    fn at(v: &[f32], whole: usize, i: usize) -> f32 {
         if i > whole {
-            f64::from(v[i - whole]) * (1.0 - f) + f64::from(v[i - whole - 1]) * f
+            v[i - whole]
         } else {
-            f64::from(v[0])
+            v[0]
         }
     }
 
@@ -193,29 +192,21 @@ mod tests {
         (7990, 10_007),
         (5, 10_007),
     ];
-    const DELAYS: [(usize, f32); 7] = [
-        (0, 0.25),
-        (1, 0.0),
-        (3, 0.5),
-        (40, 0.75),
-        (517, 0.0),
-        (517, 0.3),
-        (9000, 0.5),
-    ];
+    const DELAYS: [usize; 6] = [0, 1, 3, 40, 517, 9000];
 
     #[test]
     fn a_delayed_pair_sums_as_its_samples_do() {
         let n = 10_007;
         let (a, b) = columns(n);
-        for (whole, frac) in DELAYS {
+        for whole in DELAYS {
             for fold in FOLDS {
                 let naive: f64 = (fold.0..fold.1)
-                    .map(|i| at(&a, whole, frac, i) * at(&b, whole, frac, i))
+                    .map(|i| f64::from(at(&a, whole, i) * at(&b, whole, i)))
                     .sum();
-                let fast = delayed_pair((&a, &b), (whole, frac), fold, pair_base(&a, &b, fold));
+                let fast = delayed_pair((&a, &b), whole, fold, pair_base(&a, &b, fold));
                 assert!(
                     (fast - naive).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
-                    "delay {whole}+{frac} fold {fold:?}: {fast} {naive}"
+                    "delay {whole} fold {fold:?}: {fast} {naive}"
                 );
             }
         }
@@ -227,16 +218,16 @@ mod tests {
         let (a, _) = columns(n);
         for k in [1, 2, 7, 16] {
             let c = crate::terms::cosine(n, k);
-            for (whole, frac) in DELAYS {
+            for whole in DELAYS {
                 for fold in FOLDS {
                     let naive: f64 = (fold.0..fold.1)
-                        .map(|i| c[i] * at(&a, whole, frac, i))
+                        .map(|i| c[i] * f64::from(at(&a, whole, i)))
                         .sum();
                     let base = cosine_base(&a, n, k, fold);
-                    let fast = delayed_cosine(&a, (n, k), (whole, frac), fold, base);
+                    let fast = delayed_cosine(&a, (n, k), whole, fold, base);
                     assert!(
                         (fast - naive).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
-                        "k {k} delay {whole}+{frac} fold {fold:?}: {fast} {naive}"
+                        "k {k} delay {whole} fold {fold:?}: {fast} {naive}"
                     );
                 }
             }
