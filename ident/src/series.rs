@@ -260,9 +260,16 @@ impl Folds {
     /// constants (so a held-out block shows a whole relaxation), but between a tenth and a quarter
     /// of the record, hence 4 to 10 folds.
     pub fn for_record(series: &Series, slowest_tau_s: f64) -> Folds {
+        Folds::for_record_within(series, slowest_tau_s, f64::INFINITY)
+    }
+
+    /// As [`Folds::for_record`], but blocks no longer than `longest_block_s` (more than ten
+    /// folds where the record is longer than ten such blocks).
+    pub fn for_record_within(series: &Series, slowest_tau_s: f64, longest_block_s: f64) -> Folds {
         let t = series.duration_s();
-        let block = (2.0 * slowest_tau_s).clamp(t / MAX_FOLDS as f64, t / MIN_FOLDS as f64);
-        let k = ((t / block).round() as usize).clamp(MIN_FOLDS, MAX_FOLDS);
+        let most = MAX_FOLDS.max((t / longest_block_s).ceil() as usize);
+        let block = (2.0 * slowest_tau_s).clamp(t / most as f64, t / MIN_FOLDS as f64);
+        let k = ((t / block).round() as usize).clamp(MIN_FOLDS, most);
         Folds::blocked(&series.excluded, k)
     }
 
