@@ -260,9 +260,20 @@ impl Folds {
     /// constants (so a held-out block shows a whole relaxation), but between a tenth and a quarter
     /// of the record, hence 4 to 10 folds.
     pub fn for_record(series: &Series, slowest_tau_s: f64) -> Folds {
+        Folds::for_record_within(series, slowest_tau_s, f64::INFINITY)
+    }
+
+    /// As [`Folds::for_record`], but blocks no longer than `longest_block_s` (more than ten
+    /// folds where the record is longer than ten such blocks).
+    pub fn for_record_within(series: &Series, slowest_tau_s: f64, longest_block_s: f64) -> Folds {
         let t = series.duration_s();
-        let block = (2.0 * slowest_tau_s).clamp(t / MAX_FOLDS as f64, t / MIN_FOLDS as f64);
-        let k = ((t / block).round() as usize).clamp(MIN_FOLDS, MAX_FOLDS);
+        let most = MAX_FOLDS.max((t / longest_block_s).ceil() as usize);
+        let block = (2.0 * slowest_tau_s)
+            .clamp(t / most as f64, t / MIN_FOLDS as f64)
+            .min(longest_block_s);
+        let k = ((t / block).round() as usize)
+            .max((t / longest_block_s).ceil() as usize)
+            .clamp(MIN_FOLDS, most);
         Folds::blocked(&series.excluded, k)
     }
 
@@ -345,5 +356,10 @@ mod tests {
         assert_eq!(Folds::for_record(&s, 40.0).len(), 4);
         // Slowest τ 15 s: 30 s blocks → 8 folds.
         assert_eq!(Folds::for_record(&s, 15.0).len(), 8);
+        // Blocks of at most 15 s: 16 folds, though 2τ is 20 s; 14 s: 18 (not 17 of 14.1 s);
+        // at most 45 s changes nothing on 240 s.
+        assert_eq!(Folds::for_record_within(&s, 10.0, 15.0).len(), 16);
+        assert_eq!(Folds::for_record_within(&s, 10.0, 14.0).len(), 18);
+        assert_eq!(Folds::for_record_within(&s, 10.0, 45.0).len(), 10);
     }
 }

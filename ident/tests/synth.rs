@@ -176,6 +176,46 @@ fn a_drift_that_turns_inside_a_block_is_named_alone() {
     }
 }
 
+/// A zero that swings every 1–3 min on a record of 10–25 min: held-out blocks of a tenth of the
+/// record (60–150 s) hold a whole turn of it, which no drift basis interpolates from the blocks
+/// around, and the records were left `unexplained`. Judged again on blocks of at most 45 s.
+#[test]
+fn a_zero_that_swings_every_few_minutes_on_a_long_record_is_named() {
+    for (seed, rate, length, a) in [
+        (24, 25.0, 900.0, 0.05),
+        (41, 50.0, 900.0, 0.05),
+        (42, 25.0, 900.0, 0.05),
+        (92, 100.0, 1200.0, 0.05),
+        (21, 40.0, 600.0, 0.05),
+        (22, 25.0, 1500.0, 0.03),
+    ] {
+        let d = diag(seed, rate, length, &[SynthEffect::Drift(a)]);
+        check(&d, "baseline_drift");
+        assert_eq!(d.effects, [Effect::BaselineDrift], "{}", d.summary);
+        assert!(
+            length / d.folds.len() as f64 <= 45.0 * 1.01,
+            "{} folds: {}",
+            d.folds.len(),
+            d.summary
+        );
+    }
+    // A clean long record is still `none` on its usual blocks, and a 60 s mode on a 900 s
+    // record still `slow_relaxation`: short blocks are tried only where nothing is named.
+    let d = diag(21, 25.0, 900.0, &[]);
+    check(&d, "none");
+    assert_eq!(d.folds.len(), 10);
+    let d = diag(
+        22,
+        25.0,
+        900.0,
+        &[SynthEffect::SlowRelaxation {
+            share: 0.3,
+            tau_s: 60.0,
+        }],
+    );
+    check(&d, "slow_relaxation");
+}
+
 #[test]
 fn interference_off_the_mains_is_found_at_its_frequency() {
     for (seed, hz) in [(8, 13.7), (9, 37.0)] {

@@ -125,8 +125,13 @@ fn force_origin(q01: f64, q99: f64) -> f64 {
 /// grid sets the folds' length (its slowest branch) and the grid's support: NNLS leaves most
 /// time constants at zero, so the folds see only the branches that fit used and their
 /// neighbours (memory for long records: a column of a 600 s record at 1 kHz is 2.4 MB). Then
-/// the creep: eq. 11's, or eq. 14's levelling off at the N₁/α that fits best.
-pub(super) fn support_and_folds(prep: &Prepared, settings: &Settings) -> (Vec<f64>, Creep, Folds) {
+/// the creep: eq. 11's, or eq. 14's levelling off at the N₁/α that fits best. The folds' blocks
+/// are at most `longest_block_s` long.
+pub(super) fn support_and_folds(
+    prep: &Prepared,
+    settings: &Settings,
+    longest_block_s: f64,
+) -> (Vec<f64>, Creep, Folds) {
     let s = &prep.smoothed;
     let taus = &prep.taus;
     let (slowest, support, creep) = {
@@ -184,7 +189,11 @@ pub(super) fn support_and_folds(prep: &Prepared, settings: &Settings) -> (Vec<f6
     } else {
         support
     };
-    (taus, creep, Folds::for_record(s, slowest))
+    (
+        taus,
+        creep,
+        Folds::for_record_within(s, slowest, longest_block_s),
+    )
 }
 
 /// The creep that fits the baseline `cols` (its creep last, eq. 11's, fitted to `permanent_mse`)
