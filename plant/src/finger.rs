@@ -226,6 +226,20 @@ pub struct Finger {
 }
 
 impl Finger {
+    /// The memo's finger drawn from `seed` on the memo's board (its taxel converter and scan),
+    /// probed at [`NOMINAL_TAXEL`], read out as by default.
+    pub fn memo(seed: u64) -> Self {
+        let config = tactile_core::tasks::FirmwareConfig::MEMO;
+        Finger::new(
+            seed,
+            NOMINAL_TAXEL,
+            Effects::MEMO,
+            ReadoutParams::default(),
+            config.taxel_adc,
+            config.scan,
+        )
+    }
+
     /// A finger with per-taxel variation drawn from `seed`; [`NOMINAL_TAXEL`] keeps the nominal
     /// element 4,2 parameters, so experiments with the probe there (the default) compare with
     /// the memo's tables, and a probe moved elsewhere meets a taxel of its own. `adc` and

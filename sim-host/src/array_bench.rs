@@ -19,7 +19,7 @@ use tactile_core::profile::{CommandSource, Protocol};
 use tactile_core::tactile::{StrainGrid, TaxelId, COLS, ROWS, TAXELS};
 use tactile_core::tasks::{ArrayEstimate, FirmwareConfig, Scanner};
 use tactile_core::viscoelastic::{NonlinearMk, NonlinearMkState};
-use tactile_plant::finger::{Effects, Finger, ReadoutParams, NOMINAL_TAXEL};
+use tactile_plant::finger::{Finger, ReadoutParams, NOMINAL_TAXEL};
 use tactile_plant::noise::Noise;
 use tactile_plant::spatial::SpatialLaw;
 use tactile_record::{FramesRecord, Truth};
@@ -55,14 +55,7 @@ impl BenchFinger {
     /// The finger drawn from `seed` (each taxel's springs and dashpots spread about element
     /// 4,2 as the simulator's finger spreads them), at rest.
     pub fn new(seed: u64, law: SpatialLaw) -> Self {
-        let finger = Finger::new(
-            seed,
-            NOMINAL_TAXEL,
-            Effects::MEMO,
-            ReadoutParams::default(),
-            FirmwareConfig::MEMO.taxel_adc,
-            FirmwareConfig::MEMO.scan,
-        );
+        let finger = Finger::memo(seed);
         Self {
             elements: core::array::from_fn(|i| finger.element_of(i)),
             state: [NonlinearMkState::default(); TAXELS],

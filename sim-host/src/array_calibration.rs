@@ -14,7 +14,7 @@ use tactile_core::estimator::TaxelModel;
 use tactile_core::tactile::{StrainGrid, TaxelCalibration, TaxelId, COLS, ROWS, TAXELS};
 use tactile_core::tasks::{ArrayEstimate, FirmwareConfig, Scanner};
 use tactile_core::viscoelastic::NonlinearMkState;
-use tactile_plant::finger::{Effects, Finger, ReadoutParams, NOMINAL_TAXEL};
+use tactile_plant::finger::{Finger, NOMINAL_TAXEL};
 use tactile_plant::spatial::SpatialLaw;
 use tactile_record::{FramesRecord, Truth};
 
@@ -204,14 +204,7 @@ pub fn simulated_frames(
     gain_spread: f64,
     seed: u64,
 ) -> (Vec<(f64, StrainGrid)>, Vec<Truth>) {
-    let mut finger = Finger::new(
-        seed,
-        NOMINAL_TAXEL,
-        Effects::MEMO,
-        ReadoutParams::default(),
-        FirmwareConfig::MEMO.taxel_adc,
-        FirmwareConfig::MEMO.scan,
-    );
+    let mut finger = Finger::memo(seed);
     let mut noise = tactile_plant::noise::Noise::new(seed);
     let gain: [f64; TAXELS] =
         core::array::from_fn(|_| 1.0 + gain_spread * (2.0 * noise.uniform() - 1.0));
