@@ -14,7 +14,8 @@ use crate::series::Folds;
 mod blocks;
 mod shift;
 
-use blocks::{dot_cosine, fold_products, span, FoldReader, Rotation};
+use crate::terms::Rotation;
+use blocks::{dot_cosine, dot_with, fold_products, span, FoldReader};
 
 /// A column's sign constraint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,6 +68,8 @@ pub struct Pool {
     local: bool,
     /// Per column, per fold: Σ w·x and Σ w·τ·x, τ the time across the fold (−1 to 1).
     local_x: HashMap<usize, Vec<[f64; 2]>>,
+    /// Per source, per fold: `shift::local_base`.
+    local_bases: HashMap<usize, Vec<[f64; 2]>>,
     local_y: Vec<[f64; 2]>,
     /// Per fold: the Gram matrix of (1, τ), as (Σ w, Σ w·τ, Σ w·τ²).
     local_gram: Vec<[f64; 3]>,
@@ -111,6 +114,7 @@ impl Pool {
             yy: Vec::new(),
             local: false,
             local_x: HashMap::new(),
+            local_bases: HashMap::new(),
             local_y: Vec::new(),
             local_gram: Vec::new(),
         };
@@ -295,6 +299,7 @@ impl Pool {
         self.cosine_bases.retain(|k, _| k.1 != j);
         self.with_y.remove(&j);
         self.local_x.remove(&j);
+        self.local_bases.remove(&j);
     }
 
     pub fn name(&self, j: usize) -> &str {
@@ -581,29 +586,97 @@ impl Pool {
         if let Some(v) = self.with_y.get(&a) {
             return v.clone();
         }
-        let (ca, w, y) = (self.read(a, built), &self.weight, &self.y);
-        let v: Vec<f64> = self
-            .folds
-            .ranges
-            .iter()
-            .map(|&(s, e)| (s..e).map(|i| f64::from(ca[i] * w[i]) * y[i]).sum::<f64>())
-            .collect();
+        let (w, y) = (&self.weight, &self.y);
+        let sum = |ca: &[f32], (s, e): (usize, usize)| dot_with(ca, &w[s..e], &y[s..e]);
+        let v = self.per_fold_of(a, built, sum);
         self.with_y.insert(a, v.clone());
         v
+    }
+
+    /// Per fold, `sum` of column `a`'s samples of the fold (given from the fold's start): a
+    /// stored or delayed column read fold by fold, not built whole.
+    fn per_fold_of<T>(
+        &self,
+        a: usize,
+        built: &HashMap<usize, Vec<f32>>,
+        sum: impl Fn(&[f32], (usize, usize)) -> T,
+    ) -> Vec<T> {
+        let ranges = &self.folds.ranges;
+        match (built.get(&a), self.raw(a)) {
+            (None, Some(raw)) => {
+                let mut buf = Vec::new();
+                ranges
+                    .iter()
+                    .map(|&(s, e)| {
+                        span(&mut buf, raw, s, e);
+                        sum(&buf, (s, e))
+                    })
+                    .collect()
+            }
+            _ => {
+                let ca = self.read(a, built);
+                ranges
+                    .iter()
+                    .map(|&(s, e)| sum(&ca[s..e], (s, e)))
+                    .collect()
+            }
+        }
     }
 
     fn local_of(&mut self, a: usize, built: &HashMap<usize, Vec<f32>>) -> Vec<[f64; 2]> {
         if let Some(v) = self.local_x.get(&a) {
             return v.clone();
         }
-        let ca = self.read(a, built);
-        let v: Vec<[f64; 2]> = self
-            .local_sums(|i| f64::from(ca[i]))
-            .iter()
-            .map(|s| [s[0], s[1]])
-            .collect();
+        let v = match self.moved_local(a) {
+            Some(v) => v,
+            None => {
+                let w = &self.weight;
+                // As `local_sums` takes them.
+                let sum = |ca: &[f32], (s, e): (usize, usize)| {
+                    let half = ((e - s).max(2) - 1) as f64 / 2.0;
+                    (s..e).fold([0.0; 2], |acc, i| {
+                        let v = f64::from(w[i]) * f64::from(ca[i - s]);
+                        let tau = (i - s) as f64 / half - 1.0;
+                        [acc[0] + v, acc[1] + v * tau]
+                    })
+                };
+                self.per_fold_of(a, built, sum)
+            }
+        };
         self.local_x.insert(a, v.clone());
         v
+    }
+
+    /// A column delayed by whole samples: its sums against each fold's offset and slope from
+    /// its source's (`shift::delayed_local`), where every sample counts.
+    fn moved_local(&mut self, a: usize) -> Option<Vec<[f64; 2]>> {
+        let Some(Column::Delayed {
+            source,
+            whole,
+            frac,
+        }) = self.cols.get(a)
+        else {
+            return None;
+        };
+        let (source, whole) = (*source, *whole);
+        let Some(Column::Stored(v)) = self.cols.get(source) else {
+            return None;
+        };
+        if !self.plain || *frac != 0.0 || v.len() != self.n {
+            return None;
+        }
+        let ranges = &self.folds.ranges;
+        let bases = self
+            .local_bases
+            .entry(source)
+            .or_insert_with(|| ranges.iter().map(|&r| shift::local_base(v, r)).collect());
+        Some(
+            ranges
+                .iter()
+                .zip(bases.iter())
+                .map(|(&r, &base)| shift::delayed_local(v, whole, r, base))
+                .collect(),
+        )
     }
 
     /// Fits `columns` on every fold's complement and on the whole record.
@@ -690,7 +763,8 @@ impl Pool {
     /// Σ β_j·column_j over the record.
     pub fn predict(&self, columns: &[usize], beta: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; self.n];
-        for (&c, &w) in columns.iter().zip(beta) {
+        // A column the fit left at zero adds nothing (the non-negative fits leave many).
+        for (&c, &w) in columns.iter().zip(beta).filter(|(_, w)| **w != 0.0) {
             for (o, v) in out.iter_mut().zip(self.values(c).iter()) {
                 *o += w * f64::from(*v);
             }
@@ -818,11 +892,9 @@ mod tests {
             .map(|i| if i % 97 == 0 { 0.0 } else { 1.0 })
             .collect();
         for k in [1, 2, 7, 16] {
+            let c = crate::terms::cosine(n, k);
             for (s, e) in [(0, n), (3, 4), (5, 5000), (5000, n), (n - 7, n)] {
-                let naive: f64 = (s..e)
-                    .zip(crate::terms::cosine_from(n, k, s))
-                    .map(|(i, c)| f64::from(x[i] * w[i]) * c)
-                    .sum();
+                let naive: f64 = (s..e).map(|i| f64::from(x[i] * w[i]) * c[i]).sum();
                 let fast = dot_cosine(&x[s..e], &w[s..e], n, k, s);
                 assert!(
                     (fast - naive).abs() <= 1e-9 * (e - s) as f64,

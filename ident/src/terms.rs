@@ -89,20 +89,49 @@ pub fn duhem(x: &[f64], r: f64) -> Vec<f64> {
 /// cos(π·k·t/T) over the record (k = 1 is one half-period: a smooth step from one end to the
 /// other).
 pub fn cosine(n: usize, k: usize) -> Vec<f64> {
-    cosine_from(n, k, 0).take(n).collect()
+    cosine_span(n, k, 0, n)
 }
 
-/// [`cosine`]`(n, k)` from sample `start` on, by rotation: a multiply-add a sample, so the
-/// diagnosis computes it where it reads it instead of storing it.
-pub fn cosine_from(n: usize, k: usize, start: usize) -> impl Iterator<Item = f64> {
-    let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
-    let (sin_step, cos_step) = step.sin_cos();
-    let (mut s, mut c) = (step * (start as f64 + 0.5)).sin_cos();
-    std::iter::repeat_with(move || {
-        let v = c;
-        (s, c) = (s * cos_step + c * sin_step, c * cos_step - s * sin_step);
-        v
-    })
+/// cos(π·k·(i + ½)/n) for `len` samples i from `start`: eight lanes, each rotated by eight
+/// samples at a time (one rotation a sample is a chain of dependent multiplies).
+pub(crate) fn cosine_span(n: usize, k: usize, start: usize, len: usize) -> Vec<f64> {
+    let mut out = Vec::with_capacity(len);
+    Rotation::new(n, k, start).fill(&mut out, len);
+    out
+}
+
+/// The half-cosine `k` of a record of `n` samples from sample `start` on, as eight lanes
+/// rotated eight samples at a time.
+pub(crate) struct Rotation {
+    lanes: [(f64, f64); 8],
+    sin8: f64,
+    cos8: f64,
+}
+
+impl Rotation {
+    pub(crate) fn new(n: usize, k: usize, start: usize) -> Rotation {
+        let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
+        let (sin8, cos8) = (8.0 * step).sin_cos();
+        let mut lanes = [(0.0f64, 0.0f64); 8];
+        for (j, l) in lanes.iter_mut().enumerate() {
+            *l = (step * ((start + j) as f64 + 0.5)).sin_cos();
+        }
+        Rotation { lanes, sin8, cos8 }
+    }
+
+    /// The next `len` values onto `out` (a whole number of eights but at the end: the lanes
+    /// move on by eight samples after each group).
+    pub(crate) fn fill(&mut self, out: &mut Vec<f64>, len: usize) {
+        let end = out.len() + len;
+        while out.len() < end {
+            let take = (end - out.len()).min(8);
+            out.extend(self.lanes[..take].iter().map(|l| l.1));
+            for l in &mut self.lanes {
+                let (s, c) = *l;
+                *l = (s * self.cos8 + c * self.sin8, c * self.cos8 - s * self.sin8);
+            }
+        }
+    }
 }
 
 /// Legendre polynomial of degree `k` over the record, from −1 to 1 (Bonnet's recursion): a gain

@@ -11,6 +11,7 @@ use tactile_core::spring::SpringCurve;
 use tactile_core::tactile::TaxelId;
 use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
+use tactile_ident::diagnose::{FoldModels, Settings};
 // Every play the diagnosis fits reaches the chip.
 const _: () = assert!(tactile_ident::diagnose::PLAY_SHARES.len() <= PLAYS);
 use tactile_ident::diagnose::{stiffening_load, Effect};
@@ -392,16 +393,11 @@ pub fn element_of(
 /// The chip's calibration entry for a model given as terms.
 fn taxel_model_of(
     terms: &[(Term, f64)],
-    d: &Diagnosis,
-    series: &Series,
+    m: &FoldModels,
+    (series, loads): (&Series, (f64, f64)),
     taxel: TaxelId,
     form: ChipForm,
 ) -> Option<TaxelModel> {
-    let fk = series.kept(&series.force_g);
-    let loads = (
-        tactile_ident::stats::quantile(&fk, 0.05),
-        tactile_ident::stats::quantile(&fk, 0.95),
-    );
     // The creep term was scaled by the record's length. A creep that adds under a tenth of the
     // slow branches' compliance over the whole record is left out: eq. 14 would spend its slow
     // branch on it and merge the others into one.
@@ -421,12 +417,7 @@ fn taxel_model_of(
             _ => Some((*term, *b)),
         })
         .collect();
-    let element = element_of(
-        &scaled,
-        (d.model.force_scale_g, d.model.force_origin_g),
-        loads,
-        form,
-    )?;
+    let element = element_of(&scaled, (m.force_scale_g, m.force_origin_g), loads, form)?;
     let stiffening = terms
         .iter()
         .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0);
@@ -461,7 +452,7 @@ fn taxel_model_of(
     Some(TaxelModel {
         taxel,
         strain_offset_pct: offset,
-        elastic_g_per_pct: d.secant_g_per_pct,
+        elastic_g_per_pct: m.secant_g_per_pct,
         second_order: at_mid,
         schedule,
         element,
@@ -469,6 +460,15 @@ fn taxel_model_of(
         hysteresis: Plays::new(&plays).ok()?,
         ..TaxelModel::nominal(taxel)
     })
+}
+
+/// The loads the record saw (5–95 %), g.
+fn load_range_g(series: &Series) -> (f64, f64) {
+    let fk = series.kept(&series.force_g);
+    (
+        tactile_ident::stats::quantile(&fk, 0.05),
+        tactile_ident::stats::quantile(&fk, 0.95),
+    )
 }
 
 /// The estimators whose model the diagnosis' terms give (the bank is fitted apart).
@@ -482,17 +482,16 @@ const MODEL_KINDS: [EstimatorKind; 4] = [
 const OBSERVER: usize = 3;
 const SCHEDULED: usize = 2;
 
-/// Held-out RMS (g) of each of `kinds` built per fold from `fold_terms`.
+/// Held-out RMS (g) of each of `kinds` built per fold from `m`.
 fn held_out_force<const K: usize>(
-    fold_terms: &[Vec<(Term, f64)>],
-    d: &Diagnosis,
-    series: &Series,
+    m: &FoldModels,
+    (series, loads): (&Series, (f64, f64)),
     form: ChipForm,
     kinds: [EstimatorKind; K],
 ) -> Option<[f64; K]> {
     let (mut sums, mut count) = ([0.0; K], 0usize);
-    for (terms, &(a, b)) in fold_terms.iter().zip(&d.model.folds) {
-        let model = taxel_model_of(terms, d, series, TaxelId::default(), form)?;
+    for (terms, &(a, b)) in m.terms.iter().zip(&m.folds) {
+        let model = taxel_model_of(terms, m, (series, loads), TaxelId::default(), form)?;
         let mut est = TaxelEstimators::new(&model, series.dt_s).ok()?;
         // From the record's start: the estimators' state at the fold is its whole history's.
         for i in 0..b {
@@ -515,20 +514,15 @@ fn held_out_force<const K: usize>(
 /// Held-out RMS (g) of each of [`MODEL_KINDS`] but the observer, whose is `observer_g`, each
 /// kind on a thread of its own (they run apart: the same figures as run together).
 fn held_out_kinds(
-    fold_terms: &[Vec<(Term, f64)>],
-    d: &Diagnosis,
-    series: &Series,
+    m: &FoldModels,
+    record: (&Series, (f64, f64)),
     form: ChipForm,
     observer_g: f64,
 ) -> Option<[f64; 4]> {
     let each: Vec<Option<f64>> = std::thread::scope(|scope| {
         let runs: Vec<_> = MODEL_KINDS[..OBSERVER]
             .iter()
-            .map(|&kind| {
-                scope.spawn(move || {
-                    held_out_force(fold_terms, d, series, form, [kind]).map(|v| v[0])
-                })
-            })
+            .map(|&kind| scope.spawn(move || held_out_force(m, record, form, [kind]).map(|v| v[0])))
             .collect();
         runs.into_iter().map(|r| r.join().ok().flatten()).collect()
     });
@@ -561,13 +555,37 @@ fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> Taxe
     model
 }
 
+/// The baseline's best form on the chip and its held-out errors (none for a strain that falls
+/// as the force rises).
+fn baseline_form(m: &FoldModels, record: (&Series, (f64, f64))) -> (ChipForm, Option<[f64; 4]>) {
+    if m.orientation < 0.0 {
+        return (ChipForm::ALL[0], None);
+    }
+    best_form(m, record, forms_of(m))
+}
+
+/// The chip's forms that differ for `m`: without a stiffening its springs are the same in
+/// either form, and only the branches' reductions are compared.
+fn forms_of(m: &FoldModels) -> &'static [ChipForm] {
+    const LINEAR: [ChipForm; 2] = [ChipForm::ALL[0], ChipForm::ALL[2]];
+    let stiffens = m
+        .terms
+        .iter()
+        .flatten()
+        .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0);
+    if stiffens {
+        &ChipForm::ALL
+    } else {
+        &LINEAR
+    }
+}
+
 /// The form among `forms` whose observer holds out best on the chip, with its held-out errors:
 /// each form's observer on a thread of its own, then the other estimators of the best (of the
 /// next best where one of them has no figure).
 fn best_form(
-    fold_terms: &[Vec<(Term, f64)>],
-    d: &Diagnosis,
-    series: &Series,
+    m: &FoldModels,
+    record: (&Series, (f64, f64)),
     forms: &[ChipForm],
 ) -> (ChipForm, Option<[f64; 4]>) {
     let observer: Vec<Option<f64>> = std::thread::scope(|scope| {
@@ -575,8 +593,7 @@ fn best_form(
             .iter()
             .map(|&form| {
                 scope.spawn(move || {
-                    held_out_force(fold_terms, d, series, form, [EstimatorKind::Observer])
-                        .map(|v| v[0])
+                    held_out_force(m, record, form, [EstimatorKind::Observer]).map(|v| v[0])
                 })
             })
             .collect();
@@ -592,7 +609,7 @@ fn best_form(
     order
         .into_iter()
         .find_map(|(form, observer_g)| {
-            held_out_kinds(fold_terms, d, series, form, observer_g).map(|v| (form, Some(v)))
+            held_out_kinds(m, record, form, observer_g).map(|v| (form, Some(v)))
         })
         .unwrap_or((forms.first().copied().unwrap_or(ChipForm::ALL[0]), None))
 }
@@ -639,7 +656,23 @@ pub fn chip_choice(m: &TaxelModel) -> String {
 
 /// Diagnoses a checked record and carries the result to the chip.
 pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
-    let mut d = tactile_ident::diagnose(series);
+    // The baseline's forms are scored on the chip while the diagnosis's rounds run.
+    let record = (series, load_range_g(series));
+    let (sender, fitted) = std::sync::mpsc::channel::<FoldModels>();
+    let (mut d, early) = std::thread::scope(|scope| {
+        let worker = scope.spawn(move || {
+            fitted
+                .into_iter()
+                .map(|m| (m.folds.clone(), baseline_form(&m, record)))
+                .collect::<Vec<_>>()
+        });
+        let d = tactile_ident::diagnose::diagnose_observed(series, &Settings::default(), &|m| {
+            // NOTE: a worker gone (it panicked) is scored again below.
+            let _ = sender.send(m);
+        });
+        drop(sender);
+        (d, worker.join().unwrap_or_default())
+    });
     let mut summary = d.summary.clone();
     let mut on_chip_list: Vec<(Effect, String)> = d
         .effects
@@ -647,17 +680,20 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         .map(|e| (*e, on_chip(*e).to_string()))
         .collect();
     let inverted = d.model.orientation < 0.0;
-    // No stiffening in the baseline: its springs are the same in either form.
-    let baseline_forms = [ChipForm::ALL[0], ChipForm::ALL[2]];
-    let (base_form, before) = if inverted {
-        (ChipForm::ALL[0], None)
-    } else {
-        best_form(&d.model.baseline_fold_terms, &d, series, &baseline_forms)
-    };
+    let (base_form, before) = early
+        .into_iter()
+        .rev()
+        .find(|(folds, _)| *folds == d.model.folds)
+        .map(|(_, scored)| scored)
+        .unwrap_or_else(|| baseline_form(&d.fold_models(&d.model.baseline_fold_terms), record));
     let (form, after) = if inverted || d.effects.is_empty() {
         (base_form, before)
     } else {
-        best_form(&d.model.chip_fold_terms, &d, series, &ChipForm::ALL)
+        best_form(
+            &d.fold_models(&d.model.chip_fold_terms),
+            record,
+            &ChipForm::ALL,
+        )
     };
     let before_all = before.unwrap_or([f64::NAN; 4]);
     let after_all = after.unwrap_or(before_all);
@@ -674,7 +710,8 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         None
     } else {
         let held_out = if exported { after_all } else { before_all };
-        taxel_model_of(chosen, &d, series, taxel, form).map(|m| with_bank(m, series, held_out))
+        taxel_model_of(chosen, &d.fold_models(&[]), record, taxel, form)
+            .map(|m| with_bank(m, series, held_out))
     };
     if inverted {
         summary.push_str("  on the chip: the strain falls as the force rises; the chip's estimators assume it rises, so no calibration is exported\n");

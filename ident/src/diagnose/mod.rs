@@ -234,6 +234,21 @@ pub struct Baseline {
     pub alpha_branch: Option<(f64, f64)>,
 }
 
+/// A model fitted on each fold's complement, and what turns its terms into grams: what the
+/// chip's estimators need to be scored held out.
+#[derive(Clone, Debug)]
+pub struct FoldModels {
+    /// Per fold, the terms fitted on the other folds.
+    pub terms: Vec<Vec<(Term, f64)>>,
+    /// Each fold's samples [start, end).
+    pub folds: Vec<(usize, usize)>,
+    pub force_scale_g: f64,
+    pub force_origin_g: f64,
+    pub secant_g_per_pct: f64,
+    /// −1 when the strain falls as the force rises.
+    pub orientation: f64,
+}
+
 /// The diagnosis of a record.
 #[derive(Clone, Debug, Serialize)]
 pub struct Diagnosis {
@@ -267,6 +282,20 @@ pub struct Diagnosis {
     pub summary: String,
     #[serde(skip)]
     pub model: Model,
+}
+
+impl Diagnosis {
+    /// `terms` (one set per fold, as [`Model::fold_terms`]) with the record's folds and scale.
+    pub fn fold_models(&self, terms: &[Vec<(Term, f64)>]) -> FoldModels {
+        FoldModels {
+            terms: terms.to_vec(),
+            folds: self.model.folds.clone(),
+            force_scale_g: self.model.force_scale_g,
+            force_origin_g: self.model.force_origin_g,
+            secant_g_per_pct: self.secant_g_per_pct,
+            orientation: self.model.orientation,
+        }
+    }
 }
 
 /// The accepted model, for the chip and for plots.
@@ -389,12 +418,24 @@ pub fn diagnose(series: &Series) -> Diagnosis {
 /// where anything passed on them: a slow relaxation of τ is seen whole only in blocks of ~2τ,
 /// and on short blocks a drift's half-cosines take its slow response.
 pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
-    let d = diagnose_on(series, settings, f64::INFINITY);
+    diagnose_observed(series, settings, &|_| {})
+}
+
+/// [`diagnose_with`], handing `on_baseline` the baseline's fold models as soon as they are
+/// fitted (before the candidates' rounds, which leave a core mostly idle): a caller can score
+/// them meanwhile. A record judged again on shorter blocks hands over a second set; the one
+/// whose folds are the diagnosis's is its baseline's.
+pub fn diagnose_observed(
+    series: &Series,
+    settings: &Settings,
+    on_baseline: &(dyn Fn(FoldModels) + Sync),
+) -> Diagnosis {
+    let d = diagnose_on(series, settings, f64::INFINITY, on_baseline);
     let block_s = series.duration_s() / d.folds.len().max(1) as f64;
     if d.effect != "unexplained" || block_s <= SWING_BLOCK_S * 1.01 {
         return d;
     }
-    let again = diagnose_on(series, settings, SWING_BLOCK_S);
+    let again = diagnose_on(series, settings, SWING_BLOCK_S, on_baseline);
     if again.effect == "unexplained" {
         d
     } else {
@@ -407,7 +448,12 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
 pub const SWING_BLOCK_S: f64 = 45.0;
 
 /// [`diagnose_with`] on folds of blocks at most `longest_block_s` long.
-fn diagnose_on(series: &Series, settings: &Settings, longest_block_s: f64) -> Diagnosis {
+fn diagnose_on(
+    series: &Series,
+    settings: &Settings,
+    longest_block_s: f64,
+    on_baseline: &(dyn Fn(FoldModels) + Sync),
+) -> Diagnosis {
     let prep = prepare::prepare(series, settings);
     let s = &prep.smoothed;
     let (taus, creep, folds) = prepare::support_and_folds(&prep, settings, longest_block_s);
@@ -441,6 +487,14 @@ fn diagnose_on(series: &Series, settings: &Settings, longest_block_s: f64) -> Di
         tests,
         drift_by_block: false,
     };
+    on_baseline(FoldModels {
+        terms: report::fold_terms_of(&work, &state.scored),
+        folds: folds.ranges.clone(),
+        force_scale_g: work.force_scale,
+        force_origin_g: work.force_origin,
+        secant_g_per_pct: prep.secant,
+        orientation: prep.orientation,
+    });
     let first_order = floors::first_order(&mut work, &base);
     let before = Before {
         scored: state.scored.clone(),

@@ -50,7 +50,7 @@ fn terms_of(work: &Work, sc: &Scored) -> Vec<(Term, f64)> {
 }
 
 /// The terms of `sc` as fitted on each fold's complement.
-fn fold_terms_of(work: &Work, sc: &Scored) -> Vec<Vec<(Term, f64)>> {
+pub(super) fn fold_terms_of(work: &Work, sc: &Scored) -> Vec<Vec<(Term, f64)>> {
     sc.fold_beta
         .iter()
         .map(|b| terms_with(work, sc, b))

@@ -2,6 +2,8 @@
 //! shifted, a half-cosine rotated on), every pair summed in eight lanes while the block is in
 //! cache.
 
+use crate::terms::{cosine_span, Rotation};
+
 /// A column's samples over one fold, read block by block as the Gram products take them.
 pub(super) enum FoldReader<'a> {
     /// Its samples over the fold, stored (or built for this score).
@@ -160,48 +162,6 @@ pub(super) fn dot3(a: &[f32], b: &[f32], w: &[f32]) -> f64 {
     acc.iter().sum::<f64>() + tail.iter().sum::<f64>()
 }
 
-/// cos(π·k·(i + ½)/n) for `len` samples i from `start`: eight lanes, each rotated by eight
-/// samples at a time (one rotation a sample is a chain of dependent multiplies).
-pub(super) fn cosine_span(n: usize, k: usize, start: usize, len: usize) -> Vec<f64> {
-    let mut out = Vec::with_capacity(len);
-    Rotation::new(n, k, start).fill(&mut out, len);
-    out
-}
-
-/// The half-cosine `k` of a record of `n` samples from sample `start` on, as eight lanes
-/// rotated eight samples at a time.
-pub(super) struct Rotation {
-    lanes: [(f64, f64); 8],
-    sin8: f64,
-    cos8: f64,
-}
-
-impl Rotation {
-    pub(super) fn new(n: usize, k: usize, start: usize) -> Rotation {
-        let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
-        let (sin8, cos8) = (8.0 * step).sin_cos();
-        let mut lanes = [(0.0f64, 0.0f64); 8];
-        for (j, l) in lanes.iter_mut().enumerate() {
-            *l = (step * ((start + j) as f64 + 0.5)).sin_cos();
-        }
-        Rotation { lanes, sin8, cos8 }
-    }
-
-    /// The next `len` values onto `out` (a whole number of eights but at the end: the lanes
-    /// move on by eight samples after each group).
-    fn fill(&mut self, out: &mut Vec<f64>, len: usize) {
-        let end = out.len() + len;
-        while out.len() < end {
-            let take = (end - out.len()).min(8);
-            out.extend(self.lanes[..take].iter().map(|l| l.1));
-            for l in &mut self.lanes {
-                let (s, c) = *l;
-                *l = (s * self.cos8 + c * self.sin8, c * self.cos8 - s * self.sin8);
-            }
-        }
-    }
-}
-
 /// Σ x·w·c into eight lanes, as [`lanes3`] sums.
 #[inline(always)]
 fn lanes_with(acc: &mut [f64; 8], x: &[f32], w: &[f32], c: &[f64]) {
@@ -224,7 +184,11 @@ fn lanes_with(acc: &mut [f64; 8], x: &[f32], w: &[f32], c: &[f64]) {
 
 /// Σ x·w·cos(π·k·(i + ½)/n) over samples i = start, start + 1, ….
 pub(super) fn dot_cosine(x: &[f32], w: &[f32], n: usize, k: usize, start: usize) -> f64 {
-    let c = cosine_span(n, k, start, x.len());
+    dot_with(x, w, &cosine_span(n, k, start, x.len()))
+}
+
+/// Σ x·w·c, in eight lanes.
+pub(super) fn dot_with(x: &[f32], w: &[f32], c: &[f64]) -> f64 {
     let whole = x.len() - x.len() % 8;
     let (mut acc, mut tail) = ([0.0f64; 8], [0.0f64; 8]);
     lanes_with(&mut acc, &x[..whole], &w[..whole], &c[..whole]);

@@ -161,6 +161,53 @@ fn cosine_sum(step: f64, lo: usize, hi: usize) -> f64 {
     (0.5 * m * step).sin() * (0.5 * step * (lo + hi) as f64).cos() / half
 }
 
+/// Per fold [s, e): Σ a_j and Σ (j − s)·a_j, the pieces of a delayed column's sums against the
+/// fold's own offset and slope ([`delayed_local`]).
+pub(super) fn local_base(a: &[f32], (s, e): (usize, usize)) -> [f64; 2] {
+    level_and_ramp(a, s, (s, e))
+}
+
+/// Σ over samples [lo, hi) of (a_j, (j − s)·a_j).
+fn level_and_ramp(a: &[f32], s: usize, (lo, hi): (usize, usize)) -> [f64; 2] {
+    a[lo..hi.max(lo)]
+        .iter()
+        .enumerate()
+        .fold([0.0; 2], |acc, (k, x)| {
+            let x = f64::from(*x);
+            [acc[0] + x, acc[1] + ((lo + k) as f64 - s as f64) * x]
+        })
+}
+
+/// Over the fold [s, e): Σ x_i and Σ τ_i·x_i, x the source `a` delayed by `whole` samples as
+/// `span` reads it and τ the time across the fold from −1 to 1 (as `Pool::local_sums` takes
+/// them), from the fold's [`local_base`].
+pub(super) fn delayed_local(
+    a: &[f32],
+    whole: usize,
+    (s, e): (usize, usize),
+    base: [f64; 2],
+) -> [f64; 2] {
+    let half = ((e - s).max(2) - 1) as f64 / 2.0;
+    // The held samples, c of them from the fold's start: Σ τ_i = c·(c − 1)/2/half − c.
+    let split = (whole + 1).clamp(s, e);
+    let c = (split - s) as f64;
+    let first = f64::from(a.first().copied().unwrap_or(0.0));
+    let head = [first * c, first * (c * (c - 1.0) / 2.0 / half - c)];
+    if split == e {
+        return head;
+    }
+    // Sample i reads j = i − L: τ_i = (j − s + L)/half − 1.
+    let range = (split - whole, e - whole);
+    let sums = moved(Pair(base), (s, e), range, |lo, hi| {
+        Pair(level_and_ramp(a, s, (lo, hi)))
+    });
+    let [level, ramp] = sums.0;
+    [
+        head[0] + level,
+        head[1] + ramp / half + (whole as f64 / half - 1.0) * level,
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -208,6 +255,29 @@ mod tests {
                     (fast - naive).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
                     "delay {whole} fold {fold:?}: {fast} {naive}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn a_delayed_column_against_a_fold_offset_and_slope_sums_as_its_samples_do() {
+        let n = 10_007;
+        let (a, _) = columns(n);
+        for whole in DELAYS {
+            for fold in FOLDS {
+                let half = ((fold.1 - fold.0).max(2) - 1) as f64 / 2.0;
+                let naive = (fold.0..fold.1).fold([0.0; 2], |acc, i| {
+                    let x = f64::from(at(&a, whole, i));
+                    let tau = (i - fold.0) as f64 / half - 1.0;
+                    [acc[0] + x, acc[1] + tau * x]
+                });
+                let fast = delayed_local(&a, whole, fold, local_base(&a, fold));
+                for (f, v) in fast.iter().zip(naive) {
+                    assert!(
+                        (f - v).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
+                        "delay {whole} fold {fold:?}: {fast:?} {naive:?}"
+                    );
+                }
             }
         }
     }
