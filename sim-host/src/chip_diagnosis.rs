@@ -689,11 +689,8 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     let (form, after) = if inverted || d.effects.is_empty() {
         (base_form, before)
     } else {
-        best_form(
-            &d.fold_models(&d.model.chip_fold_terms),
-            record,
-            &ChipForm::ALL,
-        )
+        let m = d.fold_models(&d.model.chip_fold_terms);
+        best_form(&m, record, forms_of(&m))
     };
     let before_all = before.unwrap_or([f64::NAN; 4]);
     let after_all = after.unwrap_or(before_all);
