@@ -103,7 +103,9 @@ pub(crate) fn cosine_span(n: usize, k: usize, start: usize, len: usize) -> Vec<f
 /// The half-cosine `k` of a record of `n` samples from sample `start` on, as eight lanes
 /// rotated eight samples at a time.
 pub(crate) struct Rotation {
-    lanes: [(f64, f64); 8],
+    /// Each lane's sine and cosine, apart (the eight rotations run side by side).
+    sin: [f64; 8],
+    cos: [f64; 8],
     sin8: f64,
     cos8: f64,
 }
@@ -112,23 +114,30 @@ impl Rotation {
     pub(crate) fn new(n: usize, k: usize, start: usize) -> Rotation {
         let step = std::f64::consts::PI * k as f64 / n.max(1) as f64;
         let (sin8, cos8) = (8.0 * step).sin_cos();
-        let mut lanes = [(0.0f64, 0.0f64); 8];
-        for (j, l) in lanes.iter_mut().enumerate() {
-            *l = (step * ((start + j) as f64 + 0.5)).sin_cos();
+        let (mut sin, mut cos) = ([0.0f64; 8], [0.0f64; 8]);
+        for j in 0..8 {
+            (sin[j], cos[j]) = (step * ((start + j) as f64 + 0.5)).sin_cos();
         }
-        Rotation { lanes, sin8, cos8 }
+        Rotation {
+            sin,
+            cos,
+            sin8,
+            cos8,
+        }
     }
 
     /// The next `len` values onto `out` (a whole number of eights but at the end: the lanes
     /// move on by eight samples after each group).
     pub(crate) fn fill(&mut self, out: &mut Vec<f64>, len: usize) {
         let end = out.len() + len;
+        out.reserve(len);
         while out.len() < end {
             let take = (end - out.len()).min(8);
-            out.extend(self.lanes[..take].iter().map(|l| l.1));
-            for l in &mut self.lanes {
-                let (s, c) = *l;
-                *l = (s * self.cos8 + c * self.sin8, c * self.cos8 - s * self.sin8);
+            out.extend_from_slice(&self.cos[..take]);
+            for j in 0..8 {
+                let (s, c) = (self.sin[j], self.cos[j]);
+                self.sin[j] = s * self.cos8 + c * self.sin8;
+                self.cos[j] = c * self.cos8 - s * self.sin8;
             }
         }
     }
