@@ -418,9 +418,7 @@ fn taxel_model_of(
         })
         .collect();
     let element = element_of(&scaled, (m.force_scale_g, m.force_origin_g), loads, form)?;
-    let stiffening = terms
-        .iter()
-        .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0);
+    let stiffening = stiffens(terms);
     let mid = 0.5 * (loads.0 + loads.1);
     let at_mid = element.linearized(mid.max(1.0)).second_order();
     let schedule = if stiffening {
@@ -555,6 +553,13 @@ fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> Taxe
     model
 }
 
+/// Whether `terms` hold a stiffening the fit kept.
+fn stiffens(terms: &[(Term, f64)]) -> bool {
+    terms
+        .iter()
+        .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0)
+}
+
 /// The baseline's best form on the chip and its held-out errors (none for a strain that falls
 /// as the force rises).
 fn baseline_form(m: &FoldModels, record: (&Series, (f64, f64))) -> (ChipForm, Option<[f64; 4]>) {
@@ -568,12 +573,7 @@ fn baseline_form(m: &FoldModels, record: (&Series, (f64, f64))) -> (ChipForm, Op
 /// either form, and only the branches' reductions are compared.
 fn forms_of(m: &FoldModels) -> &'static [ChipForm] {
     const LINEAR: [ChipForm; 2] = [ChipForm::ALL[0], ChipForm::ALL[2]];
-    let stiffens = m
-        .terms
-        .iter()
-        .flatten()
-        .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0);
-    if stiffens {
+    if m.terms.iter().any(|terms| stiffens(terms)) {
         &ChipForm::ALL
     } else {
         &LINEAR

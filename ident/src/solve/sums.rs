@@ -14,15 +14,18 @@ impl Pool {
         self.folds
             .ranges
             .iter()
-            .map(|&(a, b)| {
-                let half = ((b - a).max(2) - 1) as f64 / 2.0;
-                (a..b).fold([0.0; 3], |s, i| {
-                    let v = f64::from(self.weight[i]) * f(i);
-                    let tau = (i - a) as f64 / half - 1.0;
-                    [s[0] + v, s[1] + v * tau, s[2] + v * tau * tau]
-                })
-            })
+            .map(|&fold| self.fold_local_sums(fold, &f))
             .collect()
+    }
+
+    /// [`local_sums`](Self::local_sums) over one fold [a, b).
+    fn fold_local_sums(&self, (a, b): (usize, usize), f: impl Fn(usize) -> f64) -> [f64; 3] {
+        let half = ((b - a).max(2) - 1) as f64 / 2.0;
+        (a..b).fold([0.0; 3], |s, i| {
+            let v = f64::from(self.weight[i]) * f(i);
+            let tau = (i - a) as f64 / half - 1.0;
+            [s[0] + v, s[1] + v * tau, s[2] + v * tau * tau]
+        })
     }
 
     pub(super) fn y_of(&mut self, a: usize, built: &HashMap<usize, Vec<f32>>) -> Vec<f64> {
@@ -73,15 +76,9 @@ impl Pool {
         let v = match self.moved_local(a) {
             Some(v) => v,
             None => {
-                let w = &self.weight;
-                // As `local_sums` takes them.
-                let sum = |ca: &[f32], (s, e): (usize, usize)| {
-                    let half = ((e - s).max(2) - 1) as f64 / 2.0;
-                    (s..e).fold([0.0; 2], |acc, i| {
-                        let v = f64::from(w[i]) * f64::from(ca[i - s]);
-                        let tau = (i - s) as f64 / half - 1.0;
-                        [acc[0] + v, acc[1] + v * tau]
-                    })
+                let sum = |ca: &[f32], fold: (usize, usize)| {
+                    let [x, tx, _] = self.fold_local_sums(fold, |i| f64::from(ca[i - fold.0]));
+                    [x, tx]
                 };
                 self.per_fold_of(a, built, sum)
             }
