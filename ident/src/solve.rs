@@ -12,11 +12,13 @@ use nalgebra::{DMatrix, DVector};
 use crate::series::Folds;
 
 mod blocks;
+mod expand;
 mod shift;
 mod sums;
 
 use crate::terms::Rotation;
 use blocks::{dot_cosine, fold_products, span, FoldReader};
+use expand::Terms;
 
 /// A column's sign constraint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,6 +64,10 @@ pub struct Pool {
     plain: bool,
     /// Per pair of sources, per fold: `shift::pair_base`.
     pair_bases: HashMap<(usize, usize), Vec<f64>>,
+    /// Per (lead, lag) pair of sources, per fold: `shift::lag_base`.
+    lag_bases: HashMap<(usize, usize), Vec<f64>>,
+    /// Per column delayed by a fraction of a sample: its two whole-sample views (`expand`).
+    views: HashMap<usize, [usize; 2]>,
     /// Per half-cosine order and source, per fold: `shift::cosine_base`.
     cosine_bases: HashMap<(usize, usize), Vec<[f64; 2]>>,
     yy: Vec<f64>,
@@ -111,6 +117,8 @@ impl Pool {
             cosine_sums: HashMap::new(),
             plain: excluded.iter().all(|x| !x),
             pair_bases: HashMap::new(),
+            lag_bases: HashMap::new(),
+            views: HashMap::new(),
             cosine_bases: HashMap::new(),
             yy: Vec::new(),
             local: false,
@@ -185,9 +193,9 @@ impl Pool {
     }
 
     /// Adds column `source` delayed by `samples` (held at its first value), under the
-    /// source's sign constraint; returns its index.
+    /// source's sign constraint; returns its index. A delay by a fraction of a sample adds its
+    /// two whole-sample neighbours first, columns of their own (`expand`).
     pub fn add_delayed(&mut self, source: usize, samples: f64) -> usize {
-        let sign = self.signs.get(source).copied().unwrap_or(Sign::Free);
         // A whole number of samples as a whole number (a delay of m·dt over dt is m only to
         // its last bit).
         let samples = if (samples - samples.round()).abs() < 1e-9 {
@@ -196,15 +204,37 @@ impl Pool {
             samples
         };
         let whole = samples.max(0.0).floor() as usize;
+        let frac = (samples.max(0.0) - whole as f64) as f32;
+        let views = (frac != 0.0).then(|| {
+            [
+                self.push_delayed(source, whole, 0.0),
+                self.push_delayed(source, whole + 1, 0.0),
+            ]
+        });
+        let j = self.push_delayed(source, whole, frac);
+        if let Some(views) = views {
+            self.views.insert(j, views);
+        }
+        j
+    }
+
+    fn push_delayed(&mut self, source: usize, whole: usize, frac: f32) -> usize {
+        let sign = self.signs.get(source).copied().unwrap_or(Sign::Free);
         self.cols.push(Column::Delayed {
             source,
             whole,
-            frac: (samples.max(0.0) - whole as f64) as f32,
+            frac,
         });
         self.signs.push(sign);
+        let samples = whole as f64 + f64::from(frac);
         self.names
             .push(format!("{} delayed {samples:.2}", self.name(source)));
         self.cols.len() - 1
+    }
+
+    /// How many columns the pool holds (a delayed one may have brought its views).
+    pub fn columns(&self) -> usize {
+        self.cols.len()
     }
 
     /// The column `j` is a delayed copy of, if it is one.
@@ -281,10 +311,14 @@ impl Pool {
         }
         self.cross.retain(|k, _| k.0 != j && k.1 != j);
         self.pair_bases.retain(|k, _| k.0 != j && k.1 != j);
+        self.lag_bases.retain(|k, _| k.0 != j && k.1 != j);
         self.cosine_bases.retain(|k, _| k.1 != j);
         self.with_y.remove(&j);
         self.local_x.remove(&j);
         self.local_bases.remove(&j);
+        for view in self.views.remove(&j).into_iter().flatten() {
+            self.drop_column(view);
+        }
     }
 
     pub fn name(&self, j: usize) -> &str {
@@ -455,6 +489,8 @@ impl Pool {
             (Some((sa, wa)), Some((sb, wb))) if wa == wb => {
                 Some(Moved::Pair((sa.min(sb), sa.max(sb)), wa))
             }
+            (Some((sa, wa)), Some((sb, wb))) if wa + 1 == wb => Some(Moved::Lagged((sa, sb), wa)),
+            (Some((sa, wa)), Some((sb, wb))) if wb + 1 == wa => Some(Moved::Lagged((sb, sa), wb)),
             (Some((src, w)), None) => cosine(b).map(|k| Moved::Cosine(k, src, w)),
             (None, Some((src, w))) => cosine(a).map(|k| Moved::Cosine(k, src, w)),
             _ => None,
@@ -488,6 +524,26 @@ impl Pool {
                         .iter()
                         .zip(bases)
                         .map(|(&r, base)| shift::delayed_pair((va, vb), delay, r, base))
+                        .collect(),
+                )
+            }
+            Moved::Lagged(sources, delay) => {
+                let (lead, lag) = (stored(sources.0)?, stored(sources.1)?);
+                let bases = self
+                    .lag_bases
+                    .entry(sources)
+                    .or_insert_with(|| {
+                        ranges
+                            .iter()
+                            .map(|&r| shift::lag_base(lead, lag, r))
+                            .collect()
+                    })
+                    .clone();
+                Some(
+                    ranges
+                        .iter()
+                        .zip(bases)
+                        .map(|(&r, base)| shift::delayed_lagged((lead, lag), delay, r, base))
                         .collect(),
                 )
             }
@@ -573,27 +629,34 @@ impl Pool {
         let k = self.folds.len();
         let mut g = vec![DMatrix::<f64>::zeros(p, p); k];
         let mut b = vec![DVector::<f64>::zeros(p); k];
+        // Each column as the columns whose products are taken (`expand`).
+        let terms: Vec<Terms> = columns.iter().map(|&c| self.terms_of(c)).collect();
+        let mut taken: Vec<usize> = terms.iter().flatten().map(|t| t.0).collect();
+        taken.sort_unstable();
+        taken.dedup();
         // A computed column is built once for all its products still to be taken.
-        let built: HashMap<usize, Vec<f32>> = columns
+        let built: HashMap<usize, Vec<f32>> = taken
             .iter()
             .filter(|&&c| {
                 matches!(self.cols.get(c), Some(Column::Computed(_)))
                     && (!self.with_y.contains_key(&c)
                         || (self.local && !self.local_x.contains_key(&c))
-                        || columns
+                        || taken
                             .iter()
                             .any(|&o| !self.cross.contains_key(&(c.min(o), c.max(o)))))
             })
             .map(|&c| (c, self.values(c).into_owned()))
             .collect();
-        self.take_products(columns, &built);
-        for (r, &cr) in columns.iter().enumerate() {
-            let by = self.y_of(cr, &built);
+        self.take_products(&taken, &built);
+        for (r, tr) in terms.iter().enumerate() {
+            let by = self.combined(tr, |pool, c| pool.y_of(c, &built));
             for f in 0..k {
                 b[f][r] = by[f];
             }
-            for (c, &cc) in columns.iter().enumerate().skip(r) {
-                let v = self.cross_of(cr, cc, &built);
+            for (c, tc) in terms.iter().enumerate().skip(r) {
+                let v = self.combined(tr, |pool, a| {
+                    pool.combined(tc, |pool, b| pool.cross_of(a, b, &built))
+                });
                 for f in 0..k {
                     g[f][(r, c)] = v[f];
                     g[f][(c, r)] = v[f];
@@ -601,7 +664,10 @@ impl Pool {
             }
         }
         let local: Vec<Vec<[f64; 2]>> = if self.local {
-            columns.iter().map(|&c| self.local_of(c, &built)).collect()
+            terms
+                .iter()
+                .map(|t| self.combined(t, |pool, c| pool.local_of(c, &built)))
+                .collect()
         } else {
             Vec::new()
         };
@@ -662,9 +728,11 @@ impl Pool {
 }
 
 /// A pair of columns whose products follow from their sources' (`shift`): two sources
-/// delayed alike, or a half-cosine's order and a delayed source; the delay in whole samples.
+/// delayed alike, two a sample apart (the leading source first), or a half-cosine's order and
+/// a delayed source; the (shorter) delay in whole samples.
 enum Moved {
     Pair((usize, usize), usize),
+    Lagged((usize, usize), usize),
     Cosine(usize, usize, usize),
 }
 
@@ -948,5 +1016,74 @@ mod tests {
             "{} {undelayed}",
             d.cv_mse
         );
+    }
+
+    #[test]
+    fn a_delay_between_samples_scores_as_its_interpolated_samples_do() {
+        // Two sources delayed 3.4 samples, the strain that delay of them plus a half-cosine:
+        // from a stored source, the delayed columns' products come from the whole-sample
+        // views at 3 and 4 (moved); from a computed one, from the interpolated samples.
+        let n = 2000;
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.031).sin()).collect();
+        let z: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 101) as f64 / 50.0 - 1.0)
+            .collect();
+        let lagged = |v: &[f64], i: usize| {
+            if i > 3 {
+                0.6 * v[i - 3] + 0.4 * v[i - 4]
+            } else {
+                v[0]
+            }
+        };
+        let y: Vec<f64> = (0..n)
+            .map(|i| {
+                1.5 * lagged(&x, i) - 0.7 * lagged(&z, i)
+                    + 0.3 * ((i as f64 + 0.5) * std::f64::consts::PI / n as f64).cos()
+            })
+            .collect();
+        let mut pool = Pool::new(&y, &vec![false; n], Folds::blocked(&vec![false; n], 5));
+        let to_f32 = |v: &[f64]| v.iter().map(|a| *a as f32).collect::<Vec<f32>>();
+        let (xr, zr) = (x.clone(), z.clone());
+        let (xs, zs) = (pool.add("x", &x, Sign::Free), pool.add("z", &z, Sign::Free));
+        let xc = pool.add_computed("x computed", move || to_f32(&xr), Sign::Free);
+        let zc = pool.add_computed("z computed", move || to_f32(&zr), Sign::Free);
+        let cos = pool.add_cosine("cos 1", 1, Sign::Free);
+        for local in [false, true] {
+            pool.set_local_nuisance(local);
+            for delay in [3.4, 3.0, 0.25, 11.75] {
+                let moved = [
+                    pool.add_delayed(xs, delay),
+                    pool.add_delayed(zs, delay),
+                    cos,
+                ];
+                let direct = [
+                    pool.add_delayed(xc, delay),
+                    pool.add_delayed(zc, delay),
+                    cos,
+                ];
+                let (a, b) = (pool.score(&moved), pool.score(&direct));
+                for (u, v) in a
+                    .fold_mse
+                    .iter()
+                    .zip(&b.fold_mse)
+                    .chain([(&a.cv_mse, &b.cv_mse)])
+                {
+                    // The normal equations cancel the strain's mean square (about 1) to the
+                    // rounding of f32 products.
+                    assert!((u - v).abs() <= 1e-5 * v + 1e-8, "{delay} {local}: {u} {v}");
+                }
+                for (u, v) in a.beta.iter().zip(&b.beta) {
+                    assert!((u - v).abs() <= 1e-5, "{delay} {local}: {u} {v}");
+                }
+                if delay == 3.4 {
+                    // The strain's own delay: its weights, and nothing left to hold out.
+                    assert!((a.beta[0] - 1.5).abs() < 1e-3 && (a.beta[1] + 0.7).abs() < 1e-3);
+                    assert!(a.cv_mse < 1e-8, "{}", a.cv_mse);
+                }
+                for c in moved.into_iter().chain(direct).filter(|&c| c != cos) {
+                    pool.drop_column(c);
+                }
+            }
+        }
     }
 }

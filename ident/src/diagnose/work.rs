@@ -46,10 +46,12 @@ impl Work<'_> {
         j
     }
 
-    /// Adds column `c` delayed by `delay_s` (a view of it, the same term).
+    /// Adds column `c` delayed by `delay_s` (a view of it, the same term; so are the views a
+    /// fraction of a sample brings).
     pub(super) fn add_delayed(&mut self, c: usize, delay_s: f64) -> usize {
         let j = self.pool.add_delayed(c, delay_s / self.s.dt_s);
-        self.terms.push(self.terms[c]);
+        let term = self.terms[c];
+        self.terms.resize(self.pool.columns(), term);
         j
     }
 

@@ -76,6 +76,43 @@ pub(super) fn delayed_pair(
     head + moved(base, (s, e), range, |lo, hi| products(a, b, lo, hi))
 }
 
+/// Per fold, for sources `lead` and `lag`: Σ lead_j·lag_{j−1} over [s, e) (from j = 1), each
+/// product in f32 as the Gram products take it.
+pub(super) fn lag_base(lead: &[f32], lag: &[f32], (s, e): (usize, usize)) -> f64 {
+    lag_products(lead, lag, s, e)
+}
+
+/// Σ over samples j in [lo, hi), j ≥ 1, of a_j·b_{j−1} (the product in f32).
+fn lag_products(a: &[f32], b: &[f32], lo: usize, hi: usize) -> f64 {
+    let lo = lo.max(1);
+    if hi <= lo {
+        return 0.0;
+    }
+    products(&a[lo..hi], &b[lo - 1..hi - 1], 0, hi - lo)
+}
+
+/// Σ over the fold [s, e) of x_i·y_i, x the source `lead` delayed by `whole` samples and y the
+/// source `lag` delayed by one more, as `span` reads them, from the fold's [`lag_base`]: the
+/// products of a fraction of a sample's delay are those of its two whole-sample neighbours.
+pub(super) fn delayed_lagged(
+    (lead, lag): (&[f32], &[f32]),
+    whole: usize,
+    (s, e): (usize, usize),
+    base: f64,
+) -> f64 {
+    // Samples at or before `whole` hold both first values; sample whole + 1 reads lead_1 and
+    // lag's first, as the lag's own products do from there on.
+    let split = (whole + 1).clamp(s, e);
+    let head = (split - s) as f64 * f64::from(lead[0] * lag[0]);
+    if split == e {
+        return head;
+    }
+    let range = (split - whole, e - whole);
+    head + moved(base, (s, e), range, |lo, hi| {
+        lag_products(lead, lag, lo, hi)
+    })
+}
+
 /// Per fold [s, e): Σ cos θ_j·a_j and Σ sin θ_j·a_j, θ_j = π·k·(j + ½)/n (the half-cosine
 /// `k` of a record of `n` samples, and its quadrature).
 pub(super) fn cosine_base(a: &[f32], n: usize, k: usize, (s, e): (usize, usize)) -> [f64; 2] {
@@ -255,6 +292,27 @@ mod tests {
                     (fast - naive).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
                     "delay {whole} fold {fold:?}: {fast} {naive}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn a_pair_delayed_a_sample_apart_sums_as_its_samples_do() {
+        let n = 10_007;
+        let (a, b) = columns(n);
+        for whole in DELAYS {
+            for fold in FOLDS {
+                for (lead, lag) in [(&a, &b), (&b, &a), (&a, &a)] {
+                    let naive: f64 = (fold.0..fold.1)
+                        .map(|i| f64::from(at(lead, whole, i) * at(lag, whole + 1, i)))
+                        .sum();
+                    let base = lag_base(lead, lag, fold);
+                    let fast = delayed_lagged((lead, lag), whole, fold, base);
+                    assert!(
+                        (fast - naive).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
+                        "delay {whole} fold {fold:?}: {fast} {naive}"
+                    );
+                }
             }
         }
     }
