@@ -721,6 +721,13 @@ impl Pool {
         let mut out = vec![0.0; self.n];
         // A column the fit left at zero adds nothing (the non-negative fits leave many).
         for (&c, &w) in columns.iter().zip(beta).filter(|(_, w)| **w != 0.0) {
+            // Stored, delayed from a stored source or a half-cosine: read block by block.
+            let readable =
+                self.raw(c).is_some() || matches!(self.cols.get(c), Some(Column::Cosine(_)));
+            if readable {
+                blocks::add_scaled(&mut out, self.fold_reader(c, (0, self.n), None), w);
+                continue;
+            }
             for (o, v) in out.iter_mut().zip(self.values(c).iter()) {
                 *o += w * f64::from(*v);
             }

@@ -129,16 +129,29 @@ impl Rotation {
     /// The next `len` values onto `out` (a whole number of eights but at the end: the lanes
     /// move on by eight samples after each group).
     pub(crate) fn fill(&mut self, out: &mut Vec<f64>, len: usize) {
-        let end = out.len() + len;
-        out.reserve(len);
-        while out.len() < end {
-            let take = (end - out.len()).min(8);
-            out.extend_from_slice(&self.cos[..take]);
-            for j in 0..8 {
-                let (s, c) = (self.sin[j], self.cos[j]);
-                self.sin[j] = s * self.cos8 + c * self.sin8;
-                self.cos[j] = c * self.cos8 - s * self.sin8;
-            }
+        let start = out.len();
+        out.resize(start + len, 0.0);
+        // Whole eights copied as eights (a copy of a length known only at run time is a call).
+        let mut groups = out[start..].chunks_exact_mut(8);
+        for group in &mut groups {
+            group.copy_from_slice(&self.cos);
+            self.advance();
+        }
+        let rest = groups.into_remainder();
+        if !rest.is_empty() {
+            let n = rest.len();
+            rest.copy_from_slice(&self.cos[..n]);
+            self.advance();
+        }
+    }
+
+    /// Each lane on by eight samples.
+    #[inline(always)]
+    fn advance(&mut self) {
+        for j in 0..8 {
+            let (s, c) = (self.sin[j], self.cos[j]);
+            self.sin[j] = s * self.cos8 + c * self.sin8;
+            self.cos[j] = c * self.cos8 - s * self.sin8;
         }
     }
 }

@@ -21,7 +21,11 @@ impl FoldReader<'_> {
     fn fill(&mut self, b0: usize, b1: usize) {
         match self {
             FoldReader::Samples(_) => {}
-            FoldReader::Delayed(raw, s, buf) => span(buf, *raw, *s + b0, *s + b1),
+            FoldReader::Delayed(raw, s, buf) => {
+                if whole_past_head(*raw, *s + b0).is_none() {
+                    span(buf, *raw, *s + b0, *s + b1)
+                }
+            }
             FoldReader::Cosine(rotation, buf) => {
                 buf.clear();
                 rotation.fill(buf, b1 - b0);
@@ -34,10 +38,43 @@ impl FoldReader<'_> {
     fn view(&self, b0: usize, b1: usize) -> FoldSlice<'_> {
         match self {
             FoldReader::Samples(v) => FoldSlice::Samples(&v[b0..b1]),
-            FoldReader::Delayed(_, _, buf) | FoldReader::Zeros(buf) => FoldSlice::Samples(buf),
+            FoldReader::Delayed(raw, s, buf) => match whole_past_head(*raw, *s + b0) {
+                Some((v, whole)) => FoldSlice::Samples(&v[*s + b0 - whole..*s + b1 - whole]),
+                None => FoldSlice::Samples(buf),
+            },
+            FoldReader::Zeros(buf) => FoldSlice::Samples(buf),
             FoldReader::Cosine(_, buf) => FoldSlice::Cosine(buf),
         }
     }
+}
+
+/// out += w·column, the column read block by block as the Gram products read it (a
+/// half-cosine rounded to f32, as a column's values are): no column built whole.
+pub(super) fn add_scaled(out: &mut [f64], mut read: FoldReader, w: f64) {
+    for b0 in (0..out.len()).step_by(BLOCK) {
+        let b1 = (b0 + BLOCK).min(out.len());
+        read.fill(b0, b1);
+        let o = &mut out[b0..b1];
+        match read.view(b0, b1) {
+            FoldSlice::Samples(x) => o
+                .iter_mut()
+                .zip(x)
+                .for_each(|(o, x)| *o += w * f64::from(*x)),
+            FoldSlice::Cosine(c) => o
+                .iter_mut()
+                .zip(c)
+                .for_each(|(o, c)| *o += w * f64::from(*c as f32)),
+        }
+    }
+}
+
+/// A raw column (stored, or delayed by whole samples) read from sample `from` on, past any
+/// held head: its source and delay, sample i being the source's i − delay, in place.
+pub(super) fn whole_past_head(
+    (v, whole, frac): (&[f32], usize, f32),
+    from: usize,
+) -> Option<(&[f32], usize)> {
+    (frac == 0.0 && (whole == 0 || from > whole)).then_some((v, whole))
 }
 
 /// A block of a column's samples.
@@ -210,6 +247,10 @@ pub(super) fn span(out: &mut Vec<f32>, (v, whole, frac): (&[f32], usize, f32), s
     let split = (whole + 1).clamp(s, e);
     out.resize(split - s, first);
     if split == e {
+        return;
+    }
+    if frac == 0.0 {
+        out.extend_from_slice(&v[split - whole..e - whole]);
         return;
     }
     let (now, before) = (

@@ -5,7 +5,7 @@
 
 use std::collections::HashMap;
 
-use super::blocks::{dot_with, span};
+use super::blocks::{dot_with, span, whole_past_head};
 use super::{shift, Column, Pool};
 
 impl Pool {
@@ -53,9 +53,13 @@ impl Pool {
                 let mut buf = Vec::new();
                 ranges
                     .iter()
-                    .map(|&(s, e)| {
-                        span(&mut buf, raw, s, e);
-                        sum(&buf, (s, e))
+                    .map(|&(s, e)| match whole_past_head(raw, s) {
+                        // Stored, or delayed past its head: read in place.
+                        Some((v, whole)) => sum(&v[s - whole..e - whole], (s, e)),
+                        None => {
+                            span(&mut buf, raw, s, e);
+                            sum(&buf, (s, e))
+                        }
                     })
                     .collect()
             }
