@@ -198,12 +198,21 @@ fn a_zero_that_swings_every_few_minutes_on_a_long_record_is_named() {
             d.folds.len(),
             d.summary
         );
+        // And the report says why the folds are short, and how many the first pass had.
+        assert!(
+            d.first_folds.is_some_and(|k| k < d.folds.len())
+                && d.summary.contains("judged again on blocks of at most 45 s"),
+            "{:?}: {}",
+            d.first_folds,
+            d.summary
+        );
     }
     // A clean long record is still `none` on its usual blocks, and a 60 s mode on a 900 s
     // record still `slow_relaxation`: short blocks are tried only where nothing is named.
     let d = diag(21, 25.0, 900.0, &[]);
     check(&d, "none");
     assert_eq!(d.folds.len(), 10);
+    assert_eq!(d.first_folds, None);
     let d = diag(
         22,
         25.0,

@@ -267,6 +267,10 @@ pub struct Diagnosis {
     pub first_order_tau_s: f64,
     pub candidates: Vec<Candidate>,
     pub folds: Vec<Fold>,
+    /// Judged again on blocks of at most [`SWING_BLOCK_S`]: nothing passed on the first
+    /// folds, this many of them (a zero that swings every minute or more turns inside a longer
+    /// block, where no drift basis follows it).
+    pub first_folds: Option<usize>,
     /// Grams per % strain: the record's static secant (robust line of strain on force).
     pub secant_g_per_pct: f64,
     /// The strain's noise (and the force's, through the model), % and g.
@@ -435,12 +439,21 @@ pub fn diagnose_observed(
     if d.effect != "unexplained" || block_s <= SWING_BLOCK_S * 1.01 {
         return d;
     }
-    let again = diagnose_on(series, settings, SWING_BLOCK_S, on_baseline);
+    let mut again = diagnose_on(series, settings, SWING_BLOCK_S, on_baseline);
     if again.effect == "unexplained" {
-        d
-    } else {
-        again
+        return d;
     }
+    again.first_folds = Some(d.folds.len());
+    let line = format!(
+        "  judged again on blocks of at most {SWING_BLOCK_S:.0} s: on {} folds of {block_s:.1} s no effect passed, and a zero that swings every minute or more turns inside a longer block\n",
+        d.folds.len()
+    );
+    let at = again
+        .summary
+        .find('\n')
+        .map_or(again.summary.len(), |i| i + 1);
+    again.summary.insert_str(at, &line);
+    again
 }
 
 /// The longest held-out block that judges a zero swinging every minute or more (a mount

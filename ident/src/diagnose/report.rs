@@ -136,6 +136,7 @@ pub(super) fn finish(
             .unwrap_or(0.0),
         candidates,
         folds: fold_list,
+        first_folds: None,
         secant_g_per_pct: secant,
         noise_floor_pct: floor_pct,
         noise_floor_g: floor_pct * secant,
