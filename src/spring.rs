@@ -41,12 +41,12 @@ pub const CURVE_KNOTS: usize = 10;
 pub struct SpringCurve {
     stress_g: [f32; CURVE_KNOTS],
     strain_pct: [f32; CURVE_KNOTS],
-    /// Compliance dε/dσ at the start of each segment (the first from the origin), %/g.
-    start_slope: [f32; CURVE_KNOTS],
-    /// Beyond the last knot, %/g.
-    end_slope: f32,
-    /// The first segment's secant stiffness G₀ + b√σ + cσ: [G₀, b, c], g/%.
-    soft: [f32; 3],
+    /// Compliance dε/dσ at the start of each segment past the first (at knots 0 to 8), %/g.
+    start_slope: [f32; CURVE_KNOTS - 1],
+    /// The first segment's secant stiffness G = G₀ + β√(σ/σ₁) + γσ/σ₁, g/%: [G₀, β], with
+    /// γ = G(σ₁) − G₀ − β (two floats: the curve stays the size it had, as the firmware holds
+    /// two per taxel in a RAM budget it fills).
+    soft: [f32; 2],
 }
 
 impl SpringCurve {
@@ -105,8 +105,8 @@ impl SpringCurve {
         };
         let width = |k: usize| at(&stress_g, k + 1) - at(&stress_g, k);
         let mean = |k: usize| (at(&strain_pct, k + 1) - at(&strain_pct, k)) / width(k);
-        let mut start_slope = [0.0f32; CURVE_KNOTS];
-        for (k, slot) in start_slope.iter_mut().enumerate() {
+        let mut tangent = [0.0f32; CURVE_KNOTS];
+        for (k, slot) in tangent.iter_mut().enumerate() {
             let (m, h) = (mean(k), width(k));
             let t = match k.checked_sub(1) {
                 // At the origin: the three-point end formula from the first two segments.
@@ -127,23 +127,16 @@ impl SpringCurve {
             // into the firmware.)
             *slot = t.max(0.05 * m).min(1.9 * m);
         }
-        if let (Some(g0), Some(slot)) = (origin_g_per_pct, start_slope.first_mut()) {
-            *slot = 1.0 / g0;
+        let mut start_slope = [0.0f32; CURVE_KNOTS - 1];
+        for (slot, t) in start_slope.iter_mut().zip(tangent.iter().skip(1)) {
+            *slot = *t;
         }
-        let last = CURVE_KNOTS - 1;
-        let end_slope = 2.0 * mean(last) - start_slope[CURVE_KNOTS - 1];
-        let soft = soft_start(
-            1.0 / start_slope[0],
-            stress_g[0],
-            strain_pct[0],
-            start_slope[1],
-        );
+        let g0 = origin_g_per_pct.unwrap_or(1.0 / tangent[0]);
         Ok(Self {
             stress_g,
             strain_pct,
             start_slope,
-            end_slope,
-            soft,
+            soft: soft_start(g0, stress_g[0] / strain_pct[0], tangent[1]),
         })
     }
 
@@ -167,16 +160,16 @@ impl SpringCurve {
 
     /// The segment past the first knot holding `x` on the strain axis (`along_strain`) or the
     /// stress axis: its start (σ₀, ε₀), its start slope t and its curvature a
-    /// (ε = ε₀ + t·d + a·d²). Past the last knot: a straight line at the end slope.
-    #[inline]
+    /// (ε = ε₀ + t·d + a·d²). Past the last knot: a straight line at the last segment's final
+    /// slope.
     fn segment(&self, x: f32, along_strain: bool) -> (f32, f32, f32, f32) {
         let (mut s0, mut e0) = (self.stress_g[0], self.strain_pct[0]);
         for ((&s1, &e1), &t) in self
             .stress_g
             .iter()
             .zip(&self.strain_pct)
-            .zip(&self.start_slope)
             .skip(1)
+            .zip(&self.start_slope)
         {
             if x <= if along_strain { e1 } else { s1 } {
                 let h = s1 - s0;
@@ -185,18 +178,28 @@ impl SpringCurve {
             }
             (s0, e0) = (s1, e1);
         }
-        (s0, e0, self.end_slope, 0.0)
+        let last = CURVE_KNOTS - 1;
+        let mean = (self.strain_pct[last] - self.strain_pct[last - 1])
+            / (self.stress_g[last] - self.stress_g[last - 1]);
+        (s0, e0, 2.0 * mean - self.start_slope[last - 1], 0.0)
+    }
+
+    /// The first segment's [G₀, β, γ] and its end (σ₁, ε₁).
+    fn first(&self) -> ([f32; 3], f32, f32) {
+        let (s1, e1) = (self.stress_g[0], self.strain_pct[0]);
+        let [g0, beta] = self.soft;
+        ([g0, beta, s1 / e1 - g0 - beta], s1, e1)
     }
 
     /// Strain under `stress_g` (σ ≤ 0: none).
-    #[inline]
     pub fn strain_pct(&self, stress_g: f32) -> f32 {
         if stress_g.is_nan() || stress_g <= 0.0 {
             return 0.0;
         }
-        if stress_g <= self.stress_g[0] {
-            let [g0, b, c] = self.soft;
-            return stress_g / (g0 + b * crate::trig::sqrtf(stress_g) + c * stress_g);
+        let ([g0, beta, gamma], s1, _) = self.first();
+        if stress_g <= s1 {
+            let r = stress_g / s1;
+            return stress_g / (g0 + beta * crate::trig::sqrtf(r) + gamma * r);
         }
         let (s0, e0, t, a) = self.segment(stress_g, false);
         let d = stress_g - s0;
@@ -205,27 +208,26 @@ impl SpringCurve {
 
     /// The stress that stretches the spring by `strain_pct` (ε ≤ 0: none), and the tangent
     /// stiffness dσ/dε there.
-    #[inline]
     pub fn stress_g(&self, strain_pct: f32) -> (f32, f32) {
         let e = if strain_pct.is_nan() {
             0.0
         } else {
             strain_pct.max(0.0)
         };
-        if e <= self.strain_pct[0] {
-            // σ = ε·G(σ): with u = √σ, (1 − cε)u² − bεu − G₀ε = 0 (1 − cε > 0 on the
+        let ([g0, beta, gamma], s1, e1) = self.first();
+        if e <= e1 {
+            // σ = ε·G(σ): with v = √(σ/σ₁), (σ₁ − γε)v² − βεv − G₀ε = 0 (σ₁ − γε > 0 on the
             // segment), solved in the form that does not cancel.
-            let [g0, b, c] = self.soft;
-            let (qa, qb, qc) = (1.0 - c * e, b * e, g0 * e);
+            let (qa, qb, qc) = (s1 - gamma * e, beta * e, g0 * e);
             let root = crate::trig::sqrtf((qb * qb + 4.0 * qa * qc).max(0.0));
-            let u = if qb >= 0.0 {
+            let v = if qb >= 0.0 {
                 (qb + root) / (2.0 * qa)
             } else {
                 2.0 * qc / (root - qb)
             };
-            let g = g0 + u * (b + c * u);
-            // dε/dσ = (G − σG′)/G² = (G₀ + b√σ/2)/G².
-            return (u * u, g * g / (g0 + 0.5 * b * u));
+            let g = g0 + v * (beta + gamma * v);
+            // dε/dσ = (G − σG′)/G² = (G₀ + β v/2)/G².
+            return (s1 * v * v, g * g / (g0 + 0.5 * beta * v));
         }
         let (s0, e0, t, a) = self.segment(e, true);
         // a d² + t d = r, in the form that does not cancel.
@@ -236,7 +238,6 @@ impl SpringCurve {
     }
 
     /// Secant stiffness σ/ε(σ), g/% (the stiffness at no load at σ ≤ 0).
-    #[inline]
     pub fn stiffness(&self, stress_g: f32) -> f32 {
         if stress_g.is_nan() || stress_g <= 0.0 {
             return self.soft[0];
@@ -252,26 +253,20 @@ impl SpringCurve {
             stress_g: self.stress_g,
             strain_pct: self.strain_pct.map(soft),
             start_slope: self.start_slope.map(soft),
-            end_slope: soft(self.end_slope),
             soft: self.soft.map(stiff),
         }
     }
 }
 
-/// The first segment's secant stiffness [G₀, b, c] (G = G₀ + b√σ + cσ) from the stiffness at
-/// no load `g0`, the first knot (σ₁, ε₁) and the compliance `tangent` there. With
-/// D = G(σ₁) − G₀ and S = σ₁G′(σ₁): b√σ₁ = 2(D − S), cσ₁ = 2S − D. S is kept at most
-/// max(D, D/2), so b ≥ 0 or c ≤ 0: G, rising or concave in √σ, stays above the lesser of its
-/// positive ends, and dε/dσ = (G₀ + b√σ/2)/G², linear in √σ between positive ends, too.
-fn soft_start(g0: f32, stress_g: f32, strain_pct: f32, tangent: f32) -> [f32; 3] {
-    let g1 = stress_g / strain_pct;
+/// The first segment's [G₀, β] (G = G₀ + β√(σ/σ₁) + γσ/σ₁) from the stiffness at no load `g0`,
+/// the first knot's secant stiffness `g1` = G(σ₁) and the compliance `tangent` there. With
+/// D = G(σ₁) − G₀ and S = σ₁G′(σ₁): β = 2(D − S), γ = 2S − D. S is kept at most max(D, D/2),
+/// so β ≥ 0 or γ ≤ 0: G, rising or concave in √σ, stays above the lesser of its positive ends,
+/// and dε/dσ = (G₀ + β√(σ/σ₁)/2)/G², linear in √σ between positive ends, too.
+fn soft_start(g0: f32, g1: f32, tangent: f32) -> [f32; 2] {
     let d = g1 - g0;
     let s = (g1 - tangent * g1 * g1).min(d.max(0.5 * d));
-    [
-        g0,
-        2.0 * (d - s) / crate::trig::sqrtf(stress_g),
-        (2.0 * s - d) / stress_g,
-    ]
+    [g0, 2.0 * (d - s)]
 }
 
 /// A spring whose stiffness depends on the load it carries (secant stiffness G(σ), g/%, σ ≥ 0).
