@@ -178,10 +178,9 @@ impl SpringCurve {
             }
             (s0, e0) = (s1, e1);
         }
-        let last = CURVE_KNOTS - 1;
-        let mean = (self.strain_pct[last] - self.strain_pct[last - 1])
-            / (self.stress_g[last] - self.stress_g[last - 1]);
-        (s0, e0, 2.0 * mean - self.start_slope[last - 1], 0.0)
+        let mean = (self.strain_pct[CURVE_KNOTS - 1] - self.strain_pct[CURVE_KNOTS - 2])
+            / (self.stress_g[CURVE_KNOTS - 1] - self.stress_g[CURVE_KNOTS - 2]);
+        (s0, e0, 2.0 * mean - self.start_slope[CURVE_KNOTS - 2], 0.0)
     }
 
     /// The first segment's [G₀, β, γ] and its end (σ₁, ε₁).
