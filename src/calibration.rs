@@ -8,7 +8,7 @@
 //! [`EstimatorKind::ALL`]), the [`CalibrationFlags`] `u8`, three zero bytes; then `f32`s:
 //! strain offset (%), elastic spring (g/%); the whole-record second-order fit a₁ a₂ b₀ b₁ b₂;
 //! [`SCHEDULE_POINTS`] schedule entries of load (g) and a₁ a₂ b₀ b₁ b₂; G₁ and G₂ as curves
-//! ([`CURVE_KNOTS`] stresses, then the strain at each); N₁, α, N₂; the notch frequency (Hz,
+//! ([`CURVE_KNOTS`] stresses, the strain at each, then the stiffness at no load, g/%); N₁, α, N₂; the notch frequency (Hz,
 //! 0 for none); the calibrated range (g, 0 unknown); each estimator's held-out RMS error on the
 //! calibration record (g, in [`EstimatorKind::ALL`]'s order; negative: not measured); the
 //! hysteresis as [`PLAYS`] play radii (g), then their weights (%/g; 0: no play); the force
@@ -18,7 +18,8 @@
 //! Version 2 added the notch; version 3 the curves (version 2's three-coefficient laws could
 //! not follow a spring that stiffens by another law), the range, the held-out errors, the
 //! chosen estimator and the flags; version 4 the hysteresis (`tactile diagnose`'s plays);
-//! version 5 the force bank and its held-out error.
+//! version 5 the force bank and its held-out error; version 6 each curve's stiffness at no load
+//! (a spring that starts soft, as G₁'s √σ, read 10–40 % high under its first knot without it).
 
 use heapless::Vec;
 
@@ -34,7 +35,7 @@ use crate::tactile::{TaxelId, TAXELS};
 use crate::viscoelastic::{NonlinearMk, SecondOrder};
 
 pub const MAGIC: [u8; 4] = *b"TCAL";
-pub const VERSION: u16 = 5;
+pub const VERSION: u16 = 6;
 const HEADER_BYTES: usize = 8;
 /// Bytes of a record before its floats.
 const LEAD_BYTES: usize = 8;
@@ -52,8 +53,8 @@ const RECORD_FLOATS: usize = 2
     + BANK_FLOATS;
 /// A bank's floats: scale, time constants, knots, radii, weights, re-zero.
 const BANK_FLOATS: usize = 1 + BANK_FILTERS + BANK_KNOTS + BANK_PLAYS + BANK_FEATURES + 3;
-/// A curve's floats: its knots' stresses, then its strains there.
-const CURVE_FLOATS: usize = 2 * CURVE_KNOTS;
+/// A curve's floats: its knots' stresses, its strains there, its stiffness at no load.
+const CURVE_FLOATS: usize = 2 * CURVE_KNOTS + 1;
 pub const RECORD_BYTES: usize = LEAD_BYTES + 4 * RECORD_FLOATS;
 
 /// Most taxels whose calibration carries hysteresis (the scanner keeps their plays' state in
@@ -89,7 +90,11 @@ impl TaxelModel {
             let curve = law.curve().ok()?;
             let (stress, strain): (Vec<f32, CURVE_KNOTS>, Vec<f32, CURVE_KNOTS>) =
                 curve.knots().unzip();
-            for x in stress.iter().chain(&strain) {
+            for x in stress
+                .iter()
+                .chain(&strain)
+                .chain(&[curve.origin_g_per_pct()])
+            {
                 let _ = values.push(f64::from(*x));
             }
         }
@@ -149,7 +154,8 @@ impl TaxelModel {
         let at = |i: usize| f.get(i).copied().unwrap_or(f32::NAN);
         let curve = |i: usize| {
             let stress = core::array::from_fn(|k| at(i + k));
-            SpringCurve::new(stress, core::array::from_fn(|k| at(i + CURVE_KNOTS + k))).ok()
+            let strain = core::array::from_fn(|k| at(i + CURVE_KNOTS + k));
+            SpringCurve::with_origin(stress, strain, at(i + 2 * CURVE_KNOTS)).ok()
         };
         let (g1, g2) = (curve(e)?, curve(e + CURVE_FLOATS)?);
         let p = e + 2 * CURVE_FLOATS;
@@ -491,10 +497,10 @@ mod tests {
         let mut buf = [0u8; MAX_TABLE_BYTES];
         let n = t.encode(&mut buf).unwrap();
         assert_eq!(n, 8 + 3 * RECORD_BYTES + 4);
-        // 8 lead bytes and 125 floats: offset, elastic, eq. 17, 4 × 6 schedule, 2 × 20 curve,
+        // 8 lead bytes and 127 floats: offset, elastic, eq. 17, 4 × 6 schedule, 2 × 21 curve,
         // N₁ α N₂, notch, range, 5 held-out errors, 5 play radii and 5 weights; the bank's
         // scale, 8 time constants, 3 knots, 3 radii, 16 weights and 3 re-zero values.
-        assert_eq!(RECORD_BYTES, 8 + 4 * 125);
+        assert_eq!(RECORD_BYTES, 8 + 4 * 127);
         // Trailing bytes (the rest of a sector) are ignored.
         let back = CalibrationTable::decode(&buf[..n + 100]).unwrap();
         assert_eq!(back.taxels.len(), 3);
@@ -536,7 +542,7 @@ mod tests {
                 "byte {i}"
             );
         }
-        for old in [1u8, 2, 3, 4] {
+        for old in [1u8, 2, 3, 4, 5] {
             let mut v = good.clone();
             v[4] = old;
             assert_eq!(
@@ -544,9 +550,9 @@ mod tests {
                 Err(TableError::UnsupportedVersion { found: old.into() })
             );
         }
-        assert!(TableError::UnsupportedVersion { found: 4 }
+        assert!(TableError::UnsupportedVersion { found: 5 }
             .to_string()
-            .contains("version 4; this build reads version 5"));
+            .contains("version 5; this build reads version 6"));
         // Well-formed but wrong inside (checksum recomputed): a position off the array.
         let mut off = good.clone();
         off[8] = 9;

@@ -26,22 +26,27 @@ use crate::lti::{ModelError, ModelParameter};
 /// Knots of a [`SpringCurve`] (besides the origin).
 pub const CURVE_KNOTS: usize = 10;
 
-/// A spring's stress–strain curve through the origin: its strain at [`CURVE_KNOTS`] stresses,
-/// and between them a quadratic through both knots whose slope at the segment's start is the
-/// curve's tangent there (estimated from the neighbouring segments as monotone cubic
-/// interpolation does), so a smoothly stiffening spring is followed to third order between
-/// knots. Beyond the last knot the strain grows at the last segment's final slope. Both
-/// stress and strain strictly increase and every slope is kept under twice its segment's
-/// mean (checked and enforced at construction), so the strain rises everywhere and the curve
-/// inverts with one square root.
+/// A spring's stress–strain curve through the origin: its stiffness at no load, its strain at
+/// [`CURVE_KNOTS`] stresses, and between knots a quadratic through both whose slope at the
+/// segment's start is the curve's tangent there (estimated from the neighbouring segments as
+/// monotone cubic interpolation does), so a smoothly stiffening spring is followed to third
+/// order between knots. From no load to the first knot the secant stiffness is the memo's
+/// guide law G = G₀ + b√σ + cσ, through the stiffness at no load, the first knot and the
+/// tangent there: a spring that starts soft (√σ, as element 4,2's G₁) is followed below its
+/// first knot, where one quadratic in the strain cannot bend fast enough. Beyond the last knot
+/// the strain grows at the last segment's final slope. Both stress and strain strictly
+/// increase and every slope is kept under twice its segment's mean (checked and enforced at
+/// construction), so the strain rises everywhere and the curve inverts with one square root.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpringCurve {
     stress_g: [f32; CURVE_KNOTS],
     strain_pct: [f32; CURVE_KNOTS],
-    /// Compliance dε/dσ at the start of each segment (the first from the origin), %/g.
-    start_slope: [f32; CURVE_KNOTS],
-    /// Beyond the last knot, %/g.
-    end_slope: f32,
+    /// Compliance dε/dσ at the start of each segment past the first (at knots 0 to 8), %/g.
+    start_slope: [f32; CURVE_KNOTS - 1],
+    /// The first segment's secant stiffness G = G₀ + β√(σ/σ₁) + γσ/σ₁, g/%: [G₀, β], with
+    /// γ = G(σ₁) − G₀ − β (two floats: the curve stays the size it had, as the firmware holds
+    /// two per taxel in a RAM budget it fills).
+    soft: [f32; 2],
 }
 
 impl SpringCurve {
@@ -51,10 +56,35 @@ impl SpringCurve {
         [1.0, 3.0, 6.0, 10.0, 16.0, 25.0, 37.0, 55.0, 80.0, 120.0];
 
     /// A curve through `(stress_g[k], strain_pct[k])`: every value finite and positive, both
-    /// strictly increasing.
+    /// strictly increasing. Its stiffness at no load is estimated from the first two segments
+    /// (the three-point end formula on the compliance); a spring that starts soft reads stiffer
+    /// there than it is: give the stiffness with [`Self::with_origin`] where it is known.
     pub fn new(
         stress_g: [f32; CURVE_KNOTS],
         strain_pct: [f32; CURVE_KNOTS],
+    ) -> Result<Self, ModelError> {
+        Self::build(stress_g, strain_pct, None)
+    }
+
+    /// A curve through the knots (as [`Self::new`]) whose stiffness at no load is
+    /// `origin_g_per_pct` (finite, positive).
+    pub fn with_origin(
+        stress_g: [f32; CURVE_KNOTS],
+        strain_pct: [f32; CURVE_KNOTS],
+        origin_g_per_pct: f32,
+    ) -> Result<Self, ModelError> {
+        if !(origin_g_per_pct.is_finite() && origin_g_per_pct > 0.0) {
+            return Err(ModelError::InvalidParameter {
+                name: ModelParameter::SpringCurve,
+            });
+        }
+        Self::build(stress_g, strain_pct, Some(origin_g_per_pct))
+    }
+
+    fn build(
+        stress_g: [f32; CURVE_KNOTS],
+        strain_pct: [f32; CURVE_KNOTS],
+        origin_g_per_pct: Option<f32>,
     ) -> Result<Self, ModelError> {
         let rising = |v: &[f32; CURVE_KNOTS]| {
             v.iter().all(|x| x.is_finite())
@@ -75,8 +105,8 @@ impl SpringCurve {
         };
         let width = |k: usize| at(&stress_g, k + 1) - at(&stress_g, k);
         let mean = |k: usize| (at(&strain_pct, k + 1) - at(&strain_pct, k)) / width(k);
-        let mut start_slope = [0.0f32; CURVE_KNOTS];
-        for (k, slot) in start_slope.iter_mut().enumerate() {
+        let mut tangent = [0.0f32; CURVE_KNOTS];
+        for (k, slot) in tangent.iter_mut().enumerate() {
             let (m, h) = (mean(k), width(k));
             let t = match k.checked_sub(1) {
                 // At the origin: the three-point end formula from the first two segments.
@@ -97,14 +127,22 @@ impl SpringCurve {
             // into the firmware.)
             *slot = t.max(0.05 * m).min(1.9 * m);
         }
-        let last = CURVE_KNOTS - 1;
-        let end_slope = 2.0 * mean(last) - start_slope[CURVE_KNOTS - 1];
+        let mut start_slope = [0.0f32; CURVE_KNOTS - 1];
+        for (slot, t) in start_slope.iter_mut().zip(tangent.iter().skip(1)) {
+            *slot = *t;
+        }
+        let g0 = origin_g_per_pct.unwrap_or(1.0 / tangent[0]);
         Ok(Self {
             stress_g,
             strain_pct,
             start_slope,
-            end_slope,
+            soft: soft_start(g0, stress_g[0] / strain_pct[0], tangent[1]),
         })
+    }
+
+    /// The stiffness at no load, g/%.
+    pub fn origin_g_per_pct(&self) -> f32 {
+        self.soft[0]
     }
 
     /// The knots as (stress g, strain %).
@@ -120,16 +158,17 @@ impl SpringCurve {
         self.stress_g[CURVE_KNOTS - 1]
     }
 
-    /// The segment holding `x` on the strain axis (`along_strain`) or the stress axis: its
-    /// start (σ₀, ε₀), its start slope t and its curvature a (ε = ε₀ + t·d + a·d²). Past the
-    /// last knot: a straight line at the end slope.
-    #[inline]
+    /// The segment past the first knot holding `x` on the strain axis (`along_strain`) or the
+    /// stress axis: its start (σ₀, ε₀), its start slope t and its curvature a
+    /// (ε = ε₀ + t·d + a·d²). Past the last knot: a straight line at the last segment's final
+    /// slope.
     fn segment(&self, x: f32, along_strain: bool) -> (f32, f32, f32, f32) {
-        let (mut s0, mut e0) = (0.0f32, 0.0f32);
+        let (mut s0, mut e0) = (self.stress_g[0], self.strain_pct[0]);
         for ((&s1, &e1), &t) in self
             .stress_g
             .iter()
             .zip(&self.strain_pct)
+            .skip(1)
             .zip(&self.start_slope)
         {
             if x <= if along_strain { e1 } else { s1 } {
@@ -139,14 +178,27 @@ impl SpringCurve {
             }
             (s0, e0) = (s1, e1);
         }
-        (s0, e0, self.end_slope, 0.0)
+        let mean = (self.strain_pct[CURVE_KNOTS - 1] - self.strain_pct[CURVE_KNOTS - 2])
+            / (self.stress_g[CURVE_KNOTS - 1] - self.stress_g[CURVE_KNOTS - 2]);
+        (s0, e0, 2.0 * mean - self.start_slope[CURVE_KNOTS - 2], 0.0)
+    }
+
+    /// The first segment's [G₀, β, γ] and its end (σ₁, ε₁).
+    fn first(&self) -> ([f32; 3], f32, f32) {
+        let (s1, e1) = (self.stress_g[0], self.strain_pct[0]);
+        let [g0, beta] = self.soft;
+        ([g0, beta, s1 / e1 - g0 - beta], s1, e1)
     }
 
     /// Strain under `stress_g` (σ ≤ 0: none).
-    #[inline]
     pub fn strain_pct(&self, stress_g: f32) -> f32 {
         if stress_g.is_nan() || stress_g <= 0.0 {
             return 0.0;
+        }
+        let ([g0, beta, gamma], s1, _) = self.first();
+        if stress_g <= s1 {
+            let r = stress_g / s1;
+            return stress_g / (g0 + beta * crate::trig::sqrtf(r) + gamma * r);
         }
         let (s0, e0, t, a) = self.segment(stress_g, false);
         let d = stress_g - s0;
@@ -155,13 +207,27 @@ impl SpringCurve {
 
     /// The stress that stretches the spring by `strain_pct` (ε ≤ 0: none), and the tangent
     /// stiffness dσ/dε there.
-    #[inline]
     pub fn stress_g(&self, strain_pct: f32) -> (f32, f32) {
         let e = if strain_pct.is_nan() {
             0.0
         } else {
             strain_pct.max(0.0)
         };
+        let ([g0, beta, gamma], s1, e1) = self.first();
+        if e <= e1 {
+            // σ = ε·G(σ): with v = √(σ/σ₁), (σ₁ − γε)v² − βεv − G₀ε = 0 (σ₁ − γε > 0 on the
+            // segment), solved in the form that does not cancel.
+            let (qa, qb, qc) = (s1 - gamma * e, beta * e, g0 * e);
+            let root = crate::trig::sqrtf((qb * qb + 4.0 * qa * qc).max(0.0));
+            let v = if qb >= 0.0 {
+                (qb + root) / (2.0 * qa)
+            } else {
+                2.0 * qc / (root - qb)
+            };
+            let g = g0 + v * (beta + gamma * v);
+            // dε/dσ = (G − σG′)/G² = (G₀ + β v/2)/G².
+            return (s1 * v * v, g * g / (g0 + 0.5 * beta * v));
+        }
         let (s0, e0, t, a) = self.segment(e, true);
         // a d² + t d = r, in the form that does not cancel.
         let r = e - e0;
@@ -170,11 +236,10 @@ impl SpringCurve {
         (s0 + d, 1.0 / (t + 2.0 * a * d))
     }
 
-    /// Secant stiffness σ/ε(σ), g/% (the tangent at the origin at σ ≤ 0).
-    #[inline]
+    /// Secant stiffness σ/ε(σ), g/% (the stiffness at no load at σ ≤ 0).
     pub fn stiffness(&self, stress_g: f32) -> f32 {
         if stress_g.is_nan() || stress_g <= 0.0 {
-            return 1.0 / self.start_slope[0];
+            return self.soft[0];
         }
         stress_g / self.strain_pct(stress_g)
     }
@@ -182,13 +247,25 @@ impl SpringCurve {
     /// The same spring `k` times as stiff.
     pub fn scaled(&self, k: f64) -> Self {
         let soft = |e: f32| (f64::from(e) / k) as f32;
+        let stiff = |g: f32| (f64::from(g) * k) as f32;
         Self {
             stress_g: self.stress_g,
             strain_pct: self.strain_pct.map(soft),
             start_slope: self.start_slope.map(soft),
-            end_slope: soft(self.end_slope),
+            soft: self.soft.map(stiff),
         }
     }
+}
+
+/// The first segment's [G₀, β] (G = G₀ + β√(σ/σ₁) + γσ/σ₁) from the stiffness at no load `g0`,
+/// the first knot's secant stiffness `g1` = G(σ₁) and the compliance `tangent` there. With
+/// D = G(σ₁) − G₀ and S = σ₁G′(σ₁): β = 2(D − S), γ = 2S − D. S is kept at most max(D, D/2),
+/// so β ≥ 0 or γ ≤ 0: G, rising or concave in √σ, stays above the lesser of its positive ends,
+/// and dε/dσ = (G₀ + β√(σ/σ₁)/2)/G², linear in √σ between positive ends, too.
+fn soft_start(g0: f32, g1: f32, tangent: f32) -> [f32; 2] {
+    let d = g1 - g0;
+    let s = (g1 - tangent * g1 * g1).min(d.max(0.5 * d));
+    [g0, 2.0 * (d - s)]
 }
 
 /// A spring whose stiffness depends on the load it carries (secant stiffness G(σ), g/%, σ ≥ 0).
@@ -349,13 +426,14 @@ impl SpringLaw {
     }
 
     /// The law as a curve: itself if tabulated, else sampled at
-    /// [`SpringCurve::DEFAULT_STRESS_G`].
+    /// [`SpringCurve::DEFAULT_STRESS_G`], with the law's own stiffness at no load.
     pub fn curve(&self) -> Result<SpringCurve, ModelError> {
         match self {
             SpringLaw::Curve(c) => Ok(*c),
             law if law.is_valid() => {
                 let stress = SpringCurve::DEFAULT_STRESS_G;
-                SpringCurve::new(stress, stress.map(|s| law.strain_pct(f64::from(s)) as f32))
+                let strain = stress.map(|s| law.strain_pct(f64::from(s)) as f32);
+                SpringCurve::with_origin(stress, strain, law.stiffness(0.0) as f32)
             }
             _ => Err(ModelError::InvalidParameter {
                 name: ModelParameter::SpringLaw,
@@ -446,7 +524,7 @@ mod tests {
         let (s, tangent) = c.stress_g(2.810_48);
         assert!((s - 6.0).abs() < 1e-4, "{s}");
         assert!((1.0 / tangent - (0.435_48 - 2.0 * 0.015_121 * 2.0)).abs() < 1e-4);
-        assert_eq!(c.stress_g(-1.0), (0.0, 1.0 / c.start_slope[0]));
+        assert_eq!(c.stress_g(-1.0), (0.0, c.origin_g_per_pct()));
         assert_eq!(c.range_g(), 1024.0);
         assert_eq!(c.scaled(2.0).strain_pct(4.0), 1.0);
         // Not rising, or not finite: refused.
@@ -456,6 +534,12 @@ mod tests {
         let mut nan = stress;
         nan[0] = f32::NAN;
         assert!(SpringCurve::new(nan, strain).is_err());
+        for g0 in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(
+                SpringCurve::with_origin(stress, strain, g0).is_err(),
+                "{g0}"
+            );
+        }
         assert!(SpringLaw::power(-1.0, 0.0, 0.0).curve().is_err());
     }
 
@@ -484,5 +568,49 @@ mod tests {
             let tolerance = if s < 6.0 { 0.03 } else { 0.01 };
             assert!((exact - tab).abs() < tolerance, "{s}: {exact} vs {tab}");
         }
+    }
+
+    #[test]
+    fn a_soft_start_is_followed_below_the_first_knot() {
+        // Element 4,2's G₁ = 0.5 + 0.54√σ: strain 0.1/(0.5 + 0.54·0.31623) = 0.149084 % at
+        // 0.1 g, 0.376993 % at 0.3 g, 0.566998 % at 0.5 g; compliance 2 %/g at no load. The
+        // first knot is at 1 g. The curve without the law's stiffness at no load took 1.09 %/g
+        // there and read these strains as 39, 20 and 11 % more load.
+        let law = SpringLaw::power(0.5, 0.54, 0.0);
+        let curve = law.curve().unwrap();
+        assert_eq!(curve.origin_g_per_pct(), 0.5);
+        assert_eq!(curve.stiffness(0.0), 0.5);
+        for (load, strain) in [(0.1f32, 0.149_084f32), (0.3, 0.376_993), (0.5, 0.566_998)] {
+            let e = curve.strain_pct(load);
+            assert!((e / strain - 1.0).abs() < 0.02, "{load} g: {e} %");
+            let (stress, tangent) = curve.stress_g(strain);
+            assert!((stress / load - 1.0).abs() < 0.02, "{strain} %: {stress} g");
+            // The law's tangent stiffness dσ/dε = G²/(G₀ + b√σ/2) at 0.1 g: G = 0.67076,
+            // 0.67076²/(0.5 + 0.27·0.31623) = 0.76860 g/%.
+            if load == 0.1 {
+                assert!((tangent / 0.768_60 - 1.0).abs() < 0.03, "{tangent}");
+            }
+        }
+        // Rising from no load through the first knot into the next segment, and inverting.
+        let mut last = 0.0f32;
+        for i in 1..=300 {
+            let s = i as f32 * 0.01;
+            let e = curve.strain_pct(s);
+            assert!(e > last, "{s}: {e} after {last}");
+            assert!((curve.stress_g(e).0 - s).abs() < 1e-4 * s.max(1.0), "{s}");
+            last = e;
+        }
+        // A spring linear to its first knot stays straight there, whatever the next segment.
+        let stress = SpringCurve::DEFAULT_STRESS_G;
+        let mut strain = stress.map(|s| s / 12.0);
+        for e in strain.iter_mut().skip(1) {
+            *e = 1.0 / 12.0 + (*e - 1.0 / 12.0) * 0.5;
+        }
+        let c = SpringCurve::with_origin(stress, strain, 12.0).unwrap();
+        for s in [0.1f32, 0.4, 0.9] {
+            assert!((c.strain_pct(s) - s / 12.0).abs() < 1e-7, "{s}");
+        }
+        // Scaled, the stiffness at no load scales with it.
+        assert_eq!(curve.scaled(2.0).origin_g_per_pct(), 1.0);
     }
 }

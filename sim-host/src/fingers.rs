@@ -87,6 +87,7 @@ fn piecewise(segment_g_per_pct: &[f64; 10]) -> SpringLaw {
         s0 = f64::from(s);
         *slot = e as f32;
     }
-    // Positive stiffnesses on rising knots: the curve is valid.
-    SpringCurve::new(KNOTS_G, strain).map_or(SpringLaw::constant(1.0), SpringLaw::Curve)
+    // Positive stiffnesses on rising knots: the curve is valid, straight to its first knot.
+    SpringCurve::with_origin(KNOTS_G, strain, segment_g_per_pct[0] as f32)
+        .map_or(SpringLaw::constant(1.0), SpringLaw::Curve)
 }
