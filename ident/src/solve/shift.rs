@@ -62,18 +62,31 @@ fn moved<T: Copy + core::ops::Add<Output = T> + core::ops::Sub<Output = T>>(
 pub(super) fn delayed_pair(
     (a, b): (&[f32], &[f32]),
     whole: usize,
-    (s, e): (usize, usize),
+    fold: (usize, usize),
     base: f64,
 ) -> f64 {
-    // Samples at or before `whole` hold the first value.
+    held_then_moved(f64::from(a[0] * b[0]), whole, fold, base, |lo, hi| {
+        products(a, b, lo, hi)
+    })
+}
+
+/// Σ over the fold [s, e) of a product of sources delayed by `whole` samples: `first` for each
+/// sample at or before `whole` (both hold their first values), then the sum over the samples
+/// read, `sum` over [split − whole, e − whole), moved from the fold's `base`.
+fn held_then_moved(
+    first: f64,
+    whole: usize,
+    (s, e): (usize, usize),
+    base: f64,
+    sum: impl Fn(usize, usize) -> f64,
+) -> f64 {
     let split = (whole + 1).clamp(s, e);
-    let head = (split - s) as f64 * f64::from(a[0] * b[0]);
+    let head = (split - s) as f64 * first;
     if split == e {
         return head;
     }
-    // Sample i > whole reads j = i − whole: j over [split − whole, e − whole).
-    let range = (split - whole, e - whole);
-    head + moved(base, (s, e), range, |lo, hi| products(a, b, lo, hi))
+    // Sample i > whole reads j = i − whole.
+    head + moved(base, (s, e), (split - whole, e - whole), sum)
 }
 
 /// Per fold, for sources `lead` and `lag`: Σ lead_j·lag_{j−1} over [s, e) (from j = 1), each
@@ -97,18 +110,11 @@ fn lag_products(a: &[f32], b: &[f32], lo: usize, hi: usize) -> f64 {
 pub(super) fn delayed_lagged(
     (lead, lag): (&[f32], &[f32]),
     whole: usize,
-    (s, e): (usize, usize),
+    fold: (usize, usize),
     base: f64,
 ) -> f64 {
-    // Samples at or before `whole` hold both first values; sample whole + 1 reads lead_1 and
-    // lag's first, as the lag's own products do from there on.
-    let split = (whole + 1).clamp(s, e);
-    let head = (split - s) as f64 * f64::from(lead[0] * lag[0]);
-    if split == e {
-        return head;
-    }
-    let range = (split - whole, e - whole);
-    head + moved(base, (s, e), range, |lo, hi| {
+    // Sample whole + 1 reads lead_1 and lag's first, as the lag's own products do from there.
+    held_then_moved(f64::from(lead[0] * lag[0]), whole, fold, base, |lo, hi| {
         lag_products(lead, lag, lo, hi)
     })
 }
