@@ -16,7 +16,8 @@
 //! `TRUE_FRICTION=1`: the file's stiction compensated (an oracle: what the identified one costs).
 //! `RUN_OFF=NAME:F`: the design run on the rig with one of `analysis::MECHANICAL_PARAMETERS`
 //! (`"motor inertia"`, …) F times the file's: what a model that far off costs (with
-//! `ANALYTIC=1`, a perfect model of the file's rig).
+//! `ANALYTIC=1`, a perfect model of the file's rig). `TRACE=FILE`: the designed loop's
+//! force-steps tick by tick to FILE (CSV: time, command, reading, true force, drive).
 use sim_host::design;
 use sim_host::metrics;
 use sim_host::rig::RigConfig;
@@ -255,6 +256,9 @@ fn measure(name: &str, cfg: &RigConfig) {
         .map(|(l, o)| format!("{l}:{o:.2}"))
         .collect();
     println!("  force-steps, overshoot (g): {}", over.join(" "));
+    if let (Ok(path), "designed") = (std::env::var("TRACE"), name) {
+        write_trace(&path, cfg, &steps);
+    }
     let low = run_named("low-force", &o, cfg.clone(), |_| {})
         .unwrap()
         .ticks;
@@ -270,6 +274,23 @@ fn measure(name: &str, cfg: &RigConfig) {
             lost * 100.0
         );
     }
+}
+
+/// The ticks to `path` as CSV, the drive in firmware grams from the DAC's code.
+fn write_trace(path: &str, cfg: &RigConfig, ticks: &[tactile_core::telemetry::TickRecord]) {
+    let a = &cfg.firmware.actuator;
+    let mut out = String::from("t_s,command_g,sensed_g,true_g,drive_g\n");
+    for r in ticks {
+        out += &format!(
+            "{:.3},{},{},{},{}\n",
+            r.t_s,
+            r.command_g,
+            r.sensed_g,
+            r.true_force_g,
+            a.force_g(tactile_core::gauge::AdcCode(r.dac_code))
+        );
+    }
+    std::fs::write(path, out).unwrap_or_else(|e| refuse(&format!("{path}: {e}")));
 }
 
 /// A drive gram's force at the probe, in the rig's own grams: the drive's grams are the
