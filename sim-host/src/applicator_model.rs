@@ -218,20 +218,16 @@ pub struct StaticPoint {
 /// chirp slides the motor both ways, so the Coulomb friction nearly does too. The holds
 /// cannot give it: each stops anywhere within the friction band, and on a rig with 2.9 g of
 /// stiction the 10 g hold held 2.7 g of it and the 100 g hold 1.4 g, which a line through the
-/// holds read as a gain 1.2 % high. The stiction is the median of the friction the holds
-/// stopped with at that gain (as the holds' own line read it where they all stop alike, and as
-/// the design's shares of it were measured): a hold or two stopped deep in the band (0.56 and
-/// 0.77 g of the heavy rig's 1.11 g) move it little. `None` for fewer than two preloads or a
-/// line that is not a rig's (gain not positive).
+/// holds read as a gain 1.2 % high. The stiction is the holds' intercept at that gain, the
+/// friction they stopped with on average (as the holds' own line read it where they all stop
+/// alike, and as the design's shares of it were measured). `None` for fewer than two preloads
+/// or a line that is not a rig's (gain not positive).
 pub fn static_line(points: &[StaticPoint]) -> Option<(f64, f64)> {
     let (drive, gauge): (Vec<f64>, Vec<f64>) = points.iter().map(|p| p.chirp).unzip();
     let (_, gain) = tactile_ident::stats::line(&drive, &gauge)?;
     let gain = Some(gain).filter(|g| *g > 0.0)?;
-    let mut held: Vec<f64> = points.iter().map(|p| gain * p.hold.0 - p.hold.1).collect();
-    held.sort_by(f64::total_cmp);
-    let n = held.len();
-    let median = 0.5 * (held.get((n - 1) / 2)? + held.get(n / 2)?);
-    Some((gain, median.max(0.0)))
+    let held: f64 = points.iter().map(|p| gain * p.hold.0 - p.hold.1).sum();
+    Some((gain, (held / points.len() as f64).max(0.0)))
 }
 
 /// The first sample analysed at sample period `dt_s`: after the settling and one period that
@@ -824,9 +820,9 @@ mod tests {
         let (gain, stiction) = static_line(&points).unwrap();
         // The chirps' ±0.05 g tilt the slope by Σ(d − d̄)·e/Σ(d − d̄)² = 3/4900.
         assert!((gain - 2.0).abs() < 2e-3, "{gain}");
-        // The holds' median friction, (2.8 + 2.2)/2 = 2.5 g, and the gain's error times the
-        // drive of 20–50 g (0.03 g at most).
-        assert!((stiction - 2.5).abs() < 0.035, "{stiction}");
+        // The holds' mean friction, 9.5/4 = 2.375 g, and the gain's error times their mean
+        // drive of 45 g (0.03 g).
+        assert!((stiction - 2.375).abs() < 0.035, "{stiction}");
         // The holds alone: least squares through (10, 17), (20, 37.2), (50, 97.8) and
         // (100, 198.5) has the slope 9881.5/4900 = 2.017.
         let holds: Vec<(f64, f64)> = points.iter().map(|p| p.hold).collect();

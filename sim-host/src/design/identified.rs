@@ -175,14 +175,9 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
 /// whose fit does not converge, is not [`plausible`] or puts the amplifier elsewhere than the
 /// others' ([`one_amplifier`]) are left out, after those the caller left out (`left_out`); at
 /// least two must remain.
-///
-/// A preload whose chirp gives no applicator's model is no reading of the static line either:
-/// on a drive 0.55× the memo's the 100 g chirp reached the drive's rail, and its mean read the
-/// gain 2 % low and the stiction 40 % low. Where one is left out, the line is taken again
-/// without it and the models fitted again with its stiction.
 pub fn identified_from(
     excited: &[Excited],
-    left_out: Vec<LeftOut>,
+    mut left_out: Vec<LeftOut>,
 ) -> Result<Identified, DesignError> {
     let mut preloads: Vec<f32> = excited.iter().map(|e| e.load_g).collect();
     preloads.sort_by(f32::total_cmp);
@@ -193,62 +188,18 @@ pub fn identified_from(
             left_out,
         });
     }
-    let gauge_noise_g =
-        upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
-    let all: Vec<&Excited> = excited.iter().collect();
-    let (mut line, mut fitted) = fitted_on_line(excited, &all, left_out.clone())?;
-    let kept: Vec<&Excited> = excited
-        .iter()
-        .filter(|e| fitted.0.iter().any(|m| m.load_g == e.load_g))
-        .collect();
-    if (2..excited.len()).contains(&kept.len()) {
-        (line, fitted) = fitted_on_line(excited, &kept, left_out)?;
-    }
-    let ((static_gain, stiction_g), (models, left_out)) = (line, fitted);
-    if models.len() < 2 {
-        return Err(DesignError::TooFewModels {
-            have: models.len(),
-            left_out,
-        });
-    }
-    Ok(Identified {
-        models,
-        static_gain,
-        stiction_g,
-        gauge_noise_g,
-        left_out,
-    })
-}
-
-/// Models and what is left out, sorted by load.
-type Fitted = (Vec<LoadModel>, Vec<LeftOut>);
-
-/// The static line of the preloads `on` ([`crate::applicator_model::static_line`]), and the
-/// models of every preload of `excited` fitted with its stiction ([`fit_models`]).
-fn fitted_on_line(
-    excited: &[Excited],
-    on: &[&Excited],
-    left_out: Vec<LeftOut>,
-) -> Result<((f64, f64), Fitted), DesignError> {
     let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
-    let points: Vec<crate::applicator_model::StaticPoint> = on
+    let points: Vec<crate::applicator_model::StaticPoint> = excited
         .iter()
         .map(|e| crate::applicator_model::StaticPoint {
             hold: (e.hold.drive_g, e.hold.gauge_g),
             chirp: (mean(&e.means.drive_g), mean(&e.means.gauge_g)),
         })
         .collect();
-    let line = crate::applicator_model::static_line(&points).ok_or(DesignError::NoStaticLine)?;
-    Ok((line, fit_models(excited, line, left_out)))
-}
-
-/// The model of each preload fitted with the static line's (gain, stiction), the implausible
-/// and the amplifiers off the others' left out after `left_out`.
-fn fit_models(
-    excited: &[Excited],
-    (static_gain, stiction_g): (f64, f64),
-    mut left_out: Vec<LeftOut>,
-) -> Fitted {
+    let gauge_noise_g =
+        upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
+    let (static_gain, stiction_g) =
+        crate::applicator_model::static_line(&points).ok_or(DesignError::NoStaticLine)?;
     // The friction acts on the drive: its grams are the probe's over the drive's gain.
     let stiction_drive_g = stiction_g / static_gain;
     // One fit per preload, side by side (each is a few hundred milliseconds).
@@ -316,7 +267,19 @@ fn fit_models(
         });
     }
     left_out.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
-    (kept, left_out)
+    if kept.len() < 2 {
+        return Err(DesignError::TooFewModels {
+            have: kept.len(),
+            left_out,
+        });
+    }
+    Ok(Identified {
+        models: kept,
+        static_gain,
+        stiction_g,
+        gauge_noise_g,
+        left_out,
+    })
 }
 
 /// The design's reading of a run of [`Protocol::design_excitation`] (the simulator's, or the
