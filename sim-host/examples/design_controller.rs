@@ -160,7 +160,7 @@ fn analytic_design(config: &RigConfig) -> design::Design {
 fn identified_design(config: &RigConfig) -> design::Design {
     let r = design::design_for_rig(config).unwrap_or_else(|e| refuse(&e));
     println!(
-        "static gain {:.3} (the chirps' means), stiction {:.2} g, gauge noise {:.2} g (the holds)",
+        "static gain {:.3}, stiction {:.2} g, gauge noise {:.2} g (identified from the holds)",
         r.identified.static_gain, r.identified.stiction_g, r.identified.gauge_noise_g
     );
     for left in &r.identified.left_out {

@@ -1,6 +1,6 @@
 //! The identification the design reads: the excitation run at each preload (on the simulated
-//! rig, or read from records), the static line of the holds and the chirps' means, the models
-//! fitted there, and the preloads left out and why.
+//! rig, or read from records), the still holds' static line and the models fitted there, and
+//! the preloads left out and why.
 
 use serde::Serialize;
 use tactile_core::profile::Protocol;
@@ -16,8 +16,7 @@ use crate::scenario::run_protocol;
 pub struct Identified {
     /// The plausible models, in increasing load.
     pub models: Vec<LoadModel>,
-    /// The static line ([`crate::applicator_model::static_line`]): gain and stiction (g at the
-    /// probe).
+    /// The static line of the holds: gain and stiction (g at the probe).
     pub static_gain: f64,
     pub stiction_g: f64,
     /// The gauge's noise, RMS of one reading: the median of the holds'.
@@ -171,7 +170,7 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
     })
 }
 
-/// The models fitted at each preload, with the static line's gain and stiction; loads
+/// The models fitted at each preload, with the static gain and stiction of the holds; loads
 /// whose fit does not converge, is not [`plausible`] or puts the amplifier elsewhere than the
 /// others' ([`one_amplifier`]) are left out, after those the caller left out (`left_out`); at
 /// least two must remain.
@@ -188,18 +187,14 @@ pub fn identified_from(
             left_out,
         });
     }
-    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
-    let points: Vec<crate::applicator_model::StaticPoint> = excited
+    let holds: Vec<(f64, f64)> = excited
         .iter()
-        .map(|e| crate::applicator_model::StaticPoint {
-            hold: (e.hold.drive_g, e.hold.gauge_g),
-            chirp: (mean(&e.means.drive_g), mean(&e.means.gauge_g)),
-        })
+        .map(|e| (e.hold.drive_g, e.hold.gauge_g))
         .collect();
     let gauge_noise_g =
         upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
     let (static_gain, stiction_g) =
-        crate::applicator_model::static_line(&points).ok_or(DesignError::NoStaticLine)?;
+        crate::applicator_model::static_line(&holds).ok_or(DesignError::NoStaticLine)?;
     // The friction acts on the drive: its grams are the probe's over the drive's gain.
     let stiction_drive_g = stiction_g / static_gain;
     // One fit per preload, side by side (each is a few hundred milliseconds).
