@@ -8,10 +8,11 @@
 //! [`EstimatorKind::ALL`]), the [`CalibrationFlags`] `u8`, three zero bytes; then `f32`s:
 //! strain offset (%), elastic spring (g/%); the whole-record second-order fit a₁ a₂ b₀ b₁ b₂;
 //! [`SCHEDULE_POINTS`] schedule entries of load (g) and a₁ a₂ b₀ b₁ b₂; G₁ and G₂ as curves
-//! ([`CURVE_KNOTS`] stresses, the strain at each, then the stiffness at no load, g/%); N₁, α, N₂; the notch frequency (Hz,
-//! 0 for none); the calibrated range (g, 0 unknown); each estimator's held-out RMS error on the
-//! calibration record (g, in [`EstimatorKind::ALL`]'s order; negative: not measured); the
-//! hysteresis as [`PLAYS`] play radii (g), then their weights (%/g; 0: no play); the force
+//! ([`CURVE_KNOTS`] stresses, the strain at each, then the stiffness at no load, g/%); N₁, α,
+//! N₂; the notch frequency (Hz, 0 for none); the calibrated range (g, 0 unknown); each
+//! estimator's held-out RMS error on the calibration record (g, in [`EstimatorKind::ALL`]'s
+//! order; negative: not measured); the hysteresis as [`PLAYS`] play radii (g), then their
+//! weights (%/g; 0: no play); the force
 //! bank ([`BankModel`]): its strain scale (%), [`BANK_FILTERS`] time constants (s),
 //! [`BANK_KNOTS`] hinges, [`BANK_PLAYS`] play radii, [`BANK_FEATURES`] weights (g), and its
 //! re-zero's bound (g, 0: none), quiet band and time constant (s).

@@ -64,10 +64,8 @@ pub struct Pool {
     /// Every sample counts: a delayed column's products are then its source's, moved
     /// (`shift`).
     plain: bool,
-    /// Per pair of sources, per fold: `shift::pair_base`.
-    pair_bases: HashMap<(usize, usize), Vec<f64>>,
-    /// Per (lead, lag) pair of sources, per fold: `shift::lag_base`.
-    lag_bases: HashMap<(usize, usize), Vec<f64>>,
+    /// Per pair of sources and the samples between them, per fold: `shift::pair_base`.
+    pair_bases: HashMap<((usize, usize), usize), Vec<f64>>,
     /// Per column delayed by a fraction of a sample: its two whole-sample views (`expand`).
     views: HashMap<usize, [usize; 2]>,
     /// Per half-cosine order and source, per fold: `shift::cosine_base`.
@@ -119,7 +117,6 @@ impl Pool {
             cosine_sums: HashMap::new(),
             plain: excluded.iter().all(|x| !x),
             pair_bases: HashMap::new(),
-            lag_bases: HashMap::new(),
             views: HashMap::new(),
             cosine_bases: HashMap::new(),
             yy: Vec::new(),
@@ -312,8 +309,7 @@ impl Pool {
             *c = Column::Stored(Vec::new());
         }
         self.cross.retain(|k, _| k.0 != j && k.1 != j);
-        self.pair_bases.retain(|k, _| k.0 != j && k.1 != j);
-        self.lag_bases.retain(|k, _| k.0 != j && k.1 != j);
+        self.pair_bases.retain(|k, _| k.0 .0 != j && k.0 .1 != j);
         self.cosine_bases.retain(|k, _| k.1 != j);
         self.with_y.remove(&j);
         self.local_x.remove(&j);
@@ -489,10 +485,10 @@ impl Pool {
         };
         match (delayed(a), delayed(b)) {
             (Some((sa, wa)), Some((sb, wb))) if wa == wb => {
-                Some(Moved::Pair((sa.min(sb), sa.max(sb)), wa))
+                Some(Moved::Pair((sa.min(sb), sa.max(sb)), wa, 0))
             }
-            (Some((sa, wa)), Some((sb, wb))) if wa + 1 == wb => Some(Moved::Lagged((sa, sb), wa)),
-            (Some((sa, wa)), Some((sb, wb))) if wb + 1 == wa => Some(Moved::Lagged((sb, sa), wb)),
+            (Some((sa, wa)), Some((sb, wb))) if wa + 1 == wb => Some(Moved::Pair((sa, sb), wa, 1)),
+            (Some((sa, wa)), Some((sb, wb))) if wb + 1 == wa => Some(Moved::Pair((sb, sa), wb, 1)),
             (Some((src, w)), None) => cosine(b).map(|k| Moved::Cosine(k, src, w)),
             (None, Some((src, w))) => cosine(a).map(|k| Moved::Cosine(k, src, w)),
             _ => None,
@@ -508,36 +504,15 @@ impl Pool {
         };
         let ranges = &self.folds.ranges;
         match self.moved_pair(a, b)? {
-            Moved::Pair(sources, delay) => {
+            Moved::Pair(sources, delay, lag) => {
                 let (va, vb) = (stored(sources.0)?, stored(sources.1)?);
-                let bases = match self.pair_bases.get(&sources) {
-                    Some(b) => b.clone(),
-                    None => {
-                        let b: Vec<f64> = ranges
-                            .iter()
-                            .map(|&r| shift::pair_base(va, vb, r))
-                            .collect();
-                        self.pair_bases.insert(sources, b.clone());
-                        b
-                    }
-                };
-                Some(
-                    ranges
-                        .iter()
-                        .zip(bases)
-                        .map(|(&r, base)| shift::delayed_pair((va, vb), delay, r, base))
-                        .collect(),
-                )
-            }
-            Moved::Lagged(sources, delay) => {
-                let (lead, lag) = (stored(sources.0)?, stored(sources.1)?);
                 let bases = self
-                    .lag_bases
-                    .entry(sources)
+                    .pair_bases
+                    .entry((sources, lag))
                     .or_insert_with(|| {
                         ranges
                             .iter()
-                            .map(|&r| shift::lag_base(lead, lag, r))
+                            .map(|&r| shift::pair_base(va, vb, lag, r))
                             .collect()
                     })
                     .clone();
@@ -545,7 +520,7 @@ impl Pool {
                     ranges
                         .iter()
                         .zip(bases)
-                        .map(|(&r, base)| shift::delayed_lagged((lead, lag), delay, r, base))
+                        .map(|(&r, base)| shift::delayed_pair((va, vb), delay, lag, r, base))
                         .collect(),
                 )
             }
@@ -736,12 +711,11 @@ impl Pool {
     }
 }
 
-/// A pair of columns whose products follow from their sources' (`shift`): two sources
-/// delayed alike, two a sample apart (the leading source first), or a half-cosine's order and
-/// a delayed source; the (shorter) delay in whole samples.
+/// A pair of columns whose products follow from their sources' (`shift`): two sources delayed
+/// alike or a sample apart (the less delayed first; the delay and the samples between them), or
+/// a half-cosine's order and a delayed source; delays in whole samples.
 enum Moved {
-    Pair((usize, usize), usize),
-    Lagged((usize, usize), usize),
+    Pair((usize, usize), usize, usize),
     Cosine(usize, usize, usize),
 }
 

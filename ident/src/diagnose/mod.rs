@@ -434,41 +434,34 @@ pub fn diagnose_observed(
     settings: &Settings,
     on_baseline: &(dyn Fn(FoldModels) + Sync),
 ) -> Diagnosis {
-    let d = diagnose_on(series, settings, f64::INFINITY, on_baseline);
+    let d = diagnose_on(series, settings, None, on_baseline);
     let block_s = series.duration_s() / d.folds.len().max(1) as f64;
     if d.effect != "unexplained" || block_s <= SWING_BLOCK_S * 1.01 {
         return d;
     }
-    let mut again = diagnose_on(series, settings, SWING_BLOCK_S, on_baseline);
+    let again = diagnose_on(series, settings, Some(d.folds.len()), on_baseline);
     if again.effect == "unexplained" {
-        return d;
+        d
+    } else {
+        again
     }
-    again.first_folds = Some(d.folds.len());
-    let line = format!(
-        "  judged again on blocks of at most {SWING_BLOCK_S:.0} s: on {} folds of {block_s:.1} s no effect passed, and a zero that swings every minute or more turns inside a longer block\n",
-        d.folds.len()
-    );
-    let at = again
-        .summary
-        .find('\n')
-        .map_or(again.summary.len(), |i| i + 1);
-    again.summary.insert_str(at, &line);
-    again
 }
 
 /// The longest held-out block that judges a zero swinging every minute or more (a mount
 /// settling, a room's temperature): it turns at most about once inside one.
 pub const SWING_BLOCK_S: f64 = 45.0;
 
-/// [`diagnose_with`] on folds of blocks at most `longest_block_s` long.
+/// [`diagnose_with`] on the usual folds, or (`first_folds`: nothing passed on that many) on
+/// blocks at most [`SWING_BLOCK_S`] long.
 fn diagnose_on(
     series: &Series,
     settings: &Settings,
-    longest_block_s: f64,
+    first_folds: Option<usize>,
     on_baseline: &(dyn Fn(FoldModels) + Sync),
 ) -> Diagnosis {
     let prep = prepare::prepare(series, settings);
     let s = &prep.smoothed;
+    let longest_block_s = first_folds.map_or(f64::INFINITY, |_| SWING_BLOCK_S);
     let (taus, creep, folds) = prepare::support_and_folds(&prep, settings, longest_block_s);
 
     // The baseline on the folds, its noise floors, and the first-order model beside it.
@@ -557,7 +550,7 @@ fn diagnose_on(
         chip,
         before,
         candidates,
-        folds,
+        (folds, first_folds),
         prep.secant,
         floors.floor,
         prep.orientation,

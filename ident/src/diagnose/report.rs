@@ -12,7 +12,7 @@ use super::floors::far_from_white;
 use super::work::Work;
 use super::{
     stiffening_load, Baseline, Before, Candidate, Diagnosis, Effect, Errors, Fold, Model, Size,
-    State, Term,
+    State, Term, SWING_BLOCK_S,
 };
 
 /// Held-out RMS error, in noise floors, above which what the named effects leave (far from
@@ -66,7 +66,7 @@ pub(super) fn finish(
     chip: Option<Scored>,
     before: Before,
     candidates: Vec<Candidate>,
-    folds: Folds,
+    (folds, first_folds): (Folds, Option<usize>),
     secant: f64,
     floor: f64,
     orientation: f64,
@@ -136,7 +136,7 @@ pub(super) fn finish(
             .unwrap_or(0.0),
         candidates,
         folds: fold_list,
-        first_folds: None,
+        first_folds,
         secant_g_per_pct: secant,
         noise_floor_pct: floor_pct,
         noise_floor_g: floor_pct * secant,
@@ -223,6 +223,13 @@ fn summary(d: &Diagnosis, work: &Work, first_order: Option<&Scored>) -> String {
         folds,
         s.duration_s() / folds as f64
     );
+    if let Some(k) = d.first_folds {
+        let _ = writeln!(
+            summary,
+            "  judged again on blocks of at most {SWING_BLOCK_S:.0} s: on {k} folds of {:.1} s no effect passed, and a zero that swings every minute or more turns inside a longer block",
+            s.duration_s() / k.max(1) as f64
+        );
+    }
     intake(&mut summary, &d.intake, &s.excluded);
     let _ = writeln!(
         summary,

@@ -6,10 +6,19 @@
 
 use std::f64::consts::PI;
 
-/// Per fold, for sources `a` and `b`: Σ a_j·b_j over [s, e), each product in f32 as the Gram
-/// products take it.
-pub(super) fn pair_base(a: &[f32], b: &[f32], (s, e): (usize, usize)) -> f64 {
-    products(a, b, s, e)
+/// Per fold, for sources `a` and `b`, `b` read `lag` samples behind: Σ a_j·b_{j−lag} over
+/// [s, e) (from j = lag), each product in f32 as the Gram products take it.
+pub(super) fn pair_base(a: &[f32], b: &[f32], lag: usize, (s, e): (usize, usize)) -> f64 {
+    lagged_products(a, b, lag, s, e)
+}
+
+/// Σ over samples j in [lo, hi), j ≥ `lag`, of a_j·b_{j−lag} (the product in f32).
+fn lagged_products(a: &[f32], b: &[f32], lag: usize, lo: usize, hi: usize) -> f64 {
+    let lo = lo.max(lag);
+    if hi <= lo {
+        return 0.0;
+    }
+    products(&a[lo..hi], &b[lo - lag..hi - lag], 0, hi - lo)
 }
 
 /// Σ over samples [lo, hi) of a_j·b_j (the product in f32), in eight running sums (one is a
@@ -57,65 +66,26 @@ fn moved<T: Copy + core::ops::Add<Output = T> + core::ops::Sub<Output = T>>(
     add(add(base, p, s, true), q, e, false)
 }
 
-/// Σ over the fold [s, e) of x_i·y_i, x and y the sources `a` and `b` delayed by `whole`
-/// samples as `span` reads them (held at their first value), from the fold's [`pair_base`].
+/// Σ over the fold [s, e) of x_i·y_i, x the source `a` delayed by `whole` samples and y the
+/// source `b` delayed by `lag` more (0, or 1: the two whole-sample neighbours of a delay between
+/// samples), as `span` reads them (held at their first values), from the fold's [`pair_base`].
 pub(super) fn delayed_pair(
     (a, b): (&[f32], &[f32]),
     whole: usize,
-    fold: (usize, usize),
-    base: f64,
-) -> f64 {
-    held_then_moved(f64::from(a[0] * b[0]), whole, fold, base, |lo, hi| {
-        products(a, b, lo, hi)
-    })
-}
-
-/// Σ over the fold [s, e) of a product of sources delayed by `whole` samples: `first` for each
-/// sample at or before `whole` (both hold their first values), then the sum over the samples
-/// read, `sum` over [split − whole, e − whole), moved from the fold's `base`.
-fn held_then_moved(
-    first: f64,
-    whole: usize,
+    lag: usize,
     (s, e): (usize, usize),
     base: f64,
-    sum: impl Fn(usize, usize) -> f64,
 ) -> f64 {
+    // Samples at or before `whole` hold both first values; after them sample i reads a_j and
+    // b_{j−lag}, j = i − whole (at j = lag = 1 that is b_0, b's held value too).
     let split = (whole + 1).clamp(s, e);
-    let head = (split - s) as f64 * first;
+    let head = (split - s) as f64 * f64::from(a[0] * b[0]);
     if split == e {
         return head;
     }
-    // Sample i > whole reads j = i − whole.
-    head + moved(base, (s, e), (split - whole, e - whole), sum)
-}
-
-/// Per fold, for sources `lead` and `lag`: Σ lead_j·lag_{j−1} over [s, e) (from j = 1), each
-/// product in f32 as the Gram products take it.
-pub(super) fn lag_base(lead: &[f32], lag: &[f32], (s, e): (usize, usize)) -> f64 {
-    lag_products(lead, lag, s, e)
-}
-
-/// Σ over samples j in [lo, hi), j ≥ 1, of a_j·b_{j−1} (the product in f32).
-fn lag_products(a: &[f32], b: &[f32], lo: usize, hi: usize) -> f64 {
-    let lo = lo.max(1);
-    if hi <= lo {
-        return 0.0;
-    }
-    products(&a[lo..hi], &b[lo - 1..hi - 1], 0, hi - lo)
-}
-
-/// Σ over the fold [s, e) of x_i·y_i, x the source `lead` delayed by `whole` samples and y the
-/// source `lag` delayed by one more, as `span` reads them, from the fold's [`lag_base`]: the
-/// products of a fraction of a sample's delay are those of its two whole-sample neighbours.
-pub(super) fn delayed_lagged(
-    (lead, lag): (&[f32], &[f32]),
-    whole: usize,
-    fold: (usize, usize),
-    base: f64,
-) -> f64 {
-    // Sample whole + 1 reads lead_1 and lag's first, as the lag's own products do from there.
-    held_then_moved(f64::from(lead[0] * lag[0]), whole, fold, base, |lo, hi| {
-        lag_products(lead, lag, lo, hi)
+    let range = (split - whole, e - whole);
+    head + moved(base, (s, e), range, |lo, hi| {
+        lagged_products(a, b, lag, lo, hi)
     })
 }
 
@@ -293,7 +263,7 @@ mod tests {
                 let naive: f64 = (fold.0..fold.1)
                     .map(|i| f64::from(at(&a, whole, i) * at(&b, whole, i)))
                     .sum();
-                let fast = delayed_pair((&a, &b), whole, fold, pair_base(&a, &b, fold));
+                let fast = delayed_pair((&a, &b), whole, 0, fold, pair_base(&a, &b, 0, fold));
                 assert!(
                     (fast - naive).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
                     "delay {whole} fold {fold:?}: {fast} {naive}"
@@ -312,8 +282,8 @@ mod tests {
                     let naive: f64 = (fold.0..fold.1)
                         .map(|i| f64::from(at(lead, whole, i) * at(lag, whole + 1, i)))
                         .sum();
-                    let base = lag_base(lead, lag, fold);
-                    let fast = delayed_lagged((lead, lag), whole, fold, base);
+                    let base = pair_base(lead, lag, 1, fold);
+                    let fast = delayed_pair((lead, lag), whole, 1, fold, base);
                     assert!(
                         (fast - naive).abs() <= 1e-9 * (fold.1 - fold.0) as f64,
                         "delay {whole} fold {fold:?}: {fast} {naive}"
