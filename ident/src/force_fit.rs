@@ -14,6 +14,7 @@ use tactile_core::estimator::{
     PLAY_TERMS,
 };
 
+use crate::par;
 use crate::stats::quantile;
 
 /// Contiguous folds of the cross-validation.
@@ -105,7 +106,7 @@ pub fn fit_bank(
     // Then the best layout and terms without re-zero, its weights fitted while its moments
     // are at hand.
     let layouts = layouts(dt_s, n, strain_pct, scale);
-    let moments = on_threads(&layouts, |layout| {
+    let moments = par::map(&layouts, |layout| {
         moments_of(layout, dt_s, strain_pct, force_g, scored).done()
     });
     let mut best: Option<(BankFit, usize)> = None;
@@ -141,7 +142,7 @@ pub fn fit_bank(
     // constant that holds out best. It is kept whether or not it gains on the folds: the
     // record's zero has wandered less within it than it will after it, which no fold of the
     // record can score.
-    let rezeroed = on_threads(&REZERO_TAUS_S, |tau_s| {
+    let rezeroed = par::map(&REZERO_TAUS_S, |tau_s| {
         let record = (dt_s, force_g, strain_pct, scored);
         with_rezero(&plain, plain_moments, record, *tau_s)
     })
@@ -150,17 +151,6 @@ pub fn fit_bank(
     .flatten()
     .min_by(|a, b| a.held_out_g.total_cmp(&b.held_out_g));
     Some(rezeroed.unwrap_or(plain))
-}
-
-/// `run` of each of `items`, each on a thread of its own, in their order (each is one pass of
-/// the chip's bank over the record: independent, and its moments small); `None` for a run
-/// that did not finish.
-fn on_threads<T: Sync, R: Send>(items: &[T], run: impl Fn(&T) -> R + Sync) -> Vec<Option<R>> {
-    let run = &run;
-    std::thread::scope(|scope| {
-        let runs: Vec<_> = items.iter().map(|x| scope.spawn(move || run(x))).collect();
-        runs.into_iter().map(|r| r.join().ok()).collect()
-    })
 }
 
 /// The layouts worth trying: lowpasses log-spaced from a few samples to a twentieth or a fifth
@@ -236,7 +226,7 @@ fn moments_of(
 
 /// [`moments_of`] for `model`, a layout of `plain`'s with weights and a re-zero, taking the
 /// terms' Σ x xᵀ from `plain`: the re-zero moves only the force the terms weigh, never the
-/// terms, so a pass sums only Σ f x and Σ f² (a tenth of the work). `None` where the terms
+/// terms, so a pass sums only Σ f x and Σ f². `None` where the terms
 /// may have differed: an estimate that was not finite starts the bank over, or a sample left
 /// out that `plain` kept.
 fn rezero_moments(

@@ -20,6 +20,7 @@
 
 pub mod diagnose;
 pub mod force_fit;
+pub mod par;
 pub mod residual;
 pub mod series;
 pub mod solve;

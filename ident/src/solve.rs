@@ -14,6 +14,7 @@ use crate::series::Folds;
 mod blocks;
 mod expand;
 mod nnls;
+mod prefetch;
 mod shift;
 mod sums;
 
@@ -387,6 +388,7 @@ impl Pool {
         let (moved, mut missing): (Vec<_>, Vec<_>) = missing
             .into_iter()
             .partition(|&(a, b)| self.moved_pair(a, b).is_some());
+        self.prefetch_bases(&moved);
         for key in moved {
             match self.moved_products(key) {
                 Some(v) => {
@@ -402,15 +404,16 @@ impl Pool {
         involved.sort_unstable();
         involved.dedup();
         // Columns read from a recipe (not built for this score) are built once here.
-        let extra: HashMap<usize, Vec<f32>> = involved
+        let to_build: Vec<usize> = involved
             .iter()
-            .filter(|&&c| {
+            .copied()
+            .filter(|&c| {
                 !built.contains_key(&c)
                     && self.raw(c).is_none()
                     && !matches!(self.cols.get(c), Some(Column::Cosine(_)))
             })
-            .map(|&c| (c, self.values(c).into_owned()))
             .collect();
+        let extra = self.build_all(&to_build);
         let at = |c| involved.binary_search(&c).unwrap_or(0);
         let pairs: Vec<(usize, usize)> = missing.iter().map(|&(a, b)| (at(a), at(b))).collect();
         let k = self.folds.len();
@@ -498,53 +501,96 @@ impl Pool {
     /// Per fold, the products of a pair [`moved_pair`](Self::moved_pair) finds, their
     /// sources' fold sums taken once.
     fn moved_products(&mut self, (a, b): (usize, usize)) -> Option<Vec<f64>> {
+        let moved = self.moved_pair(a, b)?;
+        self.fill_base(&moved)?;
         let stored = |j: usize| match self.cols.get(j) {
             Some(Column::Stored(v)) => Some(v.as_slice()),
             _ => None,
         };
         let ranges = &self.folds.ranges;
-        match self.moved_pair(a, b)? {
+        match moved {
             Moved::Pair(sources, delay, lag) => {
                 let (va, vb) = (stored(sources.0)?, stored(sources.1)?);
-                let bases = self
-                    .pair_bases
-                    .entry((sources, lag))
-                    .or_insert_with(|| {
-                        ranges
-                            .iter()
-                            .map(|&r| shift::pair_base(va, vb, lag, r))
-                            .collect()
-                    })
-                    .clone();
+                let bases = self.pair_bases.get(&(sources, lag))?;
                 Some(
                     ranges
                         .iter()
                         .zip(bases)
-                        .map(|(&r, base)| shift::delayed_pair((va, vb), delay, lag, r, base))
+                        .map(|(&r, &base)| shift::delayed_pair((va, vb), delay, lag, r, base))
                         .collect(),
                 )
             }
             Moved::Cosine(k, src, delay) => {
                 let (v, n) = (stored(src)?, self.n);
-                let bases = match self.cosine_bases.get(&(k, src)) {
-                    Some(b) => b.clone(),
-                    None => {
-                        let b: Vec<[f64; 2]> = ranges
-                            .iter()
-                            .map(|&r| shift::cosine_base(v, n, k, r))
-                            .collect();
-                        self.cosine_bases.insert((k, src), b.clone());
-                        b
-                    }
-                };
+                let bases = self.cosine_bases.get(&(k, src))?;
                 Some(
                     ranges
                         .iter()
                         .zip(bases)
-                        .map(|(&r, base)| shift::delayed_cosine(v, (n, k), delay, r, base))
+                        .map(|(&r, &base)| shift::delayed_cosine(v, (n, k), delay, r, base))
                         .collect(),
                 )
             }
+        }
+    }
+
+    /// The fold sums `moved`'s products move from, taken into their cache if they are not
+    /// there; `None` where a source is not stored.
+    fn fill_base(&mut self, moved: &Moved) -> Option<()> {
+        if self.has_base(moved) {
+            return Some(());
+        }
+        let base = self.base_of(moved)?;
+        self.keep_base(moved, base);
+        Some(())
+    }
+
+    fn has_base(&self, moved: &Moved) -> bool {
+        match *moved {
+            Moved::Pair(sources, _, lag) => self.pair_bases.contains_key(&(sources, lag)),
+            Moved::Cosine(k, src, _) => self.cosine_bases.contains_key(&(k, src)),
+        }
+    }
+
+    /// Per fold, the sums `moved`'s products move from: a pair's products at its lag, or a
+    /// half-cosine's and its quadrature's against the source.
+    fn base_of(&self, moved: &Moved) -> Option<Base> {
+        let stored = |j: usize| match self.cols.get(j) {
+            Some(Column::Stored(v)) => Some(v.as_slice()),
+            _ => None,
+        };
+        let ranges = &self.folds.ranges;
+        Some(match *moved {
+            Moved::Pair(sources, _, lag) => {
+                let (va, vb) = (stored(sources.0)?, stored(sources.1)?);
+                Base::Pair(
+                    ranges
+                        .iter()
+                        .map(|&r| shift::pair_base(va, vb, lag, r))
+                        .collect(),
+                )
+            }
+            Moved::Cosine(k, src, _) => {
+                let v = stored(src)?;
+                Base::Cosine(
+                    ranges
+                        .iter()
+                        .map(|&r| shift::cosine_base(v, self.n, k, r))
+                        .collect(),
+                )
+            }
+        })
+    }
+
+    fn keep_base(&mut self, moved: &Moved, base: Base) {
+        match (*moved, base) {
+            (Moved::Pair(sources, _, lag), Base::Pair(b)) => {
+                self.pair_bases.insert((sources, lag), b);
+            }
+            (Moved::Cosine(k, src, _), Base::Cosine(b)) => {
+                self.cosine_bases.insert((k, src), b);
+            }
+            _ => {}
         }
     }
 
@@ -612,9 +658,10 @@ impl Pool {
         taken.sort_unstable();
         taken.dedup();
         // A computed column is built once for all its products still to be taken.
-        let built: HashMap<usize, Vec<f32>> = taken
+        let to_build: Vec<usize> = taken
             .iter()
-            .filter(|&&c| {
+            .copied()
+            .filter(|&c| {
                 matches!(self.cols.get(c), Some(Column::Computed(_)))
                     && (!self.with_y.contains_key(&c)
                         || (self.local && !self.local_x.contains_key(&c))
@@ -622,9 +669,10 @@ impl Pool {
                             .iter()
                             .any(|&o| !self.cross.contains_key(&(c.min(o), c.max(o)))))
             })
-            .map(|&c| (c, self.values(c).into_owned()))
             .collect();
+        let built = self.build_all(&to_build);
         self.take_products(&taken, &built);
+        self.prefetch_y(&taken, &built);
         for (r, tr) in terms.iter().enumerate() {
             let by = self.combined(tr, |pool, c| pool.y_of(c, &built));
             for f in 0..k {
@@ -714,9 +762,16 @@ impl Pool {
 /// A pair of columns whose products follow from their sources' (`shift`): two sources delayed
 /// alike or a sample apart (the less delayed first; the delay and the samples between them), or
 /// a half-cosine's order and a delayed source; delays in whole samples.
+#[derive(Clone, Copy)]
 enum Moved {
     Pair((usize, usize), usize, usize),
     Cosine(usize, usize, usize),
+}
+
+/// The fold sums a [`Moved`] pair's products move from.
+enum Base {
+    Pair(Vec<f64>),
+    Cosine(Vec<[f64; 2]>),
 }
 
 #[cfg(test)]

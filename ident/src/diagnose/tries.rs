@@ -640,11 +640,12 @@ fn gain_columns(work: &mut Work, part: &[f64], shape: GainShape) -> Vec<usize> {
     let mut add = |term: Term, basis: fn(usize, usize) -> Vec<f64>, k: usize| {
         let part = Arc::clone(&part);
         let recipe = move || {
-            basis(n, k)
-                .iter()
-                .zip(part.iter())
-                .map(|(c, p)| c * p)
-                .collect()
+            // In place: columns are built on every core at once, each a 4.8 MB basis.
+            let mut column = basis(n, k);
+            for (c, p) in column.iter_mut().zip(part.iter()) {
+                *c *= p;
+            }
+            column
         };
         work.add_computed(term, recipe, Sign::Free)
     };

@@ -32,11 +32,16 @@ impl Pool {
         if let Some(v) = self.with_y.get(&a) {
             return v.clone();
         }
-        let (w, y) = (&self.weight, &self.y);
-        let sum = |ca: &[f32], (s, e): (usize, usize)| dot_with(ca, &w[s..e], &y[s..e]);
-        let v = self.per_fold_of(a, built, sum);
+        let v = self.y_sums(a, built);
         self.with_y.insert(a, v.clone());
         v
+    }
+
+    /// Per fold, Σ w·x·y of column `a` (x) against the strain (y).
+    pub(super) fn y_sums(&self, a: usize, built: &HashMap<usize, Vec<f32>>) -> Vec<f64> {
+        let (w, y) = (&self.weight, &self.y);
+        let sum = |ca: &[f32], (s, e): (usize, usize)| dot_with(ca, &w[s..e], &y[s..e]);
+        self.per_fold_of(a, built, sum)
     }
 
     /// Per fold, `sum` of column `a`'s samples of the fold (given from the fold's start): a
