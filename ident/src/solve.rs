@@ -163,9 +163,12 @@ impl Pool {
 
     /// Adds a regressor; returns its index.
     pub fn add(&mut self, name: impl Into<String>, values: &[f64], sign: Sign) -> usize {
-        self.cols.push(Column::Stored(
-            values.iter().map(|v| *v as f32).collect::<Vec<f32>>(),
-        ));
+        self.add_stored(name, values.iter().map(|v| *v as f32).collect(), sign)
+    }
+
+    /// Adds a regressor of values already as stored; returns its index.
+    pub fn add_stored(&mut self, name: impl Into<String>, values: Vec<f32>, sign: Sign) -> usize {
+        self.cols.push(Column::Stored(values));
         self.signs.push(sign);
         self.names.push(name.into());
         self.cols.len() - 1

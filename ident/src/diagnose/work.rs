@@ -4,7 +4,7 @@
 use crate::residual::{residual_tests, ResidualTests};
 use crate::series::Series;
 use crate::solve::{Pool, Sign};
-use crate::{stats, terms};
+use crate::{par, stats, terms};
 
 use super::Term;
 
@@ -26,8 +26,13 @@ pub(super) struct Work<'a> {
 impl Work<'_> {
     /// Adds a term of stored values; returns its column.
     pub(super) fn add(&mut self, term: Term, values: &[f64], sign: Sign) -> usize {
+        self.add_stored(term, values.iter().map(|v| *v as f32).collect(), sign)
+    }
+
+    /// Adds a term of values already as the pool stores them; returns its column.
+    pub(super) fn add_stored(&mut self, term: Term, values: Vec<f32>, sign: Sign) -> usize {
         let name = format!("{term:?}");
-        let j = self.pool.add(name, values, sign);
+        let j = self.pool.add_stored(name, values, sign);
         self.terms.push(term);
         j
     }
@@ -137,10 +142,16 @@ pub(super) fn baseline_columns(work: &mut Work, taus: &[f64], creep: Creep) -> V
 /// Kelvin branches of force `f` at the time constants `taus`, stored.
 pub(super) fn relaxation_columns(work: &mut Work, f: &[f64], taus: &[f64]) -> Vec<usize> {
     let dt = work.s.dt_s;
+    let branch = |tau: f64| -> Vec<f32> {
+        let v = terms::lowpass(f, tau, dt);
+        v.iter().map(|x| *x as f32).collect()
+    };
+    let built = par::map(taus, |&tau| branch(tau));
     taus.iter()
-        .map(|&tau| {
-            let v = terms::lowpass(f, tau, dt);
-            work.add(Term::Relaxation(tau), &v, Sign::NonNegative)
+        .zip(built)
+        .map(|(&tau, v)| {
+            let v = v.unwrap_or_else(|| branch(tau));
+            work.add_stored(Term::Relaxation(tau), v, Sign::NonNegative)
         })
         .collect()
 }
