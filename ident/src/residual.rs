@@ -127,25 +127,42 @@ pub fn residual_tests(
     let bound = 1.96 / (n.max(1) as f64).sqrt();
     let outside = acf.iter().filter(|r| r.abs() > bound).count() as f64 / acf.len().max(1) as f64;
     let (q, ratio) = stats::ljung_box(&acf, n, PORTMANTEAU_LAGS);
+    // The load's three sorts beside the spectra: each on a core of its own.
+    let ((load_r2, rate_r2, direction_r2), (line_hz, line_ratio, band_shares)) =
+        std::thread::scope(|scope| {
+            let loads = scope.spawn(|| by_load(residual, force, dt_s));
+            let spectral = spectral(residual, measured_force, dt_s);
+            let loads = loads
+                .join()
+                .unwrap_or_else(|_| by_load(residual, force, dt_s));
+            (loads, spectral)
+        });
+    let (jump_power_share, jump_sample_share) = after_jumps(residual, measured_force);
+    ResidualTests {
+        rms_pct: stats::rms(residual),
+        acf,
+        acf_bound: bound,
+        acf_outside: outside,
+        ljung_box: q,
+        ljung_box_ratio: ratio,
+        load_r2,
+        time_r2: time_r2(residual),
+        rate_r2,
+        direction_r2,
+        line_hz,
+        line_ratio,
+        band_shares,
+        jump_power_share,
+        jump_sample_share,
+    }
+}
+
+/// Shares of `residual`'s variance the load explains, the loading rate, and the loading
+/// direction at equal load (bins of (load, sign of rate) less bins of load alone).
+fn by_load(residual: &[f64], force: &[f64], dt_s: f64) -> (f64, f64, f64) {
     let load_r2 = binned_r2(residual, force, 10);
-    // A smooth function of time: means over 16 contiguous stretches (no sort, no copy).
-    let time_r2 = {
-        let m = stats::mean(residual);
-        let var: f64 = residual.iter().map(|v| (v - m) * (v - m)).sum();
-        let chunk = residual.len().div_ceil(16).max(1);
-        let explained: f64 = residual
-            .chunks(chunk)
-            .map(|c| c.len() as f64 * (stats::mean(c) - m).powi(2))
-            .sum();
-        if var > 0.0 {
-            (explained / var - 16.0 / residual.len().max(1) as f64).max(0.0)
-        } else {
-            0.0
-        }
-    };
     let w = ((0.05 / dt_s).round() as usize).max(1);
     let mut rate = terms::derivative(&stats::moving_mean(force, 2 * w + 1), dt_s);
-    // Direction at equal load: bins of (load, sign of rate) minus bins of load alone.
     let range = 1e-9 + force.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let signed: Vec<f64> = force
         .iter()
@@ -156,8 +173,28 @@ pub fn residual_tests(
     drop(signed);
     rate.iter_mut().for_each(|v| *v = v.abs());
     let rate_r2 = binned_r2(residual, &rate, 10);
-    drop(rate);
-    let (jump_power_share, jump_sample_share) = after_jumps(residual, measured_force);
+    (load_r2, rate_r2, direction_r2)
+}
+
+/// A smooth function of time's share: means over 16 contiguous stretches (no sort, no copy).
+fn time_r2(residual: &[f64]) -> f64 {
+    let m = stats::mean(residual);
+    let var: f64 = residual.iter().map(|v| (v - m) * (v - m)).sum();
+    let chunk = residual.len().div_ceil(16).max(1);
+    let explained: f64 = residual
+        .chunks(chunk)
+        .map(|c| c.len() as f64 * (stats::mean(c) - m).powi(2))
+        .sum();
+    if var > 0.0 {
+        (explained / var - 16.0 / residual.len().max(1) as f64).max(0.0)
+    } else {
+        0.0
+    }
+}
+
+/// The strongest line of `residual` that is not `measured_force`'s (Hz, its height over the
+/// local median), and the shares of the residual's power in the four bands.
+fn spectral(residual: &[f64], measured_force: &[f64], dt_s: f64) -> (f64, f64, [f64; 4]) {
     let (df, p) = terms::periodogram(residual, dt_s);
     let (_, pf) = terms::periodogram(measured_force, dt_s);
     let lines = terms::lines_in(&p, &pf, df, 0.3, 1.0, 1);
@@ -178,23 +215,7 @@ pub fn residual_tests(
         };
         band_shares[b] += v / total;
     }
-    ResidualTests {
-        rms_pct: stats::rms(residual),
-        acf,
-        acf_bound: bound,
-        acf_outside: outside,
-        ljung_box: q,
-        ljung_box_ratio: ratio,
-        load_r2,
-        time_r2,
-        rate_r2,
-        direction_r2,
-        line_hz,
-        line_ratio,
-        band_shares,
-        jump_power_share,
-        jump_sample_share,
-    }
+    (line_hz, line_ratio, band_shares)
 }
 
 impl ResidualTests {
