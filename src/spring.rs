@@ -325,7 +325,7 @@ impl SpringLaw {
                 base,
                 sqrt_coeff,
                 linear_coeff,
-            } => base + sqrt_coeff * libm::sqrt(s) + linear_coeff * s,
+            } => base + sqrt_coeff * crate::trig::sqrt(s) + linear_coeff * s,
             SpringLaw::Saturating {
                 base,
                 gain,
@@ -364,7 +364,7 @@ impl SpringLaw {
                     return 1e9;
                 }
                 let b = sqrt_coeff * e;
-                let u = (b + libm::sqrt(b * b + 4.0 * a * base * e)) / (2.0 * a);
+                let u = (b + crate::trig::sqrt(b * b + 4.0 * a * base * e)) / (2.0 * a);
                 u * u
             }
             SpringLaw::Saturating {

@@ -97,7 +97,7 @@ impl SenseNode {
         let w = 2.0 * core::f64::consts::PI * self.drive_frequency_hz;
         let rl = self.input_resistance_ohm;
         let x = w * rl * (element_f + self.lumped_capacitance_f);
-        element_f * rl * w / libm::sqrt(1.0 + x * x) * self.drive_amplitude_v
+        element_f * rl * w / crate::trig::sqrt(1.0 + x * x) * self.drive_amplitude_v
     }
     /// Eq. 3, the C_l ≫ C_s, high-ω limit: |V_s| = (C_s / C_l) |V_d|.
     pub fn sensed_amplitude_limit_v(&self, element_f: f64) -> f64 {

@@ -111,6 +111,65 @@ pub fn sqrtf(x: f32) -> f32 {
     }
 }
 
+/// √x in double precision, correctly rounded as libm's is (so the two agree bit for bit). Only
+/// start-up code takes it: on the Cortex-M4F digit by digit, in a fraction of the flash of
+/// libm's routine and its 256-byte table.
+#[inline]
+pub fn sqrt(x: f64) -> f64 {
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        sqrt_digits(x)
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        libm::sqrt(x)
+    }
+}
+
+/// √x two bits of the significand at a time: 54 bits of the root, the last one rounding (a
+/// root's 54th bit is never followed by zeros alone, so there is no tie to break).
+#[cfg_attr(not(all(target_arch = "arm", target_abi = "eabihf")), allow(dead_code))]
+fn sqrt_digits(x: f64) -> f64 {
+    const EXP_MASK: u64 = 0x7ff0_0000_0000_0000;
+    let bits = x.to_bits();
+    if bits << 1 == 0 || bits == EXP_MASK {
+        return x; // ±0, +∞
+    }
+    if bits > EXP_MASK {
+        return f64::NAN; // NaN or negative
+    }
+    let (mut m, biased) = (bits & ((1 << 52) - 1), (bits >> 52) as i32);
+    let mut e = if biased == 0 {
+        // Subnormal: its leading bit moved to the implicit bit's place.
+        let shift = m.leading_zeros() - 11;
+        m <<= shift;
+        1 - 1075 - shift as i32
+    } else {
+        m |= 1 << 52;
+        biased - 1075
+    };
+    // x = m·2^e with e even and m in [2^52, 2^54): the root of m·2^54 is in [2^53, 2^54).
+    if e & 1 != 0 {
+        m <<= 1;
+        e -= 1;
+    }
+    let (mut pairs, mut rem, mut root) = (m << 10, 0u64, 0u64);
+    for _ in 0..54 {
+        rem = (rem << 2) | (pairs >> 62);
+        pairs <<= 2;
+        let trial = (root << 2) | 1;
+        root <<= 1;
+        if rem >= trial {
+            rem -= trial;
+            root |= 1;
+        }
+    }
+    // The significand with its implicit bit adds one to the exponent field (and a carry from
+    // rounding up to 2^53 one more, as it should).
+    let exponent = (e / 2 + 1048) as u64;
+    f64::from_bits((exponent << 52) + ((root + 1) >> 1))
+}
+
 /// sin r on [−π/4, π/4] (fdlibm's `__kernel_sin`, error under one unit in the last place).
 fn kernel_sin(r: f64) -> f64 {
     const S: [f64; 6] = [
@@ -180,6 +239,54 @@ mod tests {
         // An hour at 50 Hz: what the argument's rounding allows.
         let x = 2.0 * core::f64::consts::PI * 50.0 * 3600.0 + 0.3;
         assert!((sin_cos(x).0 - x.sin()).abs() < 1e-9);
+    }
+
+    /// Digit by digit against libm, bit for bit: random bit patterns over every exponent,
+    /// subnormals, perfect squares and their neighbours, and the special values.
+    #[test]
+    fn sqrt_digits_is_libms_bit_for_bit() {
+        let same = |x: f64| {
+            let (a, b) = (sqrt_digits(x), libm::sqrt(x));
+            assert!(
+                a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                "{x:e}: {a:e} {b:e}"
+            );
+        };
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..2_000_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            same(f64::from_bits(state >> 1));
+            same(f64::from_bits(state >> 12)); // subnormal
+        }
+        for k in 1..100_000u64 {
+            let sq = (k * k) as f64;
+            for x in [
+                sq,
+                f64::from_bits(sq.to_bits() - 1),
+                f64::from_bits(sq.to_bits() + 1),
+            ] {
+                same(x);
+                same(x * 1e-300);
+            }
+        }
+        for x in [
+            0.0,
+            -0.0,
+            1.0,
+            2.0,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::INFINITY,
+        ] {
+            same(x);
+        }
+        assert_eq!(sqrt_digits(-0.0).to_bits(), (-0.0f64).to_bits());
+        for x in [-1.0, -5e-324, f64::NEG_INFINITY, f64::NAN] {
+            assert!(sqrt_digits(x).is_nan());
+        }
     }
 
     /// Against the host's arctan over the whole line: within 4·10⁻⁷ of the value (a few

@@ -281,7 +281,7 @@ pub fn rms_n_g<T: Real>(g1: f64, predicted: &[T], measured: &[T]) -> Option<f64>
             d * d
         })
         .sum();
-    Some(g1 * libm::sqrt(sum / predicted.len() as f64))
+    Some(g1 * crate::trig::sqrt(sum / predicted.len() as f64))
 }
 
 #[cfg(test)]

@@ -48,7 +48,7 @@ impl ChainStep {
             // Complex, repeated or unstable forward poles: not a chain of Kelvin branches.
             return Err(ModelError::Unstable);
         }
-        let root = libm::sqrt(disc);
+        let root = crate::trig::sqrt(disc);
         let p = [(e1 - root) / 2.0, (e1 + root) / 2.0];
         // Strictly proper remainder (n₁s + n₀)/(b₀(s + p₁)(s + p₂)).
         let (n1, n0) = (so.a1 - e1, so.a2 - e0);
