@@ -168,9 +168,10 @@ impl<'a> Judge<'a> {
         let settings = self.sel.settings;
         let (p, gain, excess, colored) =
             (judged.p_value, judged.gain, judged.excess, judged.colored);
-        // A second effect of another kind takes the share a first takes (what the first leaves holds
-        // its basis's misfit: a delay beside a stiffening took all of its own part and a fifth
-        // of the excess); one whose basis could take the first's misfit, or a third, half.
+        // A second effect of another kind takes the share a first takes (what the first
+        // leaves holds its basis's misfit: a delay beside a stiffening took all of its own
+        // part and a fifth of the excess); one whose basis could take the first's misfit, or
+        // a third, half.
         let stands_in = self.state.groups.iter().any(|g| kin(t.effect, g.0));
         let share = if self.round > 2 || stands_in {
             0.5
