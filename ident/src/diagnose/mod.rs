@@ -577,12 +577,14 @@ impl Selection<'_> {
         let (tries, temporary) = tries::tries(work, state, self.columns, self.settings, round);
         let mut best = select::best_of_each(work, state, tries);
 
-        // Judged against the model as it stands; the last resort only where nothing passed.
+        // Judged against the model as it stands; the last resort only where nothing passed,
+        // first or after a gain in time alone: where the load holds, a gain's basis takes a
+        // zero's settling, and what it leaves of the zero swings inside the blocks.
         let judge = select::Judge::new(work, state, self, round);
         let (mut round_candidates, passed, winner) = judge.all(work, &best);
         let mut winner = judge.simpler(work, &best, &passed, winner);
         if winner.is_none()
-            && round == 1
+            && state.groups.iter().all(|g| g.0 == Effect::SensitivityDrift)
             && floors::far_from_white(&state.tests, state.scored.cv_mse, self.floors.floor)
         {
             if let Some((candidate, accepted)) = judge.drift_by_block(work) {

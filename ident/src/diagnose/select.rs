@@ -149,6 +149,13 @@ impl<'a> Judge<'a> {
             .any(|(t, sc)| t.effect == Effect::BaselineDrift && !self.beats(work, gain, sc))
     }
 
+    /// The p-value a try must beat: a further effect clears a stricter test, each round
+    /// being another look.
+    fn alpha(&self) -> f64 {
+        let strict = if self.round > 1 { 5.0 } else { 1.0 };
+        self.sel.settings.alpha / strict
+    }
+
     /// Whether try `t`, scored `sc` and `judged`, passes: consistently better over the folds,
     /// a share of the excess and of the floor, and whiter (or most of the excess).
     fn passes(
@@ -161,18 +168,17 @@ impl<'a> Judge<'a> {
         let settings = self.sel.settings;
         let (p, gain, excess, colored) =
             (judged.p_value, judged.gain, judged.excess, judged.colored);
-        // A further effect must clear a stricter test: each round is another look. A second
-        // effect of another kind takes the share a first takes (what the first leaves holds
-        // its basis's misfit: a delay beside a stiffening took all of its own part and a fifth
-        // of the excess); one whose basis could take the first's misfit, or a third, half.
-        let strict = if self.round > 1 { 5.0 } else { 1.0 };
+        // A second effect of another kind takes the share a first takes (what the first
+        // leaves holds its basis's misfit: a delay beside a stiffening took all of its own
+        // part and a fifth of the excess); one whose basis could take the first's misfit, or
+        // a third, half.
         let stands_in = self.state.groups.iter().any(|g| kin(t.effect, g.0));
         let share = if self.round > 2 || stands_in {
             0.5
         } else {
             settings.min_excess_share
         };
-        p < settings.alpha / strict
+        p < self.alpha()
             && gain >= share * excess
             && gain > 0.0
             && gain >= settings.min_floor_share * judged.floor
@@ -255,7 +261,9 @@ impl<'a> Judge<'a> {
     /// the force-driven effects that could take the same slow residual were tried above and
     /// predicted nothing. Only then: after a named effect, a block's own line also takes
     /// the slow misfit of that effect's basis (half of what a play model leaves of a Duhem
-    /// loop), and near the floor it takes a share of the noise.
+    /// loop), and near the floor it takes a share of the noise. The one exception is a gain
+    /// in time, and then the drift must also beat a block's own gain line
+    /// ([`Judge::beats_gain_line`]).
     ///
     /// Returns the best number of half-cosines as a candidate, and when it passes, its try,
     /// score and gain.
@@ -284,10 +292,11 @@ impl<'a> Judge<'a> {
         let (gain, excess) = (judged.gain, judged.excess);
         // Half the excess at least: the blocks' own lines take a little of any slow
         // misfit, a drift most of the residual.
-        let pass = judged.p_value < settings.alpha
+        let pass = judged.p_value < self.alpha()
             && gain >= settings.coloured_excess_share * excess
             && gain >= settings.min_floor_share * judged.floor
-            && judged.colored < self.colored;
+            && judged.colored < self.colored
+            && (!self.state.taken(Effect::SensitivityDrift) || self.beats_gain_line(work, &sc));
         let candidate = Candidate::judged(
             (
                 Effect::BaselineDrift,
@@ -308,6 +317,69 @@ impl<'a> Judge<'a> {
         });
         Some((candidate, accepted))
     }
+}
+
+impl Judge<'_> {
+    /// After a gain in time, a block's own line also takes what the gain's basis leaves of
+    /// the sensitivity's course; but a gain multiplies the load and a zero does not. The drift
+    /// judged by block must beat, as an effect beats the model without it, the model judged on
+    /// each held-out block less a gain line of its own (the force-driven strain and it × time).
+    fn beats_gain_line(&self, work: &Work, drift: &Scored) -> bool {
+        let (floors, settings) = (self.sel.floors, self.sel.settings);
+        let model = &self.state.scored;
+        let part = work.force_part(&model.columns, &model.beta);
+        let fold_mse = less_block_gain_line(work, model, &part);
+        let counts = &work.pool.folds().counts;
+        let used: usize = counts.iter().sum();
+        let cv: f64 = fold_mse
+            .iter()
+            .zip(counts)
+            .map(|(m, n)| m * *n as f64)
+            .sum::<f64>()
+            / used.max(1) as f64;
+        let energy = Floors::energy_of(work, model);
+        let d = fold_gains(&fold_mse, &floors.noise_matched(work, drift, energy));
+        let floor = floors.floor_at(Floors::energy_of(work, drift).max(energy));
+        paired(&d) < self.alpha()
+            && cv - drift.cv_mse >= settings.min_excess_share * (cv - floor).max(0.0)
+    }
+}
+
+/// Each fold's held-out mean square of `sc` less the fold's own gain line: its residual's
+/// projection on the force-driven strain `part` and `part` × time within the fold.
+fn less_block_gain_line(work: &Work, sc: &Scored, part: &[f64]) -> Vec<f64> {
+    let y = work.pool.y();
+    let folds = work.pool.folds();
+    folds
+        .ranges
+        .iter()
+        .zip(&folds.counts)
+        .zip(&sc.fold_beta)
+        .map(|((&(a, b), &n), beta)| {
+            let prediction = work.pool.predict(&sc.columns, beta);
+            let mid = 0.5 * (a + b) as f64;
+            let [mut uu, mut uv, mut vv, mut ru, mut rv, mut rr] = [0.0; 6];
+            for i in (a..b).filter(|&i| work.kept[i]) {
+                let r = y[i] - prediction[i];
+                let (u, v) = (part[i], part[i] * (i as f64 - mid));
+                uu += u * u;
+                uv += u * v;
+                vv += v * v;
+                ru += r * u;
+                rv += r * v;
+                rr += r * r;
+            }
+            let det = uu * vv - uv * uv;
+            let taken = if det > 1e-12 * uu * vv {
+                (vv * ru * ru - 2.0 * uv * ru * rv + uu * rv * rv) / det
+            } else if uu > 0.0 {
+                ru * ru / uu
+            } else {
+                0.0
+            };
+            (rr - taken).max(0.0) / n.max(1) as f64
+        })
+        .collect()
 }
 
 /// Effects whose bases can take each other's misfit: both slow (see [`confusable`]), or both
