@@ -159,20 +159,21 @@ impl Rotation {
 /// Legendre polynomial of degree `k` over the record, from −1 to 1 (Bonnet's recursion): a gain
 /// that changes linearly, bends, or settles.
 pub fn legendre(n: usize, k: usize) -> Vec<f64> {
-    (0..n)
-        .map(|i| {
-            let x = 2.0 * (i as f64 + 0.5) / n as f64 - 1.0;
-            let (mut below, mut p) = (1.0, x);
-            if k == 0 {
-                return below;
-            }
-            for m in 1..k {
-                let m = m as f64;
-                (below, p) = (p, ((2.0 * m + 1.0) * x * p - m * below) / (m + 1.0));
-            }
-            p
-        })
-        .collect()
+    (0..n).map(|i| legendre_at(n, k, i)).collect()
+}
+
+/// Sample `i` of [`legendre`].
+pub fn legendre_at(n: usize, k: usize, i: usize) -> f64 {
+    let x = 2.0 * (i as f64 + 0.5) / n as f64 - 1.0;
+    let (mut below, mut p) = (1.0, x);
+    if k == 0 {
+        return below;
+    }
+    for m in 1..k {
+        let m = m as f64;
+        (below, p) = (p, ((2.0 * m + 1.0) * x * p - m * below) / (m + 1.0));
+    }
+    p
 }
 
 /// sin and cos at `hz`.

@@ -634,34 +634,59 @@ enum GainShape {
 
 /// Columns of the force-driven strain `part` × each function of `shape`, computed where they
 /// are read (a 600 s record at 1 kHz: 2.4 MB a column, up to 17 of them).
-fn gain_columns(work: &mut Work, part: &[f64], shape: GainShape) -> Vec<usize> {
+fn gain_columns(work: &mut Work, part: &Arc<Vec<f64>>, shape: GainShape) -> Vec<usize> {
     let n = work.s.len();
-    let part: Arc<[f64]> = part.into();
-    let mut add = |term: Term, basis: fn(usize, usize) -> Vec<f64>, k: usize| {
-        let part = Arc::clone(&part);
-        let recipe = move || {
-            // In place: columns are built on every core at once, each a 4.8 MB basis.
-            let mut column = basis(n, k);
-            for (c, p) in column.iter_mut().zip(part.iter()) {
-                *c *= p;
-            }
-            column
-        };
-        work.add_computed(term, recipe, Sign::Free)
+    let mut add = |term: Term, basis: Basis| {
+        let part = Arc::clone(part);
+        work.add_computed_stored(term, move || basis.times(n, &part), Sign::Free)
     };
     match shape {
         GainShape::Polynomial(top) => (1..=top)
-            .map(|k| add(Term::Gain(k), terms::legendre, k))
+            .map(|k| add(Term::Gain(k), Basis::Legendre(k)))
             .collect(),
         // Half-cosines all start and end level; a line beside them lets the gain move at the
         // record's ends (a cycle caught mid-swing).
         GainShape::Cosines(top) => {
             let mut cols: Vec<usize> = (1..=top)
-                .map(|k| add(Term::GainCosine(k), terms::cosine, k))
+                .map(|k| add(Term::GainCosine(k), Basis::Cosine(k)))
                 .collect();
-            cols.push(add(Term::Gain(1), terms::legendre, 1));
+            cols.push(add(Term::Gain(1), Basis::Legendre(1)));
             cols
         }
+    }
+}
+
+/// A function of time a gain's column multiplies the force-driven strain by.
+#[derive(Clone, Copy)]
+enum Basis {
+    Legendre(usize),
+    Cosine(usize),
+}
+
+impl Basis {
+    /// The basis over `n` samples × `part`, as the pool stores it, a block at a time: columns
+    /// are built on every core at once, and a basis whole is 4.8 MB at 600 s and 1 kHz.
+    fn times(self, n: usize, part: &[f64]) -> Vec<f32> {
+        const BLOCK: usize = 4096; // whole eights: the rotation's lanes move by eight
+        let part = &part[..n.min(part.len())];
+        let mut out = Vec::with_capacity(part.len());
+        match self {
+            Basis::Legendre(k) => out.extend(
+                part.iter()
+                    .enumerate()
+                    .map(|(i, p)| (terms::legendre_at(n, k, i) * p) as f32),
+            ),
+            Basis::Cosine(k) => {
+                let mut rotation = terms::Rotation::new(n, k, 0);
+                let mut block = Vec::with_capacity(BLOCK);
+                for chunk in part.chunks(BLOCK) {
+                    block.clear();
+                    rotation.fill(&mut block, chunk.len());
+                    out.extend(block.iter().zip(chunk).map(|(c, p)| (c * p) as f32));
+                }
+            }
+        }
+        out
     }
 }
 
@@ -672,7 +697,7 @@ const GAIN_HALF_PERIOD_MIN_S: f64 = 120.0;
 /// A gain that changes with time: the force-driven strain × a polynomial in time, or on a
 /// record of several minutes × half-cosines (a temperature cycle).
 fn sensitivity_drift(work: &mut Work, state: &State, round: usize) -> Option<Try> {
-    let force_part = work.force_part(&state.cols, &state.scored.beta);
+    let force_part = Arc::new(work.force_part(&state.cols, &state.scored.beta));
     // A gain × (the force-driven strain) is bilinear; the strain that multiplies the
     // gain is the one the model fitted with the gain: the baseline alone, fitted to a
     // record whose sensitivity changes, is bent by it. Two refinements. A cubic too: a
@@ -711,7 +736,7 @@ fn sensitivity_drift(work: &mut Work, state: &State, round: usize) -> Option<Try
         for _ in 0..2 {
             let all: Vec<usize> = state.cols.iter().chain(&cols).copied().collect();
             let sc = work.pool.score(&all);
-            let part = work.force_part(&sc.columns, &sc.beta);
+            let part = Arc::new(work.force_part(&sc.columns, &sc.beta));
             for c in cols {
                 work.pool.drop_column(c);
             }

@@ -37,6 +37,18 @@ impl Work<'_> {
         j
     }
 
+    /// [`Work::add_computed`] of a recipe that gives the values as the pool stores them.
+    pub(super) fn add_computed_stored(
+        &mut self,
+        term: Term,
+        recipe: impl Fn() -> Vec<f32> + Send + Sync + 'static,
+        sign: Sign,
+    ) -> usize {
+        let j = self.pool.add_computed(format!("{term:?}"), recipe, sign);
+        self.terms.push(term);
+        j
+    }
+
     /// Adds a term computed from `recipe` wherever it is read (see `Pool::add_computed`).
     pub(super) fn add_computed(
         &mut self,
