@@ -656,14 +656,18 @@ pub fn chip_choice(m: &TaxelModel) -> String {
 
 /// Diagnoses a checked record and carries the result to the chip.
 pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
-    // The baseline's forms are scored on the chip while the diagnosis's rounds run.
+    // The baseline's forms, and each round's accepted model's, are scored on the chip while
+    // the diagnosis's rounds run.
     let record = (series, load_range_g(series));
     let (sender, fitted) = std::sync::mpsc::channel::<FoldModels>();
     let (mut d, early) = std::thread::scope(|scope| {
         let worker = scope.spawn(move || {
             fitted
                 .into_iter()
-                .map(|m| (m.folds.clone(), baseline_form(&m, record)))
+                .map(|m| {
+                    let scored = baseline_form(&m, record);
+                    ((m.folds, m.terms), scored)
+                })
                 .collect::<Vec<_>>()
         });
         let d = tactile_ident::diagnose::diagnose_observed(series, &Settings::default(), &|m| {
@@ -680,17 +684,23 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         .map(|e| (*e, on_chip(*e).to_string()))
         .collect();
     let inverted = d.model.orientation < 0.0;
-    let (base_form, before) = early
-        .into_iter()
-        .rev()
-        .find(|(folds, _)| *folds == d.model.folds)
-        .map(|(_, scored)| scored)
+    // Scored early where the same folds and terms were handed over, else now.
+    let scored_early = |terms: &[Vec<(Term, f64)>]| {
+        early
+            .iter()
+            .find(|((folds, t), _)| *folds == d.model.folds && t.as_slice() == terms)
+            .map(|(_, scored)| *scored)
+    };
+    let (base_form, before) = scored_early(&d.model.baseline_fold_terms)
         .unwrap_or_else(|| baseline_form(&d.fold_models(&d.model.baseline_fold_terms), record));
     let (form, after) = if inverted || d.effects.is_empty() {
         (base_form, before)
     } else {
-        let m = d.fold_models(&d.model.chip_fold_terms);
-        best_form(&m, record, forms_of(&m))
+        // Not inverted: the baseline's form of a model is its best form.
+        scored_early(&d.model.chip_fold_terms).unwrap_or_else(|| {
+            let m = d.fold_models(&d.model.chip_fold_terms);
+            best_form(&m, record, forms_of(&m))
+        })
     };
     let before_all = before.unwrap_or([f64::NAN; 4]);
     let after_all = after.unwrap_or(before_all);

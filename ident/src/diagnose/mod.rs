@@ -425,21 +425,22 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     diagnose_observed(series, settings, &|_| {})
 }
 
-/// [`diagnose_with`], handing `on_baseline` the baseline's fold models as soon as they are
-/// fitted (before the candidates' rounds, which leave a core mostly idle): a caller can score
-/// them meanwhile. A record judged again on shorter blocks hands over a second set; the one
-/// whose folds are the diagnosis's is its baseline's.
+/// [`diagnose_with`], handing `on_fitted` the fold models of the baseline as soon as they are
+/// fitted, and of the model as it stands after each round that accepts an effect (the rounds
+/// leave a core mostly idle: a caller can score them meanwhile; the last one handed over is
+/// the diagnosis's chip model unless a later step changed it). A record judged again on
+/// shorter blocks hands over a second series; compare folds and terms to find which is which.
 pub fn diagnose_observed(
     series: &Series,
     settings: &Settings,
-    on_baseline: &(dyn Fn(FoldModels) + Sync),
+    on_fitted: &(dyn Fn(FoldModels) + Sync),
 ) -> Diagnosis {
-    let d = diagnose_on(series, settings, None, on_baseline);
+    let d = diagnose_on(series, settings, None, on_fitted);
     let block_s = series.duration_s() / d.folds.len().max(1) as f64;
     if d.effect != "unexplained" || block_s <= SWING_BLOCK_S * 1.01 {
         return d;
     }
-    let again = diagnose_on(series, settings, Some(d.folds.len()), on_baseline);
+    let again = diagnose_on(series, settings, Some(d.folds.len()), on_fitted);
     if again.effect == "unexplained" {
         d
     } else {
@@ -457,7 +458,7 @@ fn diagnose_on(
     series: &Series,
     settings: &Settings,
     first_folds: Option<usize>,
-    on_baseline: &(dyn Fn(FoldModels) + Sync),
+    on_fitted: &(dyn Fn(FoldModels) + Sync),
 ) -> Diagnosis {
     let prep = prepare::prepare(series, settings);
     let s = &prep.smoothed;
@@ -493,14 +494,15 @@ fn diagnose_on(
         tests,
         drift_by_block: false,
     };
-    on_baseline(FoldModels {
-        terms: report::fold_terms_of(&work, &state.scored),
+    let fold_models = |work: &Work, scored: &Scored| FoldModels {
+        terms: report::fold_terms_of(work, scored),
         folds: folds.ranges.clone(),
         force_scale_g: work.force_scale,
         force_origin_g: work.force_origin,
         secant_g_per_pct: prep.secant,
         orientation: prep.orientation,
-    });
+    };
+    on_fitted(fold_models(&work, &state.scored));
     let first_order = floors::first_order(&mut work, &base);
     let before = Before {
         scored: state.scored.clone(),
@@ -532,6 +534,15 @@ fn diagnose_on(
     for round in 1..=settings.max_rounds {
         if !selection.round(&mut work, &mut state, round, &mut candidates) {
             break;
+        }
+        // The chip's model if the rounds stop here (a loop's Duhem terms are refitted as
+        // plays for the chip afterwards: not handed over).
+        if !state
+            .cols
+            .iter()
+            .any(|c| matches!(work.terms[*c], Term::Duhem { .. }))
+        {
+            on_fitted(fold_models(&work, &state.scored));
         }
     }
     selection.prune(&mut work, &mut state, &mut candidates);
