@@ -768,6 +768,34 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_chip_figures_are_the_final_models_though_scored_while_the_rounds_ran() {
+        // Two effects accepted in two rounds: the first round's model is handed over and
+        // scored too, and the report must carry the forms of the model the rounds ended with.
+        use tactile_ident::synth::{generate, Spec, SynthEffect};
+        let g = generate(&Spec {
+            seed: 42,
+            rate_hz: 200.0,
+            duration_s: 180.0,
+            effects: vec![SynthEffect::Stiffening(0.5), SynthEffect::Drift(0.04)],
+        });
+        let series = Series::new(g.dt_s, g.force_g, g.strain_pct, vec![]).unwrap();
+        let r = diagnose(&series, TaxelId::default());
+        assert_eq!(r.diagnosis.effects.len(), 2, "{}", r.diagnosis.summary);
+        let record = (&series, load_range_g(&series));
+        let fresh = |terms: &[Vec<(Term, f64)>]| {
+            let m = r.diagnosis.fold_models(terms);
+            best_form(&m, record, forms_of(&m)).1.map(|v| v[OBSERVER])
+        };
+        let f = &r.force_estimate;
+        assert_eq!(f.after_rms_g, fresh(&r.diagnosis.model.chip_fold_terms));
+        assert_eq!(
+            f.before_rms_g,
+            fresh(&r.diagnosis.model.baseline_fold_terms)
+        );
+        assert_ne!(f.after_rms_g, f.before_rms_g);
+    }
+
+    #[test]
     fn a_clipped_strain_is_found_at_its_rail_and_a_held_one_is_not() {
         // A held load: a few codes about a level, its largest a tail.
         let held: Vec<f64> = (0..10_000)
