@@ -202,33 +202,17 @@ fn moments_of(
     scored: &[bool],
 ) -> Moments {
     let mut moments = Moments::zero();
-    let Ok(mut bank) = ForceBank::new(model, dt_s) else {
-        return moments;
-    };
-    let n = strain_pct.len().min(force_g.len());
-    for (i, (e, f)) in strain_pct.iter().zip(force_g).enumerate() {
-        let e = *e as f32;
-        if !e.is_finite() {
-            continue;
-        }
-        let (terms, estimate) = bank.step(e);
-        let weighed: f32 = terms.iter().zip(&model.weights_g).map(|(x, w)| x * w).sum();
-        let target = f + f64::from(weighed - estimate);
-        if scored.get(i).copied().unwrap_or(false)
-            && target.is_finite()
-            && terms.iter().all(|v| v.is_finite())
-        {
-            moments.add(fold_of(i, n), &terms, target);
-        }
-    }
+    let record = (dt_s, strain_pct, force_g, scored);
+    let _ = each_kept(model, record, |fold, terms, target| {
+        moments.add(fold, terms, target)
+    });
     moments
 }
 
 /// [`moments_of`] for `model`, a layout of `plain`'s with weights and a re-zero, taking the
 /// terms' Σ x xᵀ from `plain`: the re-zero moves only the force the terms weigh, never the
-/// terms, so a pass sums only Σ f x and Σ f². `None` where the terms
-/// may have differed: an estimate that was not finite starts the bank over, or a sample left
-/// out that `plain` kept.
+/// terms, so a pass sums only Σ f x and Σ f². `None` where the terms may have differed: an
+/// estimate that was not finite starts the bank over, or a sample left out that `plain` kept.
 fn rezero_moments(
     model: &BankModel,
     plain: &Moments,
@@ -237,30 +221,13 @@ fn rezero_moments(
     force_g: &[f64],
     scored: &[bool],
 ) -> Option<Moments> {
-    let mut bank = ForceBank::new(model, dt_s).ok()?;
     let mut moments = Moments::zero();
     let mut counts = [0usize; FOLDS];
-    let n = strain_pct.len().min(force_g.len());
-    for (i, (e, f)) in strain_pct.iter().zip(force_g).enumerate() {
-        let e = *e as f32;
-        if !e.is_finite() {
-            continue;
-        }
-        let (terms, estimate) = bank.step(e);
-        if !estimate.is_finite() {
-            return None;
-        }
-        let weighed: f32 = terms.iter().zip(&model.weights_g).map(|(x, w)| x * w).sum();
-        let target = f + f64::from(weighed - estimate);
-        if scored.get(i).copied().unwrap_or(false)
-            && target.is_finite()
-            && terms.iter().all(|v| v.is_finite())
-        {
-            let fold = fold_of(i, n);
-            moments.add_force(fold, &terms, target);
-            counts[fold] += 1;
-        }
-    }
+    let record = (dt_s, strain_pct, force_g, scored);
+    let finite = each_kept(model, record, |fold, terms, target| {
+        moments.add_force(fold, terms, target);
+        counts[fold] += 1;
+    })?;
     // The same samples kept (the bias's square counts them): the plain pass's Σ x xᵀ is this
     // pass's.
     for ((g, ..), (plain_g, ..)) in moments.sums.iter_mut().zip(&plain.sums) {
@@ -271,7 +238,37 @@ fn rezero_moments(
         .iter()
         .zip(counts)
         .all(|((g, ..), count)| g[0][0] == count as f64);
-    same.then_some(moments)
+    (finite && same).then_some(moments)
+}
+
+/// Runs the chip's bank of `model` over the record and hands `visit` each kept sample's fold,
+/// terms and the force they are to weigh; whether every estimate was finite (one that is not
+/// starts the bank over). `None`: the model does not make a bank.
+fn each_kept(
+    model: &BankModel,
+    (dt_s, strain_pct, force_g, scored): (f64, &[f64], &[f64], &[bool]),
+    mut visit: impl FnMut(usize, &[f32; BANK_FEATURES], f64),
+) -> Option<bool> {
+    let mut bank = ForceBank::new(model, dt_s).ok()?;
+    let mut finite = true;
+    let n = strain_pct.len().min(force_g.len());
+    for (i, (e, f)) in strain_pct.iter().zip(force_g).enumerate() {
+        let e = *e as f32;
+        if !e.is_finite() {
+            continue;
+        }
+        let (terms, estimate) = bank.step(e);
+        finite &= estimate.is_finite();
+        let weighed: f32 = terms.iter().zip(&model.weights_g).map(|(x, w)| x * w).sum();
+        let target = f + f64::from(weighed - estimate);
+        if scored.get(i).copied().unwrap_or(false)
+            && target.is_finite()
+            && terms.iter().all(|v| v.is_finite())
+        {
+            visit(fold_of(i, n), &terms, target);
+        }
+    }
+    Some(finite)
 }
 
 /// The terms with the re-zero of time constant `tau_s` running on `fit`'s weights, then the

@@ -508,7 +508,7 @@ fn two_effects_at_once_are_both_named() {
         [SynthEffect; 2],
         [&'static str; 2],
     );
-    let cases: [Case; 11] = [
+    let cases: [Case; 14] = [
         // The stiffening found first leaves its basis's misfit beside the delay's part; the
         // delay is tried with the stiffening rebuilt through the delayed fit's branches (the
         // undelayed fit had put its weight on branches of about the lag).
@@ -542,6 +542,31 @@ fn two_effects_at_once_are_both_named() {
                     period_s: 600.0,
                 },
             ],
+            ["sensitivity_drift", "baseline_drift"],
+        ),
+        // A gain that sags beside a zero that settles and swings (every 60–200 s): on 8–10 min
+        // the zero turns inside a held-out block, and the gain's basis, accepted first, takes
+        // its settling wherever the load holds. After a gain alone the drift is judged by
+        // block, against each block's own gain line too.
+        (
+            &[23, 42, 92],
+            40.0,
+            600.0,
+            [SynthEffect::SensitivityDrift(0.1), SynthEffect::Drift(0.03)],
+            ["sensitivity_drift", "baseline_drift"],
+        ),
+        (
+            &[32],
+            40.0,
+            480.0,
+            [SynthEffect::SensitivityDrift(0.1), SynthEffect::Drift(0.03)],
+            ["sensitivity_drift", "baseline_drift"],
+        ),
+        (
+            &[23],
+            100.0,
+            600.0,
+            [SynthEffect::SensitivityDrift(0.1), SynthEffect::Drift(0.03)],
             ["sensitivity_drift", "baseline_drift"],
         ),
         // A delay under a loop: the delayed model passes twice the force's noise of the
@@ -629,6 +654,27 @@ fn two_effects_at_once_are_both_named() {
                 d.summary
             );
         }
+    }
+}
+
+/// The same sagging gain with no zero beside it: no drift is named beside the gain, though the
+/// drift is judged by block against each block's own gain line after it.
+#[test]
+fn a_sagging_gain_alone_gets_no_drift_beside_it() {
+    for (seed, rate, length) in [
+        (23, 40.0, 600.0),
+        (42, 40.0, 600.0),
+        (92, 40.0, 600.0),
+        (32, 40.0, 480.0),
+        (23, 100.0, 600.0),
+    ] {
+        let d = diag(seed, rate, length, &[SynthEffect::SensitivityDrift(0.1)]);
+        assert_eq!(
+            d.effects,
+            [Effect::SensitivityDrift],
+            "seed {seed}, {rate} Hz, {length} s: {}",
+            d.summary
+        );
     }
 }
 
