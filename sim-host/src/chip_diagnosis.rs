@@ -560,9 +560,9 @@ fn stiffens(terms: &[(Term, f64)]) -> bool {
         .any(|(t, b)| matches!(t, Term::Stiffening { .. }) && *b != 0.0)
 }
 
-/// The baseline's best form on the chip and its held-out errors (none for a strain that falls
-/// as the force rises).
-fn baseline_form(m: &FoldModels, record: (&Series, (f64, f64))) -> (ChipForm, Option<[f64; 4]>) {
+/// A model's best form on the chip and its held-out errors (none for a strain that falls as
+/// the force rises).
+fn form_of(m: &FoldModels, record: (&Series, (f64, f64))) -> (ChipForm, Option<[f64; 4]>) {
     if m.orientation < 0.0 {
         return (ChipForm::ALL[0], None);
     }
@@ -665,7 +665,7 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
             fitted
                 .into_iter()
                 .map(|m| {
-                    let scored = baseline_form(&m, record);
+                    let scored = form_of(&m, record);
                     ((m.folds, m.terms), scored)
                 })
                 .collect::<Vec<_>>()
@@ -691,16 +691,14 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
             .find(|((folds, t), _)| *folds == d.model.folds && t.as_slice() == terms)
             .map(|(_, scored)| *scored)
     };
-    let (base_form, before) = scored_early(&d.model.baseline_fold_terms)
-        .unwrap_or_else(|| baseline_form(&d.fold_models(&d.model.baseline_fold_terms), record));
+    let scored = |terms: &[Vec<(Term, f64)>]| {
+        scored_early(terms).unwrap_or_else(|| form_of(&d.fold_models(terms), record))
+    };
+    let (base_form, before) = scored(&d.model.baseline_fold_terms);
     let (form, after) = if inverted || d.effects.is_empty() {
         (base_form, before)
     } else {
-        // Not inverted: the baseline's form of a model is its best form.
-        scored_early(&d.model.chip_fold_terms).unwrap_or_else(|| {
-            let m = d.fold_models(&d.model.chip_fold_terms);
-            best_form(&m, record, forms_of(&m))
-        })
+        scored(&d.model.chip_fold_terms)
     };
     let before_all = before.unwrap_or([f64::NAN; 4]);
     let after_all = after.unwrap_or(before_all);

@@ -56,11 +56,8 @@ impl Work<'_> {
         recipe: impl Fn() -> Vec<f64> + Send + Sync + 'static,
         sign: Sign,
     ) -> usize {
-        let name = format!("{term:?}");
         let recipe = move || recipe().into_iter().map(|v| v as f32).collect();
-        let j = self.pool.add_computed(name, recipe, sign);
-        self.terms.push(term);
-        j
+        self.add_computed_stored(term, recipe, sign)
     }
 
     /// Adds column `c` delayed by `delay_s` (a view of it, the same term; so are the views a
