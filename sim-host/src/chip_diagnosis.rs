@@ -12,6 +12,7 @@ use tactile_core::tactile::TaxelId;
 use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
 use tactile_ident::diagnose::{FoldModels, Settings};
+use tactile_ident::force_fit::BankFit;
 // Every play the diagnosis fits reaches the chip.
 const _: () = assert!(tactile_ident::diagnose::PLAY_SHARES.len() <= PLAYS);
 use tactile_ident::diagnose::{stiffening_load, Effect};
@@ -20,6 +21,8 @@ use tactile_ident::solve::Sign;
 use tactile_ident::{Refusal, Series};
 
 use crate::record::Record;
+
+mod early;
 
 /// Load levels the exported schedule samples a stiffening law at, grams: the scheduled
 /// inverse's table loads, as the calibration protocol excites them.
@@ -426,18 +429,7 @@ fn taxel_model_of(
     } else {
         [(mid as f32, at_mid)].into_iter().collect()
     };
-    let notch_hz = terms
-        .iter()
-        .find_map(|(t, _)| match t {
-            Term::Line(hz, _) => Some(*hz),
-            _ => None,
-        })
-        .unwrap_or(0.0);
-    let offset: f64 = terms
-        .iter()
-        .filter(|(t, _)| *t == Term::Offset)
-        .map(|(_, b)| *b)
-        .sum();
+    let conditioning = conditioning_of(terms);
     let plays: Vec<(f32, f32)> = terms
         .iter()
         .filter_map(|(t, b)| match t {
@@ -449,12 +441,12 @@ fn taxel_model_of(
         .collect();
     Some(TaxelModel {
         taxel,
-        strain_offset_pct: offset,
+        strain_offset_pct: conditioning.offset_pct,
         elastic_g_per_pct: m.secant_g_per_pct,
         second_order: at_mid,
         schedule,
         element,
-        notch_hz,
+        notch_hz: conditioning.notch_hz,
         hysteresis: Plays::new(&plays).ok()?,
         ..TaxelModel::nominal(taxel)
     })
@@ -479,6 +471,9 @@ const MODEL_KINDS: [EstimatorKind; 4] = [
 /// Where [`MODEL_KINDS`] puts the observer and the scheduled inverse.
 const OBSERVER: usize = 3;
 const SCHEDULED: usize = 2;
+
+/// A model's best form on the chip and its held-out errors.
+type Scored = (ChipForm, Option<[f64; 4]>);
 
 /// Held-out RMS (g) of each of `kinds` built per fold from `m`.
 fn held_out_force<const K: usize>(
@@ -531,9 +526,41 @@ fn held_out_kinds(
     Some(out)
 }
 
-/// `model` with the force bank fitted on the record, every estimator's held-out error (the
-/// model's four from `held_out`) and the one that held out best as the one the chip runs.
-fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> TaxelModel {
+/// What the chip does to the strain before its estimators: the calibration's offset taken
+/// off, the interference notched (0: no notch).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Conditioning {
+    offset_pct: f64,
+    notch_hz: f64,
+}
+
+/// The conditioning of a model given as terms.
+fn conditioning_of(terms: &[(Term, f64)]) -> Conditioning {
+    let notch_hz = terms
+        .iter()
+        .find_map(|(t, _)| match t {
+            Term::Line(hz, _) => Some(*hz),
+            _ => None,
+        })
+        .unwrap_or(0.0);
+    let offset_pct = terms
+        .iter()
+        .filter(|(t, _)| *t == Term::Offset)
+        .map(|(_, b)| *b)
+        .sum();
+    Conditioning {
+        offset_pct,
+        notch_hz,
+    }
+}
+
+/// The force bank fitted on the record's strain as `c` conditions it.
+fn bank_fit(series: &Series, c: Conditioning) -> Option<BankFit> {
+    let model = TaxelModel {
+        strain_offset_pct: c.offset_pct,
+        notch_hz: c.notch_hz,
+        ..TaxelModel::nominal(TaxelId::default())
+    };
     let mut conditioner = StrainConditioner::new(&model, series.dt_s);
     let strain: Vec<f64> = series
         .strain_pct
@@ -541,7 +568,13 @@ fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> Taxe
         .map(|e| f64::from(conditioner.update(*e as f32)))
         .collect();
     let scored: Vec<bool> = series.excluded.iter().map(|x| !x).collect();
-    let bank = force_fit::fit_bank(series.dt_s, &series.force_g, &strain, &scored);
+    force_fit::fit_bank(series.dt_s, &series.force_g, &strain, &scored)
+}
+
+/// `model` with its force `bank` (fitted on the record: [`bank_fit`]), every estimator's
+/// held-out error (the model's four from `held_out`) and the one that held out best as the
+/// one the chip runs.
+fn with_bank(mut model: TaxelModel, bank: Option<BankFit>, held_out: [f64; 4]) -> TaxelModel {
     let bank_g = bank.as_ref().map_or(f64::INFINITY, |b| b.held_out_g);
     if let Some(b) = bank {
         model.bank = b.model;
@@ -562,7 +595,7 @@ fn stiffens(terms: &[(Term, f64)]) -> bool {
 
 /// A model's best form on the chip and its held-out errors (none for a strain that falls as
 /// the force rises).
-fn form_of(m: &FoldModels, record: (&Series, (f64, f64))) -> (ChipForm, Option<[f64; 4]>) {
+fn form_of(m: &FoldModels, record: (&Series, (f64, f64))) -> Scored {
     if m.orientation < 0.0 {
         return (ChipForm::ALL[0], None);
     }
@@ -657,19 +690,11 @@ pub fn chip_choice(m: &TaxelModel) -> String {
 /// Diagnoses a checked record and carries the result to the chip.
 pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     // The baseline's forms, and each round's accepted model's, are scored on the chip while
-    // the diagnosis's rounds run.
+    // the diagnosis's rounds run, and the bank of the table they would make fitted.
     let record = (series, load_range_g(series));
-    let (sender, fitted) = std::sync::mpsc::channel::<FoldModels>();
+    let (sender, fitted) = std::sync::mpsc::channel();
     let (mut d, early) = std::thread::scope(|scope| {
-        let worker = scope.spawn(move || {
-            fitted
-                .into_iter()
-                .map(|m| {
-                    let scored = form_of(&m, record);
-                    ((m.folds, m.terms), scored)
-                })
-                .collect::<Vec<_>>()
-        });
+        let worker = scope.spawn(move || early::work_through(fitted, record));
         let d = tactile_ident::diagnose::diagnose_observed(series, &Settings::default(), &|m| {
             // NOTE: a worker gone (it panicked) is scored again below.
             let _ = sender.send(m);
@@ -685,14 +710,10 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         .collect();
     let inverted = d.model.orientation < 0.0;
     // Scored early where the same folds and terms were handed over, else now.
-    let scored_early = |terms: &[Vec<(Term, f64)>]| {
-        early
-            .iter()
-            .find(|((folds, t), _)| *folds == d.model.folds && t.as_slice() == terms)
-            .map(|(_, scored)| *scored)
-    };
     let scored = |terms: &[Vec<(Term, f64)>]| {
-        scored_early(terms).unwrap_or_else(|| form_of(&d.fold_models(terms), record))
+        early
+            .scored(&d.model.folds, terms)
+            .unwrap_or_else(|| form_of(&d.fold_models(terms), record))
     };
     let (base_form, before) = scored(&d.model.baseline_fold_terms);
     let (form, after) = if inverted || d.effects.is_empty() {
@@ -715,8 +736,14 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         None
     } else {
         let held_out = if exported { after_all } else { before_all };
-        taxel_model_of(chosen, &d.fold_models(&[]), record, taxel, form)
-            .map(|m| with_bank(m, series, held_out))
+        taxel_model_of(chosen, &d.fold_models(&[]), record, taxel, form).map(|m| {
+            let c = conditioning_of(chosen);
+            let bank = match early.bank(c) {
+                Some(bank) => bank.clone(),
+                None => bank_fit(series, c),
+            };
+            with_bank(m, bank, held_out)
+        })
     };
     if inverted {
         summary.push_str("  on the chip: the strain falls as the force rises; the chip's estimators assume it rises, so no calibration is exported\n");
@@ -791,6 +818,16 @@ mod tests {
             fresh(&r.diagnosis.model.baseline_fold_terms)
         );
         assert_ne!(f.after_rms_g, f.before_rms_g);
+        // The table's bank too, though fitted while the rounds ran: the one the table's
+        // model's conditioning gives.
+        let m = &r.diagnosis.model;
+        let chosen = if f.exported {
+            &m.chip_terms
+        } else {
+            &m.baseline_terms
+        };
+        let bank = bank_fit(&series, conditioning_of(chosen)).unwrap();
+        assert_eq!(r.table_model.unwrap().bank, bank.model);
     }
 
     #[test]
