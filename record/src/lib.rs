@@ -9,12 +9,12 @@
 //! Writing and strict reading: every problem names the file, the line and the column. What
 //! spreadsheets add is read: a byte-order mark, CRLF line ends, cells in double quotes.
 
-use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
 mod figures;
 mod frames;
 mod logger;
+mod read;
 mod write;
 
 pub use figures::FirmwareFigures;
@@ -23,6 +23,7 @@ pub use logger::{
     bridge_held, held_values, runs_of, Resampling, GAP_STEPS, JITTER_SHARE, MAX_HELD_RUN,
     MIN_HELD_RUN,
 };
+pub use read::parse_record;
 pub use write::{write_frames, write_record, write_ticks};
 
 /// A record read back: the three required columns, any extra ones, and the metadata.
@@ -118,258 +119,6 @@ pub fn read_record(path: &Path) -> Result<Record, RecordError> {
     parse_record(std::io::BufReader::new(file), path)
 }
 
-/// [`read_record`] on any reader (`path` only names the source in errors).
-pub fn parse_record(mut reader: impl BufRead, path: &Path) -> Result<Record, RecordError> {
-    let err = |line: Option<usize>, column: Option<String>, message: String| RecordError {
-        file: path.to_path_buf(),
-        line,
-        column,
-        message,
-    };
-    let mut rec = Record::default();
-    let mut header: Option<Header> = None;
-    // File line of each data row, for errors found after reading.
-    let mut row_lines: Vec<usize> = Vec::new();
-    // Rows averaged into the last one (with it), and rows merged in all.
-    let (mut same_time, mut merged) = (1usize, 0usize);
-    // One line and one row of values reused: a 600 s record at 1 kHz has 600 000 rows.
-    let (mut buf, mut values) = (String::new(), Vec::<f64>::new());
-    for n in 1.. {
-        buf.clear();
-        match reader.read_line(&mut buf) {
-            Ok(0) => break,
-            Ok(_) => {}
-            Err(e) => return Err(err(Some(n), None, format!("unreadable line: {e}"))),
-        }
-        // A spreadsheet's export may open with a byte-order mark.
-        let line = if n == 1 {
-            buf.strip_prefix('\u{feff}').unwrap_or(&buf)
-        } else {
-            &buf
-        };
-        let trimmed = line.trim();
-        if trimmed.is_empty() {
-            continue;
-        }
-        if let Some(comment) = trimmed.strip_prefix('#') {
-            if let Some((k, v)) = comment.split_once('=') {
-                rec.meta.push((k.trim().to_string(), v.trim().to_string()));
-            }
-            continue;
-        }
-        let Some(h) = &header else {
-            let h = Header::read(trimmed).map_err(|(c, m)| err(Some(n), c, m))?;
-            rec.extra = h.extra().map(|c| (c.to_string(), Vec::new())).collect();
-            header = Some(h);
-            continue;
-        };
-        h.row_values(trimmed, &mut values)
-            .map_err(|(c, m)| err(Some(n), c, m))?;
-        let index = &h.index;
-        let t = values[index[0]];
-        match rec.t_s.last() {
-            Some(&last) if t < last => {
-                return Err(err(
-                    Some(n),
-                    Some("t_s".into()),
-                    format!("time {t} goes back (previous {last}): sort the rows by time"),
-                ))
-            }
-            Some(&last) if t == last => {
-                // A logger that stamps coarser than it samples: the rows are one sample.
-                same_time += 1;
-                merged += 1;
-                merge_row(&mut rec, &values, index, same_time);
-                continue;
-            }
-            _ => same_time = 1,
-        }
-        rec.t_s.push(t);
-        row_lines.push(n);
-        rec.force_g.push(values[index[1]]);
-        rec.strain_pct.push(values[index[2]]);
-        let mut extra = rec.extra.iter_mut();
-        for (j, v) in values.iter().enumerate() {
-            if !index.contains(&j) {
-                if let Some((_, col)) = extra.next() {
-                    col.push(*v);
-                }
-            }
-        }
-    }
-    if header.is_none() {
-        return Err(err(
-            None,
-            None,
-            "empty: no header line t_s,force_g,strain_pct".into(),
-        ));
-    }
-    if rec.len() < 2 {
-        return Err(err(
-            None,
-            None,
-            format!("{} data rows; a record needs at least two", rec.len()),
-        ));
-    }
-    rec.extra.retain(|(_, v)| v.iter().all(|x| x.is_finite()));
-    logger::mend_time(&mut rec, merged)
-        .map_err(|(k, message)| err(row_lines.get(k).copied(), Some("t_s".into()), message))?;
-    // The columns grew by doubling: a 600 s record at 1 kHz would hold 3.6 MB unused in each.
-    for v in [&mut rec.t_s, &mut rec.force_g, &mut rec.strain_pct]
-        .into_iter()
-        .chain(rec.extra.iter_mut().map(|(_, v)| v))
-    {
-        v.shrink_to_fit();
-    }
-    Ok(rec)
-}
-
-/// A record's header: its column names, and where the required ones are among them.
-struct Header {
-    names: Vec<String>,
-    index: [usize; 3],
-}
-
-impl Header {
-    /// The header line (trimmed); `Err`: the column and what is wrong with it.
-    fn read(line: &str) -> Result<Header, (Option<String>, String)> {
-        // Cells may be quoted (a quoted comma is not read: no column of the format holds one).
-        let names: Vec<String> = line.split(',').map(|c| unquoted(c).to_string()).collect();
-        // A column named twice: which of the two the reader took would be a guess.
-        if let Some((i, twice)) = names
-            .iter()
-            .enumerate()
-            .find(|(i, c)| !c.is_empty() && names[..*i].contains(c))
-        {
-            return Err((
-                Some(twice.clone()),
-                format!(
-                    "the header names this column twice (cells {} and {})",
-                    names.iter().position(|c| c == twice).map_or(0, |k| k + 1),
-                    i + 1
-                ),
-            ));
-        }
-        let mut index = [0usize; 3];
-        for (slot, want) in index.iter_mut().zip(REQUIRED) {
-            *slot = names.iter().position(|c| c == want).ok_or_else(|| {
-                (
-                    Some(want.to_string()),
-                    format!(
-                        "header lacks the required column (found: {}){}",
-                        shown(&names.join(",")),
-                        separator_hint(&names)
-                    ),
-                )
-            })?;
-        }
-        Ok(Header { names, index })
-    }
-
-    /// The names of the columns besides the required ones, in order.
-    fn extra(&self) -> impl Iterator<Item = &str> {
-        self.names
-            .iter()
-            .map(String::as_str)
-            .filter(|c| !REQUIRED.contains(c))
-    }
-
-    /// A data row's values into `values`, in the header's order: the required columns strictly
-    /// (a finite number), another column NaN where it holds no number (the column is left out
-    /// after the reading). `Err`: the column (none for a row of the wrong length) and what is
-    /// wrong, the length before any cell.
-    fn row_values(
-        &self,
-        line: &str,
-        values: &mut Vec<f64>,
-    ) -> Result<(), (Option<String>, String)> {
-        values.clear();
-        let (mut cells, mut first_bad) = (0usize, None);
-        for (j, cell) in line.split(',').map(unquoted).enumerate() {
-            cells += 1;
-            let Some(name) = self.names.get(j) else {
-                continue;
-            };
-            let v = if self.index.contains(&j) {
-                match cell.parse::<f64>() {
-                    Ok(v) if v.is_finite() => v,
-                    Ok(_) => {
-                        first_bad.get_or_insert_with(|| {
-                            (name, format!("'{}' is not finite", shown(cell)))
-                        });
-                        f64::NAN
-                    }
-                    Err(_) => {
-                        first_bad.get_or_insert_with(|| {
-                            (name, format!("'{}' is not a number", shown(cell)))
-                        });
-                        f64::NAN
-                    }
-                }
-            } else {
-                cell.parse().unwrap_or(f64::NAN)
-            };
-            values.push(v);
-        }
-        if cells != self.names.len() {
-            return Err((
-                None,
-                format!("{} cells, the header has {}", cells, self.names.len()),
-            ));
-        }
-        match first_bad {
-            Some((name, message)) => Err((Some(name.clone()), message)),
-            None => Ok(()),
-        }
-    }
-}
-
-/// Averages a row into the record's last one, which then stands for `rows` rows.
-fn merge_row(rec: &mut Record, values: &[f64], index: &[usize; 3], rows: usize) {
-    let mean = |old: &mut f64, new: f64| *old += (new - *old) / rows as f64;
-    if let (Some(f), Some(e)) = (rec.force_g.last_mut(), rec.strain_pct.last_mut()) {
-        mean(f, values[index[1]]);
-        mean(e, values[index[2]]);
-    }
-    let mut extra = rec.extra.iter_mut();
-    for (j, v) in values.iter().enumerate() {
-        if !index.contains(&j) {
-            if let Some(last) = extra.next().and_then(|(_, col)| col.last_mut()) {
-                mean(last, *v);
-            }
-        }
-    }
-}
-
-/// A cell trimmed, and without the double quotes around it if it has them.
-fn unquoted(cell: &str) -> &str {
-    let cell = cell.trim();
-    cell.strip_prefix('"')
-        .and_then(|c| c.strip_suffix('"'))
-        .map_or(cell, str::trim)
-}
-
-/// A header read as one cell that holds the names between another separator.
-fn separator_hint(names: &[String]) -> &'static str {
-    match names {
-        [one] if one.contains('\t') => "; the format is comma-separated, this header tab-separated",
-        [one] if one.contains(';') => {
-            "; the format is comma-separated, this header semicolon-separated"
-        }
-        _ => "",
-    }
-}
-
-/// A cell as an error message shows it: at most 40 characters, control characters escaped
-/// (a damaged file can hold a megabyte of NULs in one cell).
-fn shown(cell: &str) -> String {
-    let mut out: String = cell.chars().take(40).flat_map(char::escape_debug).collect();
-    if cell.chars().count() > 40 {
-        out.push_str(&format!("… ({} characters)", cell.chars().count()));
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -418,6 +167,47 @@ mod tests {
         // A required column stays strict.
         let e = parse("t_s,force_g,strain_pct,note\n0.0,1.0,x,a\n0.005,2.0,0.6,b\n").unwrap_err();
         assert_eq!((e.line, e.column.as_deref()), (Some(2), Some("strain_pct")));
+    }
+
+    #[test]
+    fn a_long_record_read_in_chunks_is_read_as_one() {
+        // 120 000 rows (about 3.4 MB: a chunk per core of at least 1 MB), a comment and a
+        // twice-stamped row past the middle: every row in order, the pair merged.
+        let mut text = String::from("t_s,force_g,strain_pct,note\n");
+        let rows = 120_000;
+        for i in 0..rows {
+            text.push_str(&format!("{:.3},{i},{},x\n", i as f64 * 0.001, i % 7));
+            if i == 90_000 {
+                text.push_str("# late=note\n90.000,90001,2,y\n");
+            }
+        }
+        let r = parse(&text).unwrap();
+        assert_eq!(r.len(), rows);
+        assert_eq!(r.meta("late"), Some("note"));
+        assert_eq!(r.force_g[90_000], 90_000.5);
+        assert_eq!(r.strain_pct[90_000], (90_000 % 7 + 2) as f64 / 2.0);
+        for i in (0..rows).filter(|i| *i != 90_000) {
+            assert_eq!(r.force_g[i], i as f64, "row {i}");
+        }
+        // A problem in a later chunk is named at its file line (the header is line 1, row i
+        // line i + 2; the comment and the merged row are two lines more past row 90 000).
+        let at = |row: usize, bad: &str| {
+            let mut lines: Vec<&str> = text.lines().collect();
+            let n = if row > 90_000 { row + 4 } else { row + 2 };
+            lines[n - 1] = bad;
+            (n, parse(&lines.join("\n")).unwrap_err())
+        };
+        let (n, e) = at(100_000, "100.000,abc,1,x");
+        assert_eq!((e.line, e.column.as_deref()), (Some(n), Some("force_g")));
+        let (n, e) = at(110_000, "1.000,1,1,x");
+        assert_eq!((e.line, e.column.as_deref()), (Some(n), Some("t_s")));
+        // Of two problems, the first in the file, whatever chunk finds which.
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        lines[30_001] = "30.000,1,1".into();
+        lines[100_001] = "100.000,abc,1,x".into();
+        let e = parse(&lines.join("\n")).unwrap_err();
+        assert_eq!(e.line, Some(30_002));
+        assert!(e.message.contains("cells"), "{e}");
     }
 
     #[test]
