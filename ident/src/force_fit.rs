@@ -111,9 +111,6 @@ pub fn fit_bank(
     });
     let mut best: Option<(BankFit, usize)> = None;
     for (k, (layout, moments)) in layouts.into_iter().zip(&moments).enumerate() {
-        let Some(moments) = moments else {
-            continue;
-        };
         for terms in Terms::ALL {
             let used = terms.used();
             let Some((held_out_g, lambda)) = moments.cross_validate(&used) else {
@@ -137,7 +134,7 @@ pub fn fit_bank(
         }
     }
     let (plain, k) = best?;
-    let plain_moments = moments.get(k)?.as_ref()?;
+    let plain_moments = moments.get(k)?;
     // Then the re-zero, fitted on the terms the chip sees with it running, at the time
     // constant that holds out best. It is kept whether or not it gains on the folds: the
     // record's zero has wandered less within it than it will after it, which no fold of the
@@ -147,7 +144,6 @@ pub fn fit_bank(
         with_rezero(&plain, plain_moments, record, *tau_s)
     })
     .into_iter()
-    .flatten()
     .flatten()
     .min_by(|a, b| a.held_out_g.total_cmp(&b.held_out_g));
     Some(rezeroed.unwrap_or(plain))

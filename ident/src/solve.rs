@@ -549,9 +549,9 @@ impl Pool {
     }
 
     fn has_base(&self, moved: &Moved) -> bool {
-        match *moved {
-            Moved::Pair(sources, _, lag) => self.pair_bases.contains_key(&(sources, lag)),
-            Moved::Cosine(k, src, _) => self.cosine_bases.contains_key(&(k, src)),
+        match moved.base_key() {
+            BaseKey::Pair(sources, lag) => self.pair_bases.contains_key(&(sources, lag)),
+            BaseKey::Cosine(k, src) => self.cosine_bases.contains_key(&(k, src)),
         }
     }
 
@@ -586,11 +586,11 @@ impl Pool {
     }
 
     fn keep_base(&mut self, moved: &Moved, base: Base) {
-        match (*moved, base) {
-            (Moved::Pair(sources, _, lag), Base::Pair(b)) => {
+        match (moved.base_key(), base) {
+            (BaseKey::Pair(sources, lag), Base::Pair(b)) => {
                 self.pair_bases.insert((sources, lag), b);
             }
-            (Moved::Cosine(k, src, _), Base::Cosine(b)) => {
+            (BaseKey::Cosine(k, src), Base::Cosine(b)) => {
                 self.cosine_bases.insert((k, src), b);
             }
             _ => {}
@@ -769,6 +769,24 @@ impl Pool {
 enum Moved {
     Pair((usize, usize), usize, usize),
     Cosine(usize, usize, usize),
+}
+
+impl Moved {
+    /// What the fold sums it moves from are kept under: pairs of the same sources and lag,
+    /// or half-cosines of the same order against the same source, move from the same sums.
+    fn base_key(&self) -> BaseKey {
+        match *self {
+            Moved::Pair(sources, _, lag) => BaseKey::Pair(sources, lag),
+            Moved::Cosine(k, src, _) => BaseKey::Cosine(k, src),
+        }
+    }
+}
+
+/// The key of a [`Base`]: a pair's sources and lag, or a half-cosine's order and source.
+#[derive(Clone, Copy, PartialEq)]
+enum BaseKey {
+    Pair((usize, usize), usize),
+    Cosine(usize, usize),
 }
 
 /// The fold sums a [`Moved`] pair's products move from.

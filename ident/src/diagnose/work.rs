@@ -158,10 +158,7 @@ pub(super) fn relaxation_columns(work: &mut Work, f: &[f64], taus: &[f64]) -> Ve
     let built = par::map(taus, |&tau| branch(tau));
     taus.iter()
         .zip(built)
-        .map(|(&tau, v)| {
-            let v = v.unwrap_or_else(|| branch(tau));
-            work.add_stored(Term::Relaxation(tau), v, Sign::NonNegative)
-        })
+        .map(|(&tau, v)| work.add_stored(Term::Relaxation(tau), v, Sign::NonNegative))
         .collect()
 }
 

@@ -11,10 +11,7 @@ impl Pool {
     /// Columns `cols` built from their recipes.
     pub(super) fn build_all(&self, cols: &[usize]) -> HashMap<usize, Vec<f32>> {
         let built = par::map(cols, |&c| self.values(c).into_owned());
-        cols.iter()
-            .zip(built)
-            .map(|(&c, v)| (c, v.unwrap_or_else(|| self.values(c).into_owned())))
-            .collect()
+        cols.iter().zip(built).map(|(&c, v)| (c, v)).collect()
     }
 
     /// The strain sums of those of `cols` that have none yet.
@@ -30,11 +27,7 @@ impl Pool {
             return;
         }
         let sums = par::map(&todo, |&c| self.y_sums(c, built));
-        for (c, v) in todo.into_iter().zip(sums) {
-            if let Some(v) = v {
-                self.with_y.insert(c, v);
-            }
-        }
+        self.with_y.extend(todo.into_iter().zip(sums));
     }
 
     /// The fold sums the products of `pairs` move from, where missing.
@@ -44,7 +37,7 @@ impl Pool {
             let Some(m) = self.moved_pair(a, b) else {
                 continue;
             };
-            if !self.has_base(&m) && !todo.iter().any(|t| t.same_base(&m)) {
+            if !self.has_base(&m) && !todo.iter().any(|t| t.base_key() == m.base_key()) {
                 todo.push(m);
             }
         }
@@ -53,20 +46,9 @@ impl Pool {
         }
         let bases = par::map(&todo, |m| self.base_of(m));
         for (m, base) in todo.iter().zip(bases) {
-            if let Some(Some(base)) = base {
+            if let Some(base) = base {
                 self.keep_base(m, base);
             }
-        }
-    }
-}
-
-impl Moved {
-    /// Whether `self` and `other` move from the same fold sums.
-    fn same_base(&self, other: &Moved) -> bool {
-        match (*self, *other) {
-            (Moved::Pair(s, _, lag), Moved::Pair(t, _, lag2)) => s == t && lag == lag2,
-            (Moved::Cosine(k, src, _), Moved::Cosine(k2, src2, _)) => k == k2 && src == src2,
-            _ => false,
         }
     }
 }
