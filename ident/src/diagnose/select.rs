@@ -3,6 +3,7 @@
 //! last-resort drift judged by block, the winner accepted; then the effects the later ones
 //! explain pruned, and the chip's model.
 
+use crate::par;
 use crate::solve::Scored;
 use crate::stats;
 
@@ -196,8 +197,9 @@ impl<'a> Judge<'a> {
         let mut winner: Option<(usize, f64)> = None;
         let mut round_candidates = Vec::new();
         let mut passed = Vec::new();
-        for (i, (t, sc)) in best.iter().enumerate() {
-            let judged = self.judge(work, t.reference.as_ref(), sc);
+        // Each try judged apart (its whiteness and floors: a pass over the record each).
+        let judged = par::map(best, |(t, sc)| self.judge(work, t.reference.as_ref(), sc));
+        for (i, ((t, sc), judged)) in best.iter().zip(judged).enumerate() {
             let pass = self.passes(work, best, (t, sc), &judged);
             passed.push(pass);
             if pass && winner.is_none_or(|w| judged.gain > w.1) {
