@@ -469,10 +469,12 @@ impl Selection<'_> {
                 .filter(|c| !state.groups[i].1.contains(c))
                 .collect();
             // Under the same judge as when it was added: each block less its own line only
-            // after a drift (before it, a block's line would take a slow mode's response).
-            let local = state.groups[..i]
-                .iter()
-                .any(|g| g.0 == Effect::BaselineDrift);
+            // after a drift (before it, a block's line would take a slow mode's response), or
+            // wherever the drift was accepted by block (the model is judged so throughout).
+            let local = state.drift_by_block
+                || state.groups[..i]
+                    .iter()
+                    .any(|g| g.0 == Effect::BaselineDrift);
             if work.pool.set_local_nuisance(local) {
                 state.scored = work.pool.score(&state.cols);
             }
