@@ -227,16 +227,12 @@ impl<'a> Judge<'a> {
         winner: Option<(usize, f64)>,
     ) -> Option<(usize, f64)> {
         let (w, _) = winner?;
-        // Size: the added columns the fit uses (NNLS leaves most of a relaxation grid at
-        // zero; a free basis uses all of it).
-        let size = |i: usize| {
-            let (t, sc) = &best[i];
-            sc.columns
-                .iter()
-                .zip(&sc.beta)
-                .filter(|(c, b)| t.add.contains(c) && **b != 0.0)
-                .count()
-        };
+        // Size: the columns the fit uses beyond the model's (NNLS leaves most of a relaxation
+        // grid at zero; a free basis uses all of it). Net of the model's own columns it sets to
+        // zero: eq. 14's branch refitted beside a slow mode takes the place of the baseline's,
+        // which the mode had pulled toward itself.
+        let used = |sc: &Scored| sc.beta.iter().filter(|b| **b != 0.0).count() as isize;
+        let size = |i: usize| used(&best[i].1) - used(&self.state.scored);
         if !confusable(best[w].0.effect) {
             return winner;
         }
@@ -474,9 +470,13 @@ impl Selection<'_> {
                 .copied()
                 .filter(|c| !state.groups[i].1.contains(c))
                 .collect();
-            // Under the same judge as when it was added.
-            let local = state.groups[i].0 != Effect::BaselineDrift
-                && state.groups.iter().any(|g| g.0 == Effect::BaselineDrift);
+            // Under the same judge as when it was added: each block less its own line only
+            // after a drift (before it, a block's line would take a slow mode's response), or
+            // wherever the drift was accepted by block (the model is judged so throughout).
+            let local = state.drift_by_block
+                || state.groups[..i]
+                    .iter()
+                    .any(|g| g.0 == Effect::BaselineDrift);
             if work.pool.set_local_nuisance(local) {
                 state.scored = work.pool.score(&state.cols);
             }
