@@ -690,7 +690,7 @@ pub fn chip_choice(m: &TaxelModel) -> String {
 /// Diagnoses a checked record and carries the result to the chip.
 pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     // The baseline's forms, and each round's accepted model's, are scored on the chip while
-    // the diagnosis's rounds run, and the bank of the table they would make fitted.
+    // the diagnosis's rounds run.
     let record = (series, load_range_g(series));
     let (sender, fitted) = std::sync::mpsc::channel();
     let (mut d, early) = std::thread::scope(|scope| {
@@ -736,14 +736,8 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
         None
     } else {
         let held_out = if exported { after_all } else { before_all };
-        taxel_model_of(chosen, &d.fold_models(&[]), record, taxel, form).map(|m| {
-            let c = conditioning_of(chosen);
-            let bank = match early.bank(c) {
-                Some(bank) => bank.clone(),
-                None => bank_fit(series, c),
-            };
-            with_bank(m, bank, held_out)
-        })
+        taxel_model_of(chosen, &d.fold_models(&[]), record, taxel, form)
+            .map(|m| with_bank(m, bank_fit(series, conditioning_of(chosen)), held_out))
     };
     if inverted {
         summary.push_str("  on the chip: the strain falls as the force rises; the chip's estimators assume it rises, so no calibration is exported\n");
@@ -818,16 +812,6 @@ mod tests {
             fresh(&r.diagnosis.model.baseline_fold_terms)
         );
         assert_ne!(f.after_rms_g, f.before_rms_g);
-        // The table's bank too, though fitted while the rounds ran: the one the table's
-        // model's conditioning gives.
-        let m = &r.diagnosis.model;
-        let chosen = if f.exported {
-            &m.chip_terms
-        } else {
-            &m.baseline_terms
-        };
-        let bank = bank_fit(&series, conditioning_of(chosen)).unwrap();
-        assert_eq!(r.table_model.unwrap().bank, bank.model);
     }
 
     #[test]

@@ -249,17 +249,6 @@ pub struct FoldModels {
     pub orientation: f64,
 }
 
-/// A model as the rounds fit it, handed over by [`diagnose_observed`].
-#[derive(Clone, Debug)]
-pub struct Fitted {
-    /// Fitted on each fold's complement.
-    pub folds: FoldModels,
-    /// Fitted on the whole record.
-    pub terms: Vec<(Term, f64)>,
-    /// The baseline (the first model of a pass over the record), not a round's.
-    pub baseline: bool,
-}
-
 /// The diagnosis of a record.
 #[derive(Clone, Debug, Serialize)]
 pub struct Diagnosis {
@@ -436,15 +425,15 @@ pub fn diagnose_with(series: &Series, settings: &Settings) -> Diagnosis {
     diagnose_observed(series, settings, &|_| {})
 }
 
-/// [`diagnose_with`], handing `on_fitted` the baseline as soon as it is fitted, and the model
-/// as it stands after each round that accepts an effect (the rounds leave a core mostly idle:
-/// a caller can score them meanwhile; the last one handed over is the diagnosis's chip model
-/// unless a later step changed it). A record judged again on shorter blocks hands over a
-/// second series; compare folds and terms to find which is which.
+/// [`diagnose_with`], handing `on_fitted` the fold models of the baseline as soon as they are
+/// fitted, and of the model as it stands after each round that accepts an effect (the rounds
+/// leave a core mostly idle: a caller can score them meanwhile; the last one handed over is
+/// the diagnosis's chip model unless a later step changed it). A record judged again on
+/// shorter blocks hands over a second series; compare folds and terms to find which is which.
 pub fn diagnose_observed(
     series: &Series,
     settings: &Settings,
-    on_fitted: &(dyn Fn(Fitted) + Sync),
+    on_fitted: &(dyn Fn(FoldModels) + Sync),
 ) -> Diagnosis {
     let d = diagnose_on(series, settings, None, on_fitted);
     let block_s = series.duration_s() / d.folds.len().max(1) as f64;
@@ -469,7 +458,7 @@ fn diagnose_on(
     series: &Series,
     settings: &Settings,
     first_folds: Option<usize>,
-    on_fitted: &(dyn Fn(Fitted) + Sync),
+    on_fitted: &(dyn Fn(FoldModels) + Sync),
 ) -> Diagnosis {
     let prep = prepare::prepare(series, settings);
     let s = &prep.smoothed;
@@ -505,19 +494,15 @@ fn diagnose_on(
         tests,
         drift_by_block: false,
     };
-    let fitted = |work: &Work, scored: &Scored, baseline: bool| Fitted {
-        folds: FoldModels {
-            terms: report::fold_terms_of(work, scored),
-            folds: folds.ranges.clone(),
-            force_scale_g: work.force_scale,
-            force_origin_g: work.force_origin,
-            secant_g_per_pct: prep.secant,
-            orientation: prep.orientation,
-        },
-        terms: report::terms_of(work, scored),
-        baseline,
+    let fold_models = |work: &Work, scored: &Scored| FoldModels {
+        terms: report::fold_terms_of(work, scored),
+        folds: folds.ranges.clone(),
+        force_scale_g: work.force_scale,
+        force_origin_g: work.force_origin,
+        secant_g_per_pct: prep.secant,
+        orientation: prep.orientation,
     };
-    on_fitted(fitted(&work, &state.scored, true));
+    on_fitted(fold_models(&work, &state.scored));
     let first_order = floors::first_order(&mut work, &base);
     let before = Before {
         scored: state.scored.clone(),
@@ -557,7 +542,7 @@ fn diagnose_on(
             .iter()
             .any(|c| matches!(work.terms[*c], Term::Duhem { .. }))
         {
-            on_fitted(fitted(&work, &state.scored, false));
+            on_fitted(fold_models(&work, &state.scored));
         }
     }
     selection.prune(&mut work, &mut state, &mut candidates);

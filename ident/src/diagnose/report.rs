@@ -45,7 +45,7 @@ fn terms_with(work: &Work, sc: &Scored, beta: &[f64]) -> Vec<(Term, f64)> {
 }
 
 /// The terms of `sc` as fitted on the whole record.
-pub(super) fn terms_of(work: &Work, sc: &Scored) -> Vec<(Term, f64)> {
+fn terms_of(work: &Work, sc: &Scored) -> Vec<(Term, f64)> {
     terms_with(work, sc, &sc.beta)
 }
 

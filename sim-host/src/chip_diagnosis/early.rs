@@ -1,23 +1,18 @@
 //! The chip's figures of the models the diagnosis hands over while its rounds run, worked out
-//! on the core the rounds leave idle: each model's best form and held-out errors, and the
-//! force bank of the table the chip would get if the rounds stopped at it.
+//! on the core the rounds leave idle: each model's best form and held-out errors.
 
-use std::sync::mpsc::{Receiver, TryRecvError};
+use std::sync::mpsc::Receiver;
 
-use tactile_ident::diagnose::{Fitted, FoldModels, Term};
-use tactile_ident::force_fit::BankFit;
+use tactile_ident::diagnose::{FoldModels, Term};
 use tactile_ident::Series;
 
-use super::{bank_fit, conditioning_of, form_of, Conditioning, Scored, OBSERVER};
+use super::{form_of, Scored};
 
 /// What was worked out early; the caller looks up the final models in it.
 #[derive(Default)]
 pub(super) struct Early {
     /// Each model handed over, with its form and errors.
     scored: Vec<(FoldModels, Scored)>,
-    /// The force bank fitted on the strain as the table of the last model scored would
-    /// condition it.
-    bank: Option<(Conditioning, Option<BankFit>)>,
 }
 
 impl Early {
@@ -32,51 +27,17 @@ impl Early {
             .find(|(m, _)| m.folds == folds && m.terms == terms)
             .map(|(_, scored)| *scored)
     }
-
-    /// The force bank for a strain conditioned by `c`, where it was fitted early.
-    pub(super) fn bank(&self, c: Conditioning) -> Option<&Option<BankFit>> {
-        self.bank.as_ref().filter(|(k, _)| *k == c).map(|(_, b)| b)
-    }
 }
 
-/// Scores each model `fitted` hands over; after a round's model, when no newer one waits, fits
-/// the bank the table would carry if the rounds stopped there (the table's choice as the
-/// caller makes it: the round's model where it lowers the observer's held-out error, else the
-/// baseline's).
-pub(super) fn work_through(fitted: Receiver<Fitted>, record: (&Series, (f64, f64))) -> Early {
-    let mut early = Early::default();
-    // The latest pass's baseline, and its held-out errors.
-    let mut baseline: Option<(Fitted, Scored)> = None;
-    let mut next = fitted.recv().ok();
-    while let Some(f) = next {
-        let scored = form_of(&f.folds, record);
-        if f.baseline {
-            baseline = Some((f.clone(), scored));
-        }
-        // Not for a baseline: a round that accepts an effect usually follows it, and the bank
-        // would be fitted for nothing on a core the rounds use.
-        let table = baseline
-            .as_ref()
-            .filter(|_| !f.baseline)
-            .and_then(|(base, (_, before))| {
-                let before = (*before)?;
-                let after = scored.1.unwrap_or(before);
-                let exported = after[OBSERVER] < before[OBSERVER];
-                let inverted = f.folds.orientation < 0.0;
-                (!inverted).then(|| conditioning_of(if exported { &f.terms } else { &base.terms }))
-            });
-        early.scored.push((f.folds, scored));
-        next = match fitted.try_recv() {
-            Ok(f) => Some(f),
-            // The rounds are over: the caller fits what it needs.
-            Err(TryRecvError::Disconnected) => None,
-            Err(TryRecvError::Empty) => {
-                if let Some(c) = table.filter(|c| early.bank(*c).is_none()) {
-                    early.bank = Some((c, bank_fit(record.0, c)));
-                }
-                fitted.recv().ok()
-            }
-        };
+/// Scores each model `fitted` hands over, until the rounds are done.
+pub(super) fn work_through(fitted: Receiver<FoldModels>, record: (&Series, (f64, f64))) -> Early {
+    Early {
+        scored: fitted
+            .into_iter()
+            .map(|m| {
+                let scored = form_of(&m, record);
+                (m, scored)
+            })
+            .collect(),
     }
-    early
 }
