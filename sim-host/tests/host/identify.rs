@@ -629,10 +629,10 @@ fn a_strong_drive_against_much_stiction_is_identified_at_its_own_gain() {
         "{}",
         id.static_gain
     );
-    // The holds stop within the friction band: their mean friction is some of the stiction,
-    // never more.
+    // The holds stop within the friction band, the light ones, reached slowest, at its edge:
+    // the most friction a hold stopped with is the stiction (the holds' line read 2.89 g).
     assert!(
-        (0.5 * stiction_g..=stiction_g).contains(&id.stiction_g),
+        (0.9 * stiction_g..=1.02 * stiction_g).contains(&id.stiction_g),
         "{}",
         id.stiction_g
     );
