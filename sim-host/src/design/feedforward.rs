@@ -16,9 +16,9 @@ fn quadratic(r: crate::applicator_model::Resonance) -> [f64; 3] {
 /// path from drive to contact force. The gauge reads the contact force plus the tip's inertia,
 /// gauge = contact·(1 + s²/ω_z²), the anti-resonance ω_z being the tip on the finger alone; the
 /// contact force, which the user asks for, is the model without that factor, and its inverse
-/// N(s) is the modes' quadratics times the amplifier's pole over the static gain (the static
-/// line's, not the fitted model's: measured, the small chirp's gain overdrove the memo's rig by
-/// 0.7 dB across the band). A lead the fit found (τ < 0: what the form leaves of the contact's damping and the
+/// N(s) is the modes' quadratics times the amplifier's pole over the static gain (the hold's,
+/// not the chirp's: measured, the chirp's gain overdrove the memo's rig by 0.7 dB across the
+/// band). A lead the fit found (τ < 0: what the form leaves of the contact's damping and the
 /// stiction's phase, 0.3–0.6 ms on the simulated rigs) is the plant's, and its inverse e^(sτ)
 /// a delay, causal: taken in (left out, the feed-forward was 0.8 dB too hot at 40 Hz about
 /// 50 g on the memo's rig). A lag cannot be undone and stays out.

@@ -6,8 +6,9 @@
 //!
 //! - the feed-forward's schedule: at each preload, the inverse of the model's path to the
 //!   contact force as a series in s up to s³ (the delay left out: no controller can undo it),
-//!   over the static gain of the chirps' means ([`crate::applicator_model::static_line`],
-//!   which gives the stiction compensated from the holds); below the lightest identified load (and above
+//!   over the static gain of the holds before the chirps, or of the chirps' means where the
+//!   holds stopped unlike in the friction band ([`crate::applicator_model::static_line`], which
+//!   also gives the stiction compensated); below the lightest identified load (and above
 //!   the heaviest, where a design load gave no model), models
 //!   extrapolated by the modes' power law in load ([`extrapolate`]);
 //! - the feedback: integral action (and a proportional term) on the error through a biquad

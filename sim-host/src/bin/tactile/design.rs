@@ -1,8 +1,8 @@
 //! `tactile design`: design the force controller for the simulated rig: the excitation at six
-//! preloads, a model at each, the static gain (the chirps' means) and stiction (the holds), then
-//! the feed-forward's schedule and the feedback's gains from the margins. A1 stays the default
-//! loop; `cargo run --release -p sim-host --example design_controller` measures the design against
-//! it.
+//! preloads, a model at each, the static gain and stiction from the holds, then the
+//! feed-forward's schedule and the feedback's gains from the margins. A1 stays the
+//! default loop; `cargo run --release -p sim-host --example design_controller` measures
+//! the design against it.
 
 use clap::Args;
 use sim_host::output::Output;
@@ -65,7 +65,7 @@ pub fn run(args: DesignArgs) -> Result<(), Error> {
     .map_err(|e| Error::Failed(format!("design: {e}")))?;
     let id = &r.identified;
     outln!(
-        "static line: gain {:.3} (the chirps' means), stiction {:.2} g (the holds'); gauge noise {:.2} g",
+        "static line of the holds: gain {:.3}, stiction {:.2} g; gauge noise {:.2} g",
         id.static_gain,
         id.stiction_g,
         id.gauge_noise_g

@@ -84,10 +84,10 @@ enum Command {
     /// (`boards/qemu-netduinoplus2/run.sh OUT applicator=FILE.toml` does this for you).
     Applicator(applicator::ApplicatorArgs),
     /// Design the force controller for the simulated rig: the excitation at six
-    /// preloads, a model at each, the static gain (the chirps' means) and stiction (the holds),
-    /// then the feed-forward's schedule and the feedback's gains from the margins. A1 stays the
-    /// default loop; `cargo run --release -p sim-host --example design_controller` measures the
-    /// design against it.
+    /// preloads, a model at each, the static gain and stiction from the holds, then the
+    /// feed-forward's schedule and the feedback's gains from the margins. A1 stays the
+    /// default loop; `cargo run --release -p sim-host --example design_controller` measures
+    /// the design against it.
     Design(design::DesignArgs),
     /// Drive a board from the host: commands down, its defmt stream up, decoded as it arrives
     /// into records (`OUT/NAME.csv`), with a progress bar and a live line (force, error,
