@@ -307,7 +307,22 @@ fn touch_down(
             least_g,
         });
     }
-    Ok((push_g, contact_g))
+    // And the contact test must pass on the finger: six readings of eight at `contact_g`, a
+    // noise deviation over it, through the push's middle six ticks (its shape ≥ ½), the
+    // stiction holding the rest. A noisy gauge's contact reading can need a push whose
+    // momentum the friction cannot take back: refused, with why.
+    let pressing_g = 2.0 * ((contact_g + gauge_noise_g) / gain - stiction_g);
+    let least_g = LEAST_STICTION_SHARE * pressing_g;
+    if stiction_g < least_g {
+        return Err(DesignError::NoisyContact {
+            noise_g: gauge_noise_g,
+            contact_g,
+            push_g: pressing_g,
+            stiction_g,
+            least_g,
+        });
+    }
+    Ok((push_g.max(pressing_g), contact_g))
 }
 
 /// The least stiction the design takes, as a share of the touch-down's push: the pulses' brake
@@ -375,4 +390,61 @@ pub fn design_identified(
         identified.gauge_noise_g as f32,
     )?;
     Ok(RigDesign { identified, design })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::applicator_model::{ApplicatorModel, Resonance};
+
+    /// A lightest load whose inertia–finger mode rings at 16 Hz, the drive's gain 1.117 (the
+    /// gauge reads 1.117 g per drive gram).
+    fn light_load() -> LoadModel {
+        let mode = |hz| Resonance {
+            hz,
+            damping_ratio: 0.07,
+        };
+        LoadModel {
+            load_g: 1.0,
+            model: ApplicatorModel {
+                gain: 1.117,
+                anti_resonance: mode(30.0),
+                modes: [mode(16.0), mode(122.0)],
+                pole_hz: 243.0,
+                delay_s: 0.0,
+                rms_log_error: 0.0,
+            },
+            static_gain: 1.117,
+        }
+    }
+
+    #[test]
+    fn a_gauge_too_noisy_for_the_touch_downs_contact_test_is_refused_with_the_numbers() {
+        // 0.493 g of noise a reading: contact at 2.8 deviations, 1.380 g. Pressing the finger
+        // to it and a deviation more through the push's middle six ticks (shape ≥ ½) with
+        // 0.197 g of stiction holding: 2·((1.380 + 0.493)/1.117 − 0.197) = 2.960 g, whose
+        // momentum needs 0.07 × 2.960 = 0.207 g of stiction. The old push, 1.46 g, never
+        // pressed six readings of eight to 1.38 g: the probe pulsed on the finger for 2 s.
+        match touch_down(&[light_load()], 0.197, 0.493) {
+            Err(
+                e @ DesignError::NoisyContact {
+                    push_g, least_g, ..
+                },
+            ) => {
+                assert!((push_g - 2.960).abs() < 2e-3, "{e}");
+                assert!((least_g - 0.2072).abs() < 2e-4, "{e}");
+                assert!(e.to_string().contains("1.38 g"), "{e}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // A gauge half as noisy: contact at 0.70 g, the push 2·((0.70 + 0.25)/1.117 − 0.197)
+        // = 1.307 g, which the stiction stops.
+        let (push_g, contact_g) = touch_down(&[light_load()], 0.197, 0.25).unwrap();
+        assert!((contact_g - 0.70).abs() < 1e-6 && (push_g - 1.307).abs() < 2e-3);
+        // The memo's gauge and stiction: the push the momentum sets, as before,
+        // 2 × 0.5 g/(2π·16 Hz·10 ms)/1.117 = 0.890 g.
+        let (push_g, _) = touch_down(&[light_load()], 0.9, 0.14).unwrap();
+        let momentum_g = 1.0 / (2.0 * std::f64::consts::PI * 16.0 * 0.01) / 1.117;
+        assert!((f64::from(push_g) - momentum_g).abs() < 1e-4, "{push_g}");
+    }
 }

@@ -1,6 +1,6 @@
 //! The identification the design reads: the excitation run at each preload (on the simulated
-//! rig, or read from records), the still holds' static line and the models fitted there, and
-//! the preloads left out and why.
+//! rig, or read from records), the static line of the holds and the chirps' means, the models
+//! fitted there, and the preloads left out and why.
 
 use serde::Serialize;
 use tactile_core::profile::Protocol;
@@ -16,7 +16,8 @@ use crate::scenario::run_protocol;
 pub struct Identified {
     /// The plausible models, in increasing load.
     pub models: Vec<LoadModel>,
-    /// The static line of the holds: gain and stiction (g at the probe).
+    /// The static line ([`crate::applicator_model::static_line`]): gain and stiction (g at the
+    /// probe).
     pub static_gain: f64,
     pub stiction_g: f64,
     /// The gauge's noise, RMS of one reading: the median of the holds'.
@@ -170,13 +171,18 @@ pub fn excited_of_record(rec: &tactile_record::Record) -> Result<Excited, Design
     })
 }
 
-/// The models fitted at each preload, with the static gain and stiction of the holds; loads
+/// The models fitted at each preload, with the static line's gain and stiction; loads
 /// whose fit does not converge, is not [`plausible`] or puts the amplifier elsewhere than the
 /// others' ([`one_amplifier`]) are left out, after those the caller left out (`left_out`); at
 /// least two must remain.
+///
+/// A preload whose chirp gives no applicator's model is no reading of the static line either:
+/// on a drive 0.55× the memo's the 100 g chirp reached the drive's rail, and its mean read the
+/// gain 2 % low and the stiction 40 % low. Where one is left out of a line the chirps gave, the
+/// line is taken again without it and the models fitted again with its stiction.
 pub fn identified_from(
     excited: &[Excited],
-    mut left_out: Vec<LeftOut>,
+    left_out: Vec<LeftOut>,
 ) -> Result<Identified, DesignError> {
     let mut preloads: Vec<f32> = excited.iter().map(|e| e.load_g).collect();
     preloads.sort_by(f32::total_cmp);
@@ -187,14 +193,62 @@ pub fn identified_from(
             left_out,
         });
     }
-    let holds: Vec<(f64, f64)> = excited
-        .iter()
-        .map(|e| (e.hold.drive_g, e.hold.gauge_g))
-        .collect();
     let gauge_noise_g =
         upper_median(excited.iter().map(|e| e.hold.noise_g).collect()).unwrap_or(0.0);
-    let (static_gain, stiction_g) =
-        crate::applicator_model::static_line(&holds).ok_or(DesignError::NoStaticLine)?;
+    let all: Vec<&Excited> = excited.iter().collect();
+    let (mut line, mut fitted) = fitted_on_line(excited, &all, left_out.clone())?;
+    let kept: Vec<&Excited> = excited
+        .iter()
+        .filter(|e| fitted.0.iter().any(|m| m.load_g == e.load_g))
+        .collect();
+    if line.1 && (2..excited.len()).contains(&kept.len()) {
+        (line, fitted) = fitted_on_line(excited, &kept, left_out)?;
+    }
+    let (((static_gain, stiction_g), _), (models, left_out)) = (line, fitted);
+    if models.len() < 2 {
+        return Err(DesignError::TooFewModels {
+            have: models.len(),
+            left_out,
+        });
+    }
+    Ok(Identified {
+        models,
+        static_gain,
+        stiction_g,
+        gauge_noise_g,
+        left_out,
+    })
+}
+
+/// Models and what is left out, sorted by load.
+type Fitted = (Vec<LoadModel>, Vec<LeftOut>);
+
+/// The static line of the preloads `on` ([`crate::applicator_model::static_line`]: the line,
+/// and whether the chirps gave its gain), and the models of every preload of `excited` fitted with its stiction ([`fit_models`]).
+fn fitted_on_line(
+    excited: &[Excited],
+    on: &[&Excited],
+    left_out: Vec<LeftOut>,
+) -> Result<(crate::applicator_model::StaticLine, Fitted), DesignError> {
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let points: Vec<crate::applicator_model::StaticPoint> = on
+        .iter()
+        .map(|e| crate::applicator_model::StaticPoint {
+            hold: (e.hold.drive_g, e.hold.gauge_g),
+            chirp: (mean(&e.means.drive_g), mean(&e.means.gauge_g)),
+        })
+        .collect();
+    let line = crate::applicator_model::static_line(&points).ok_or(DesignError::NoStaticLine)?;
+    Ok((line, fit_models(excited, line.0, left_out)))
+}
+
+/// The model of each preload fitted with the static line's (gain, stiction), the implausible
+/// and the amplifiers off the others' left out after `left_out`.
+fn fit_models(
+    excited: &[Excited],
+    (static_gain, stiction_g): (f64, f64),
+    mut left_out: Vec<LeftOut>,
+) -> Fitted {
     // The friction acts on the drive: its grams are the probe's over the drive's gain.
     let stiction_drive_g = stiction_g / static_gain;
     // One fit per preload, side by side (each is a few hundred milliseconds).
@@ -262,19 +316,7 @@ pub fn identified_from(
         });
     }
     left_out.sort_by(|a, b| a.load_g.total_cmp(&b.load_g));
-    if kept.len() < 2 {
-        return Err(DesignError::TooFewModels {
-            have: kept.len(),
-            left_out,
-        });
-    }
-    Ok(Identified {
-        models: kept,
-        static_gain,
-        stiction_g,
-        gauge_noise_g,
-        left_out,
-    })
+    (kept, left_out)
 }
 
 /// The design's reading of a run of [`Protocol::design_excitation`] (the simulator's, or the

@@ -6,8 +6,9 @@
 //!
 //! - the feed-forward's schedule: at each preload, the inverse of the model's path to the
 //!   contact force as a series in s up to s³ (the delay left out: no controller can undo it),
-//!   over the static gain of the holds before the chirps ([`crate::applicator_model::static_line`],
-//!   which also gives the stiction compensated); below the lightest identified load (and above
+//!   over the static gain of the holds before the chirps, or of the chirps' means where the
+//!   holds stopped unlike in the friction band ([`crate::applicator_model::static_line`], which
+//!   also gives the stiction compensated); below the lightest identified load (and above
 //!   the heaviest, where a design load gave no model), models
 //!   extrapolated by the modes' power law in load ([`extrapolate`]);
 //! - the feedback: integral action (and a proportional term) on the error through a biquad
@@ -117,6 +118,14 @@ pub enum DesignError {
     TooLittleFriction {
         stiction_g: f32,
         push_g: f32,
+        least_g: f32,
+    },
+    #[error("the gauge's noise ({noise_g:.2} g a reading) puts the touch-down's contact reading at {contact_g:.2} g; pulses that press the finger there push {push_g:.2} g at the drive, and the {stiction_g:.3} g of stiction there is under the {least_g:.3} g that stops the probe between them: it would strike the finger (a quieter gauge, or a sensor of the motor's position)")]
+    NoisyContact {
+        noise_g: f32,
+        contact_g: f32,
+        push_g: f32,
+        stiction_g: f32,
         least_g: f32,
     },
 }

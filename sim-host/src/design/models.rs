@@ -11,7 +11,7 @@ use crate::applicator_model::ApplicatorModel;
 pub struct LoadModel {
     pub load_g: f32,
     pub model: ApplicatorModel,
-    /// Gauge grams per drive gram of the still holds before the chirps
+    /// Gauge grams per drive gram of the still holds before the chirps, or of the chirps' means
     /// ([`crate::applicator_model::static_line`]): the feed-forward's static gain.
     pub static_gain: f64,
 }

@@ -592,3 +592,48 @@ fn the_design_from_records_leaves_out_a_preload_it_cannot_use() {
         "{stderr}"
     );
 }
+
+#[test]
+fn a_strong_drive_against_much_stiction_is_identified_at_its_own_gain() {
+    // `random-applicators.py 7002`'s first rig: the drive 2.15× the firmware's scale, 2.84 g
+    // of stiction at the probe. Its holds, approached from below, stop with 2.7 g of the
+    // friction at 10 g and 1.4 g at 100 g, and a line through them read the gain 1.1 % high
+    // (2.177), which landed its steps down 1.2–3.6 g under. Over the chirps' whole periods the
+    // motion is periodic and slides the motor both ways: the gain is the drive's.
+    let p = ApplicatorParams {
+        amplifier_a_per_v: 0.2614817834073232,
+        amplifier_pole_hz: 162.56503230411926,
+        torque_constant_nm_per_a: 0.0984591510080461,
+        motor_inertia_kg_m2: 5.551782111883057e-05,
+        arm_m: 0.06350275441712737,
+        static_friction_nm: 0.0017675248122216794,
+        viscous_nm_s_per_rad: 1.8266344346377856e-05,
+        beam_stiffness_n_per_m: 2999.4996037499527,
+        tip_mass_kg: 0.002315442909373453,
+        beam_damping_ratio: 0.019161449037460334,
+        indentation_mm_per_100pct: 11.418913866793648,
+        contact_loss_factor: 0.46277761298872244,
+        gauge_g_per_v: 17.77665096606564,
+        gauge_noise_g: 0.29732539293718735,
+    };
+    let config = rig_config(1, p);
+    // Gauge grams per firmware drive gram: the torque per volt at the arm's end over the
+    // firmware's grams per volt.
+    let gain = p.drive_g_per_v() / f64::from(config.firmware.actuator.grams_per_volt);
+    let stiction_g = p.static_friction_nm / p.arm_m / NEWTONS_PER_GRAM;
+    assert!((gain - 2.153).abs() < 1e-3 && (stiction_g - 2.838).abs() < 1e-3);
+    let id = sim_host::design::identify_loads(&config).expect("identified");
+    eprintln!("gain {} stiction {} g", id.static_gain, id.stiction_g);
+    assert!(
+        (id.static_gain / gain - 1.0).abs() < 2e-3,
+        "{}",
+        id.static_gain
+    );
+    // The holds stop within the friction band, the light ones, reached slowest, at its edge:
+    // the most friction a hold stopped with is the stiction (the holds' line read 2.89 g).
+    assert!(
+        (0.9 * stiction_g..=1.02 * stiction_g).contains(&id.stiction_g),
+        "{}",
+        id.stiction_g
+    );
+}
