@@ -459,20 +459,6 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
         check(&d, "sensitivity_drift");
         assert_eq!(d.effects.len(), 1, "{}", d.summary);
     }
-    // On seed 53 the drift basis fails one fold of six by 6× and ties the others: Student's t
-    // over the folds, widened by that fold, did not let the slow relaxation beat it head to head.
-    for seed in [43, 53] {
-        let d = diag(
-            seed,
-            100.0,
-            240.0,
-            &[SynthEffect::SlowRelaxation {
-                share: 0.4,
-                tau_s: 30.0,
-            }],
-        );
-        check(&d, "slow_relaxation");
-    }
     // The drift basis holds out a hair better on every fold (p < 0.05), not by an effect's
     // margin: the simpler slow relaxation is named.
     let d = diag(
@@ -495,10 +481,12 @@ fn effects_on_seeds_the_design_was_not_tuned_on() {
 /// slow relaxation's try refits that branch beside the mode, and the baseline's goes to zero. An
 /// effect's size is what it adds to the model's columns in use, net: counted by its own columns
 /// alone, the branch moved made the mode look bigger than a drift of two half-cosines, and the
-/// drift was named (seed 24; main named it right on the others).
+/// drift was named (seed 24). On seed 53 the drift basis fails one fold of six by 6× and ties
+/// the others: Student's t over the folds, widened by that fold, did not let the slow
+/// relaxation beat it head to head.
 #[test]
 fn a_slow_mode_that_moves_the_creep_is_not_named_a_drift() {
-    for seed in [24, 21, 41] {
+    for seed in [24, 21, 41, 43, 53] {
         let d = diag(
             seed,
             100.0,
