@@ -744,17 +744,24 @@ impl Pool {
 
     /// Σ β_j·column_j over the record.
     pub fn predict(&self, columns: &[usize], beta: &[f64]) -> Vec<f64> {
-        let mut out = vec![0.0; self.n];
+        self.predict_in(columns, beta, (0, self.n))
+    }
+
+    /// [`Pool::predict`] over samples `a..b` alone.
+    pub fn predict_in(&self, columns: &[usize], beta: &[f64], (a, b): (usize, usize)) -> Vec<f64> {
+        let b = b.min(self.n);
+        let a = a.min(b);
+        let mut out = vec![0.0; b - a];
         // A column the fit left at zero adds nothing (the non-negative fits leave many).
         for (&c, &w) in columns.iter().zip(beta).filter(|(_, w)| **w != 0.0) {
             // Stored, delayed from a stored source or a half-cosine: read block by block.
             let readable =
                 self.raw(c).is_some() || matches!(self.cols.get(c), Some(Column::Cosine(_)));
             if readable {
-                blocks::add_scaled(&mut out, self.fold_reader(c, (0, self.n), None), w);
+                blocks::add_scaled(&mut out, self.fold_reader(c, (a, b), None), w);
                 continue;
             }
-            for (o, v) in out.iter_mut().zip(self.values(c).iter()) {
+            for (o, v) in out.iter_mut().zip(self.values(c).iter().skip(a)) {
                 *o += w * f64::from(*v);
             }
         }

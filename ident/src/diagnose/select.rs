@@ -354,11 +354,11 @@ fn less_block_gain_line(work: &Work, sc: &Scored, part: &[f64]) -> Vec<f64> {
         .zip(&folds.counts)
         .zip(&sc.fold_beta)
         .map(|((&(a, b), &n), beta)| {
-            let prediction = work.pool.predict(&sc.columns, beta);
+            let prediction = work.pool.predict_in(&sc.columns, beta, (a, b));
             let mid = 0.5 * (a + b) as f64;
             let [mut uu, mut uv, mut vv, mut ru, mut rv, mut rr] = [0.0; 6];
             for i in (a..b).filter(|&i| work.kept[i]) {
-                let r = y[i] - prediction[i];
+                let r = y[i] - prediction[i - a];
                 let (u, v) = (part[i], part[i] * (i as f64 - mid));
                 uu += u * u;
                 uv += u * v;
