@@ -116,7 +116,7 @@ pub fn read_record(path: &Path) -> Result<Record, RecordError> {
     };
     let file =
         std::fs::File::open(path).map_err(|e| err(None, None, format!("cannot open: {e}")))?;
-    parse_record(std::io::BufReader::new(file), path)
+    parse_record(file, path)
 }
 
 #[cfg(test)]

@@ -12,7 +12,6 @@ use tactile_core::tactile::TaxelId;
 use tactile_core::viscoelastic::{NonlinearMk, SpringLaw};
 pub use tactile_ident::diagnose::{Diagnosis, Term};
 use tactile_ident::diagnose::{FoldModels, Settings};
-use tactile_ident::force_fit::BankFit;
 // Every play the diagnosis fits reaches the chip.
 const _: () = assert!(tactile_ident::diagnose::PLAY_SHARES.len() <= PLAYS);
 use tactile_ident::diagnose::{stiffening_load, Effect};
@@ -429,7 +428,18 @@ fn taxel_model_of(
     } else {
         [(mid as f32, at_mid)].into_iter().collect()
     };
-    let conditioning = conditioning_of(terms);
+    let notch_hz = terms
+        .iter()
+        .find_map(|(t, _)| match t {
+            Term::Line(hz, _) => Some(*hz),
+            _ => None,
+        })
+        .unwrap_or(0.0);
+    let offset: f64 = terms
+        .iter()
+        .filter(|(t, _)| *t == Term::Offset)
+        .map(|(_, b)| *b)
+        .sum();
     let plays: Vec<(f32, f32)> = terms
         .iter()
         .filter_map(|(t, b)| match t {
@@ -441,12 +451,12 @@ fn taxel_model_of(
         .collect();
     Some(TaxelModel {
         taxel,
-        strain_offset_pct: conditioning.offset_pct,
+        strain_offset_pct: offset,
         elastic_g_per_pct: m.secant_g_per_pct,
         second_order: at_mid,
         schedule,
         element,
-        notch_hz: conditioning.notch_hz,
+        notch_hz,
         hysteresis: Plays::new(&plays).ok()?,
         ..TaxelModel::nominal(taxel)
     })
@@ -526,41 +536,9 @@ fn held_out_kinds(
     Some(out)
 }
 
-/// What the chip does to the strain before its estimators: the calibration's offset taken
-/// off, the interference notched (0: no notch).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Conditioning {
-    offset_pct: f64,
-    notch_hz: f64,
-}
-
-/// The conditioning of a model given as terms.
-fn conditioning_of(terms: &[(Term, f64)]) -> Conditioning {
-    let notch_hz = terms
-        .iter()
-        .find_map(|(t, _)| match t {
-            Term::Line(hz, _) => Some(*hz),
-            _ => None,
-        })
-        .unwrap_or(0.0);
-    let offset_pct = terms
-        .iter()
-        .filter(|(t, _)| *t == Term::Offset)
-        .map(|(_, b)| *b)
-        .sum();
-    Conditioning {
-        offset_pct,
-        notch_hz,
-    }
-}
-
-/// The force bank fitted on the record's strain as `c` conditions it.
-fn bank_fit(series: &Series, c: Conditioning) -> Option<BankFit> {
-    let model = TaxelModel {
-        strain_offset_pct: c.offset_pct,
-        notch_hz: c.notch_hz,
-        ..TaxelModel::nominal(TaxelId::default())
-    };
+/// `model` with the force bank fitted on the record, every estimator's held-out error (the
+/// model's four from `held_out`) and the one that held out best as the one the chip runs.
+fn with_bank(mut model: TaxelModel, series: &Series, held_out: [f64; 4]) -> TaxelModel {
     let mut conditioner = StrainConditioner::new(&model, series.dt_s);
     let strain: Vec<f64> = series
         .strain_pct
@@ -568,13 +546,7 @@ fn bank_fit(series: &Series, c: Conditioning) -> Option<BankFit> {
         .map(|e| f64::from(conditioner.update(*e as f32)))
         .collect();
     let scored: Vec<bool> = series.excluded.iter().map(|x| !x).collect();
-    force_fit::fit_bank(series.dt_s, &series.force_g, &strain, &scored)
-}
-
-/// `model` with its force `bank` (fitted on the record: [`bank_fit`]), every estimator's
-/// held-out error (the model's four from `held_out`) and the one that held out best as the
-/// one the chip runs.
-fn with_bank(mut model: TaxelModel, bank: Option<BankFit>, held_out: [f64; 4]) -> TaxelModel {
+    let bank = force_fit::fit_bank(series.dt_s, &series.force_g, &strain, &scored);
     let bank_g = bank.as_ref().map_or(f64::INFINITY, |b| b.held_out_g);
     if let Some(b) = bank {
         model.bank = b.model;
@@ -737,7 +709,7 @@ pub fn diagnose(series: &Series, taxel: TaxelId) -> Report {
     } else {
         let held_out = if exported { after_all } else { before_all };
         taxel_model_of(chosen, &d.fold_models(&[]), record, taxel, form)
-            .map(|m| with_bank(m, bank_fit(series, conditioning_of(chosen)), held_out))
+            .map(|m| with_bank(m, series, held_out))
     };
     if inverted {
         summary.push_str("  on the chip: the strain falls as the force rises; the chip's estimators assume it rises, so no calibration is exported\n");

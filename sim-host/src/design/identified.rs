@@ -4,6 +4,7 @@
 
 use serde::Serialize;
 use tactile_core::profile::Protocol;
+use tactile_ident::stats;
 
 use super::models::upper_median;
 use super::*;
@@ -230,12 +231,11 @@ fn fitted_on_line(
     on: &[&Excited],
     left_out: Vec<LeftOut>,
 ) -> Result<(crate::applicator_model::StaticLine, Fitted), DesignError> {
-    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
     let points: Vec<crate::applicator_model::StaticPoint> = on
         .iter()
         .map(|e| crate::applicator_model::StaticPoint {
             hold: (e.hold.drive_g, e.hold.gauge_g),
-            chirp: (mean(&e.means.drive_g), mean(&e.means.gauge_g)),
+            chirp: (stats::mean(&e.means.drive_g), stats::mean(&e.means.gauge_g)),
         })
         .collect();
     let line = crate::applicator_model::static_line(&points).ok_or(DesignError::NoStaticLine)?;
